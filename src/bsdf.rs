@@ -1,0 +1,69 @@
+//! What every scattering model provides, and the sample record it returns.
+//!
+//! The [`Material`](crate::Material) dispatches to the models by `match` over
+//! an enum (no `dyn`, no heap); each model implements [`ScatterModel`].
+//! Directions reaching a model are unit vectors with `wi.z != 0` and
+//! `wo.z != 0`; the model returns `f(wi, wo) |wo.z|` ("f times cosine").
+
+use crate::rng::Rng;
+use glam::Vec3;
+
+/// `sample` went to the upper hemisphere (same side as `wi`).
+pub const SAMPLE_REFLECTION: u32 = 1;
+/// `sample` went to the other side of the surface.
+pub const SAMPLE_TRANSMISSION: u32 = 2;
+/// The path ended inside the surface (or below it for an opaque model);
+/// the weight is zero.
+pub const SAMPLE_ABSORBED: u32 = 4;
+
+/// The result of sampling an outgoing direction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sample {
+    /// Outgoing unit direction (zero when absorbed).
+    pub wo: Vec3,
+    /// `f(wi, wo) |wo.z| / pdf(wo)` per RGB channel; for stochastic models an
+    /// unbiased estimate of it.
+    pub weight: Vec3,
+    /// Density of `wo` per solid angle as `pdf()` reports it (0 when absorbed).
+    pub pdf: f32,
+    /// One of [`SAMPLE_REFLECTION`], [`SAMPLE_TRANSMISSION`], [`SAMPLE_ABSORBED`].
+    pub flags: u32,
+}
+
+impl Sample {
+    /// The empty sample: the path was absorbed.
+    pub const ABSORBED: Sample = Sample {
+        wo: Vec3::ZERO,
+        weight: Vec3::ZERO,
+        pdf: 0.0,
+        flags: SAMPLE_ABSORBED,
+    };
+
+    /// A sample in direction `wo` leaving from the side of `wi`.
+    #[inline]
+    pub fn new(wi: Vec3, wo: Vec3, weight: Vec3, pdf: f32) -> Sample {
+        let flags = if wo.z * wi.z > 0.0 {
+            SAMPLE_REFLECTION
+        } else {
+            SAMPLE_TRANSMISSION
+        };
+        Sample {
+            wo,
+            weight,
+            pdf,
+            flags,
+        }
+    }
+}
+
+/// The three queries every model answers. Implementations must not allocate,
+/// lock or touch globals.
+pub trait ScatterModel {
+    /// `f(wi, wo) |wo.z|`, an unbiased estimate for stochastic models.
+    fn eval(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3;
+    /// Draws `wo` given `wi`.
+    fn sample(&self, wi: Vec3, rng: &mut Rng) -> Sample;
+    /// Density of `sample` choosing `wo` (an approximation for stochastic models,
+    /// positive wherever `sample` can go).
+    fn pdf(&self, wi: Vec3, wo: Vec3) -> f32;
+}

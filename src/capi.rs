@@ -1,0 +1,756 @@
+//! The C ABI: every `extern "C"` function, its plain-data types and constants.
+//!
+//! Each function checks its pointers, converts plain data to Rust types, calls
+//! the Rust API and writes its outputs; a panic never crosses the boundary
+//! (it becomes `MSBSDF_STATUS_PANIC`). Outputs are zeroed before anything
+//! can fail, and nothing is ever written through a NULL pointer.
+//!
+//! This file is the input of cbindgen (`build.rs`), which generates
+//! `include/msbsdf.h` from it.
+
+#![allow(non_camel_case_types)]
+
+use crate::bsdf::Sample;
+use crate::material::{Estimator, FacetKind, Material, MaterialDesc, Model, NdfId};
+use crate::rng::Rng;
+use crate::status::Error;
+use glam::Vec3;
+use std::ffi::c_char;
+use std::panic::{AssertUnwindSafe, catch_unwind};
+
+/// A status code: `MSBSDF_STATUS_OK` (0) or the reason a call was refused.
+pub type msbsdf_status = u32;
+
+/// Success.
+pub const MSBSDF_STATUS_OK: msbsdf_status = 0;
+/// A required pointer argument was NULL.
+pub const MSBSDF_STATUS_NULL_POINTER: msbsdf_status = 1;
+/// A parameter is outside its valid range.
+pub const MSBSDF_STATUS_INVALID_ARGUMENT: msbsdf_status = 2;
+/// The model / facet / NDF combination is not supported.
+pub const MSBSDF_STATUS_UNSUPPORTED: msbsdf_status = 3;
+/// Memory could not be allocated.
+pub const MSBSDF_STATUS_OUT_OF_MEMORY: msbsdf_status = 4;
+/// An internal error was caught at the boundary (a bug: please report it).
+pub const MSBSDF_STATUS_PANIC: msbsdf_status = 5;
+/// `struct_size` is smaller than any supported layout of the struct.
+pub const MSBSDF_STATUS_STRUCT_TOO_SMALL: msbsdf_status = 6;
+/// Caller storage is smaller than `msbsdf_material_size()`.
+pub const MSBSDF_STATUS_STORAGE_TOO_SMALL: msbsdf_status = 7;
+/// Caller storage is not aligned to `msbsdf_material_align()`.
+pub const MSBSDF_STATUS_STORAGE_MISALIGNED: msbsdf_status = 8;
+/// A direction is NaN, infinite or of zero length.
+pub const MSBSDF_STATUS_INVALID_DIRECTION: msbsdf_status = 9;
+/// An unknown model, NDF, facet or estimator constant.
+pub const MSBSDF_STATUS_UNKNOWN_CONSTANT: msbsdf_status = 10;
+
+/// Single scattering (Cook-Torrance / Walter 2007), analytic baseline.
+pub const MSBSDF_MODEL_SINGLE: u32 = 0;
+/// Kulla-Conty 2017 / Turquin 2019 energy compensation.
+pub const MSBSDF_MODEL_ENERGY_COMPENSATED: u32 = 1;
+/// Heitz et al. 2016 height random walk (unbiased reference).
+pub const MSBSDF_MODEL_HEITZ_RANDOM_WALK: u32 = 2;
+/// Position-free path integral (Wang et al. 2022).
+pub const MSBSDF_MODEL_POSITION_FREE: u32 = 3;
+/// Invariance principle (Cui et al. 2023).
+pub const MSBSDF_MODEL_INVARIANCE: u32 = 4;
+/// Bitterli and d'Eon 2022 exit probability.
+pub const MSBSDF_MODEL_BITTERLI_DEON: u32 = 5;
+/// Symmetric V-groove (Lee et al. 2018).
+pub const MSBSDF_MODEL_VGROOVE: u32 = 6;
+/// Nonsymmetric V-groove (Lee et al. 2018).
+pub const MSBSDF_MODEL_VGROOVE_NONSYMMETRIC: u32 = 7;
+/// Null-scattering walk for general NDFs (d'Eon 2023).
+pub const MSBSDF_MODEL_NULL_SCATTERING: u32 = 8;
+/// Picks the cheapest model meeting `tolerance`.
+pub const MSBSDF_MODEL_AUTO: u32 = 9;
+
+/// Unidirectional path tracing with next-event estimation (default).
+pub const MSBSDF_ESTIMATOR_PT: u32 = 0;
+/// Bidirectional path tracing with MIS.
+pub const MSBSDF_ESTIMATOR_BDPT: u32 = 1;
+
+/// Beckmann NDF.
+pub const MSBSDF_NDF_BECKMANN: u32 = 0;
+/// GGX (Trowbridge-Reitz) NDF.
+pub const MSBSDF_NDF_GGX: u32 = 1;
+/// Student-T NDF, shape gamma > 1.5 (2 is GGX, infinity is Beckmann).
+pub const MSBSDF_NDF_STUDENT_T: u32 = 2;
+/// Phong NDF (V-groove models).
+pub const MSBSDF_NDF_PHONG: u32 = 3;
+/// Exponential NDF (null scattering).
+pub const MSBSDF_NDF_EXPONENTIAL: u32 = 4;
+/// Bessel K0 NDF (null scattering).
+pub const MSBSDF_NDF_BESSEL_K0: u32 = 5;
+/// von Mises-Fisher full-sphere NDF (null scattering).
+pub const MSBSDF_NDF_VMF: u32 = 6;
+
+/// Conductor facets (complex IOR `eta + i k` per channel).
+pub const MSBSDF_FACET_CONDUCTOR: u32 = 0;
+/// Dielectric facets (`eta.r` = inside / outside index).
+pub const MSBSDF_FACET_DIELECTRIC: u32 = 1;
+/// Lambertian facets (`albedo`).
+pub const MSBSDF_FACET_DIFFUSE: u32 = 2;
+/// Facets that scatter as the material `inner` (composition).
+pub const MSBSDF_FACET_MATERIAL: u32 = 3;
+
+/// `sample` went to the same side as `wi`.
+pub const MSBSDF_SAMPLE_REFLECTION: u32 = 1;
+/// `sample` went through the surface.
+pub const MSBSDF_SAMPLE_TRANSMISSION: u32 = 2;
+/// The path ended inside the surface; weight is zero.
+pub const MSBSDF_SAMPLE_ABSORBED: u32 = 4;
+
+/// Largest allowed `max_bounces`.
+pub const MSBSDF_MAX_BOUNCES: u32 = 256;
+const _: () = assert!(MSBSDF_MAX_BOUNCES == crate::material::MAX_BOUNCES);
+
+/// A direction or vector in the local frame (z = macro-surface normal).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct msbsdf_vec3 {
+    /// Along the tangent (the `alpha_x` direction).
+    pub x: f32,
+    /// Along the bitangent.
+    pub y: f32,
+    /// Along the macro-surface normal.
+    pub z: f32,
+}
+
+/// Linear RGB triple.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct msbsdf_rgb {
+    /// Red.
+    pub r: f32,
+    /// Green.
+    pub g: f32,
+    /// Blue.
+    pub b: f32,
+}
+
+/// PCG32 generator state, laid out as `pcg32_random_t`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct msbsdf_rng {
+    /// LCG state.
+    pub state: u64,
+    /// LCG increment (odd).
+    pub inc: u64,
+}
+
+/// Opaque material handle; immutable after creation, shareable across threads.
+/// (Never constructed in Rust: handles point to a private struct.)
+pub struct msbsdf_material {
+    _private: [u8; 0],
+}
+
+/// Everything that describes a material. Initialise with
+/// `msbsdf_material_desc_default()`, then set fields. Fields may be appended
+/// in later minor versions, never reordered; `struct_size` tells the library
+/// which layout the caller compiled against.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct msbsdf_material_desc {
+    /// `sizeof(msbsdf_material_desc)` as the caller compiled it.
+    pub struct_size: u32,
+    /// `MSBSDF_MODEL_*`.
+    pub model: u32,
+    /// `MSBSDF_ESTIMATOR_*` (position-free and invariance models).
+    pub estimator: u32,
+    /// `MSBSDF_NDF_*`.
+    pub ndf: u32,
+    /// `MSBSDF_FACET_*`.
+    pub facet: u32,
+    /// Roughness along x, in (0, 10]; values below 1e-4 act as 1e-4.
+    pub alpha_x: f32,
+    /// Roughness along y, in (0, 10].
+    pub alpha_y: f32,
+    /// NDF shape parameter (Student-T gamma > 1.5).
+    pub shape: f32,
+    /// Conductor: real part of the complex IOR per channel (eta 0, k 1 is a
+    /// perfect mirror); dielectric: `eta.r` = inside / outside index.
+    pub eta: msbsdf_rgb,
+    /// Conductor: imaginary part of the IOR per channel.
+    pub k: msbsdf_rgb,
+    /// Diffuse facets: albedo per channel in [0, 1].
+    pub albedo: msbsdf_rgb,
+    /// Bounce limit of the multiple-scattering models; 0 = model default;
+    /// at most `MSBSDF_MAX_BOUNCES`.
+    pub max_bounces: u32,
+    /// `MSBSDF_MODEL_AUTO`: largest acceptable relative error.
+    pub tolerance: f32,
+    /// `MSBSDF_FACET_MATERIAL`: the facets scatter as this material; the
+    /// caller keeps it alive as long as this one.
+    pub inner: *const msbsdf_material,
+}
+
+/// The result of `msbsdf_sample`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct msbsdf_sample_result {
+    /// Outgoing unit direction (zero when absorbed).
+    pub wo: msbsdf_vec3,
+    /// `f * |cos theta_o| / pdf` per channel (an unbiased estimate for
+    /// stochastic models).
+    pub weight: msbsdf_rgb,
+    /// Density of `wo` per solid angle as `msbsdf_pdf` reports it.
+    pub pdf: f32,
+    /// `MSBSDF_SAMPLE_REFLECTION`, `_TRANSMISSION` or `_ABSORBED`.
+    pub flags: u32,
+}
+
+// ---------------------------------------------------------------------------
+// Boundary helpers (the only place with pointer casts).
+
+/// What a `msbsdf_material *` points to.
+#[repr(C)]
+struct Stored {
+    /// True when allocated by `msbsdf_material_create` (destroy frees it).
+    owned: bool,
+    material: Material,
+}
+
+/// Runs `f`, turning a panic into `MSBSDF_STATUS_PANIC`.
+#[inline]
+fn guard(f: impl FnOnce() -> Result<(), Error>) -> msbsdf_status {
+    match catch_unwind(AssertUnwindSafe(f)) {
+        Ok(Ok(())) => MSBSDF_STATUS_OK,
+        Ok(Err(e)) => e as msbsdf_status,
+        Err(_) => MSBSDF_STATUS_PANIC,
+    }
+}
+
+/// Converts a handle to a material reference.
+///
+/// # Safety
+/// `m` must be NULL or a handle returned by create/init that is still alive.
+#[inline]
+unsafe fn material_ref<'a>(m: *const msbsdf_material) -> Result<&'a Material, Error> {
+    // SAFETY: the caller guarantees `m` is NULL or points to a live `Stored`
+    // written by create/init; `as_ref` handles NULL.
+    let stored = unsafe { (m as *const Stored).as_ref() }.ok_or(Error::NullPointer)?;
+    Ok(&stored.material)
+}
+
+#[inline]
+fn to_vec3(v: msbsdf_vec3) -> Vec3 {
+    Vec3::new(v.x, v.y, v.z)
+}
+
+#[inline]
+fn from_vec3(v: Vec3) -> msbsdf_vec3 {
+    msbsdf_vec3 {
+        x: v.x,
+        y: v.y,
+        z: v.z,
+    }
+}
+
+#[inline]
+fn to_rgb(v: msbsdf_rgb) -> Vec3 {
+    Vec3::new(v.r, v.g, v.b)
+}
+
+#[inline]
+fn from_rgb(v: Vec3) -> msbsdf_rgb {
+    msbsdf_rgb {
+        r: v.x,
+        g: v.y,
+        b: v.z,
+    }
+}
+
+/// Checks a direction from C.
+#[inline]
+fn direction(v: msbsdf_vec3) -> Result<Vec3, Error> {
+    let v = to_vec3(v);
+    if crate::frame::is_valid_direction(v) && v.normalize().is_finite() {
+        Ok(v)
+    } else {
+        Err(Error::InvalidDirection)
+    }
+}
+
+fn model_from_c(v: u32) -> Result<Model, Error> {
+    Ok(match v {
+        MSBSDF_MODEL_SINGLE => Model::Single,
+        MSBSDF_MODEL_ENERGY_COMPENSATED => Model::EnergyCompensated,
+        MSBSDF_MODEL_HEITZ_RANDOM_WALK => Model::HeitzRandomWalk,
+        MSBSDF_MODEL_POSITION_FREE => Model::PositionFree,
+        MSBSDF_MODEL_INVARIANCE => Model::Invariance,
+        MSBSDF_MODEL_BITTERLI_DEON => Model::BitterliDeon,
+        MSBSDF_MODEL_VGROOVE => Model::VGroove,
+        MSBSDF_MODEL_VGROOVE_NONSYMMETRIC => Model::VGrooveNonsymmetric,
+        MSBSDF_MODEL_NULL_SCATTERING => Model::NullScattering,
+        MSBSDF_MODEL_AUTO => Model::Auto,
+        _ => return Err(Error::UnknownConstant),
+    })
+}
+
+fn ndf_from_c(v: u32) -> Result<NdfId, Error> {
+    Ok(match v {
+        MSBSDF_NDF_BECKMANN => NdfId::Beckmann,
+        MSBSDF_NDF_GGX => NdfId::Ggx,
+        MSBSDF_NDF_STUDENT_T => NdfId::StudentT,
+        MSBSDF_NDF_PHONG => NdfId::Phong,
+        MSBSDF_NDF_EXPONENTIAL => NdfId::Exponential,
+        MSBSDF_NDF_BESSEL_K0 => NdfId::BesselK0,
+        MSBSDF_NDF_VMF => NdfId::Vmf,
+        _ => return Err(Error::UnknownConstant),
+    })
+}
+
+fn facet_from_c(v: u32) -> Result<FacetKind, Error> {
+    Ok(match v {
+        MSBSDF_FACET_CONDUCTOR => FacetKind::Conductor,
+        MSBSDF_FACET_DIELECTRIC => FacetKind::Dielectric,
+        MSBSDF_FACET_DIFFUSE => FacetKind::Diffuse,
+        MSBSDF_FACET_MATERIAL => FacetKind::Material,
+        _ => return Err(Error::UnknownConstant),
+    })
+}
+
+fn estimator_from_c(v: u32) -> Result<Estimator, Error> {
+    Ok(match v {
+        MSBSDF_ESTIMATOR_PT => Estimator::Pt,
+        MSBSDF_ESTIMATOR_BDPT => Estimator::Bdpt,
+        _ => return Err(Error::UnknownConstant),
+    })
+}
+
+/// Reads and validates a C description into a material.
+///
+/// # Safety
+/// `desc` must be NULL or point to at least `struct_size` readable bytes.
+unsafe fn material_from_c(desc: *const msbsdf_material_desc) -> Result<Material, Error> {
+    if desc.is_null() {
+        return Err(Error::NullPointer);
+    }
+    // SAFETY: `desc` is non-NULL and, per the contract, points to a struct
+    // that starts with its u32 size.
+    let size = unsafe { (desc as *const u32).read_unaligned() } as usize;
+    if size < std::mem::size_of::<msbsdf_material_desc>() {
+        return Err(Error::StructTooSmall);
+    }
+    // SAFETY: the caller's struct is at least as large as ours (checked
+    // above), so every field we read is inside it.
+    let d = unsafe { desc.read_unaligned() };
+    let rust = MaterialDesc {
+        model: model_from_c(d.model)?,
+        estimator: estimator_from_c(d.estimator)?,
+        ndf: ndf_from_c(d.ndf)?,
+        facet: facet_from_c(d.facet)?,
+        alpha_x: d.alpha_x,
+        alpha_y: d.alpha_y,
+        shape: d.shape,
+        eta: to_rgb(d.eta),
+        k: to_rgb(d.k),
+        albedo: to_rgb(d.albedo),
+        max_bounces: d.max_bounces,
+        tolerance: d.tolerance,
+    };
+    if rust.facet == FacetKind::Material && d.inner.is_null() {
+        return Err(Error::NullPointer);
+    }
+    Material::new(&rust)
+}
+
+// ---------------------------------------------------------------------------
+// Version and status.
+
+const fn parse_u32(s: &str) -> u32 {
+    let b = s.as_bytes();
+    let mut i = 0;
+    let mut v = 0u32;
+    while i < b.len() {
+        v = v * 10 + (b[i] - b'0') as u32;
+        i += 1;
+    }
+    v
+}
+
+const VERSION_MAJOR: u32 = parse_u32(env!("CARGO_PKG_VERSION_MAJOR"));
+const VERSION_MINOR: u32 = parse_u32(env!("CARGO_PKG_VERSION_MINOR"));
+const VERSION_PATCH: u32 = parse_u32(env!("CARGO_PKG_VERSION_PATCH"));
+
+/// The library version as `(major << 16) | (minor << 8) | patch`; compare
+/// with the header's `MSBSDF_VERSION_*` macros.
+#[unsafe(no_mangle)]
+pub extern "C" fn msbsdf_version() -> u32 {
+    (VERSION_MAJOR << 16) | (VERSION_MINOR << 8) | VERSION_PATCH
+}
+
+/// A static, NUL-terminated description of `status`; never NULL, for any value.
+#[unsafe(no_mangle)]
+pub extern "C" fn msbsdf_status_message(status: msbsdf_status) -> *const c_char {
+    let s: &'static std::ffi::CStr = match status {
+        MSBSDF_STATUS_OK => c"ok",
+        MSBSDF_STATUS_NULL_POINTER => c"a required pointer argument is NULL",
+        MSBSDF_STATUS_INVALID_ARGUMENT => c"a parameter is outside its valid range",
+        MSBSDF_STATUS_UNSUPPORTED => c"this model / facet / NDF combination is not supported",
+        MSBSDF_STATUS_OUT_OF_MEMORY => c"out of memory",
+        MSBSDF_STATUS_PANIC => c"internal error (a panic was caught at the C boundary)",
+        MSBSDF_STATUS_STRUCT_TOO_SMALL => {
+            c"struct_size is smaller than any supported struct layout"
+        }
+        MSBSDF_STATUS_STORAGE_TOO_SMALL => c"storage is smaller than msbsdf_material_size()",
+        MSBSDF_STATUS_STORAGE_MISALIGNED => c"storage is not aligned to msbsdf_material_align()",
+        MSBSDF_STATUS_INVALID_DIRECTION => c"a direction is NaN, infinite or of zero length",
+        MSBSDF_STATUS_UNKNOWN_CONSTANT => c"unknown model, NDF, facet or estimator constant",
+        _ => c"unknown status code",
+    };
+    s.as_ptr()
+}
+
+// ---------------------------------------------------------------------------
+// Random numbers.
+
+/// Seeds `rng` exactly as the reference `pcg32_srandom_r(rng, seed, stream)`.
+/// NULL: no-op.
+///
+/// # Safety
+/// `rng` must be NULL or point to a writable `msbsdf_rng`.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn msbsdf_rng_seed(rng: *mut msbsdf_rng, seed: u64, stream: u64) {
+    let r = Rng::new(seed, stream);
+    // SAFETY: the caller guarantees `rng` is NULL or valid for writes.
+    if let Some(out) = unsafe { rng.as_mut() } {
+        *out = msbsdf_rng {
+            state: r.state,
+            inc: r.inc,
+        };
+    }
+}
+
+/// Next uniform float in [0, 1) (24 random bits). NULL: returns 0.
+///
+/// # Safety
+/// `rng` must be NULL or point to a valid `msbsdf_rng`.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn msbsdf_rng_next_float(rng: *mut msbsdf_rng) -> f32 {
+    // SAFETY: the caller guarantees `rng` is NULL or valid for reads and writes.
+    match unsafe { rng.as_mut() } {
+        Some(c) => {
+            let mut r = Rng {
+                state: c.state,
+                inc: c.inc,
+            };
+            let x = r.next_f32();
+            c.state = r.state;
+            c.inc = r.inc;
+            x
+        }
+        None => 0.0,
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Materials.
+
+/// A description with every field at its default: GGX alpha 0.5, perfectly
+/// reflecting conductor facets (eta 0, k 1), single scattering, PT estimator,
+/// shape 2, albedo 0.8, default bounces, tolerance 0.01, no inner material,
+/// and `struct_size` set.
+#[unsafe(no_mangle)]
+pub extern "C" fn msbsdf_material_desc_default() -> msbsdf_material_desc {
+    let d = MaterialDesc::default();
+    msbsdf_material_desc {
+        struct_size: std::mem::size_of::<msbsdf_material_desc>() as u32,
+        model: MSBSDF_MODEL_SINGLE,
+        estimator: MSBSDF_ESTIMATOR_PT,
+        ndf: MSBSDF_NDF_GGX,
+        facet: MSBSDF_FACET_CONDUCTOR,
+        alpha_x: d.alpha_x,
+        alpha_y: d.alpha_y,
+        shape: d.shape,
+        eta: from_rgb(d.eta),
+        k: from_rgb(d.k),
+        albedo: from_rgb(d.albedo),
+        max_bounces: d.max_bounces,
+        tolerance: d.tolerance,
+        inner: std::ptr::null(),
+    }
+}
+
+/// Bytes of storage `msbsdf_material_init` needs.
+#[unsafe(no_mangle)]
+pub extern "C" fn msbsdf_material_size() -> usize {
+    std::mem::size_of::<Stored>()
+}
+
+/// Alignment `msbsdf_material_init` needs for its storage.
+#[unsafe(no_mangle)]
+pub extern "C" fn msbsdf_material_align() -> usize {
+    std::mem::align_of::<Stored>()
+}
+
+/// Validates `desc` and allocates a material. On failure `*out` is NULL.
+/// Free with `msbsdf_material_destroy`.
+///
+/// # Safety
+/// `desc` must be NULL or point to a description whose `struct_size` bytes
+/// are readable; `out` must be NULL or writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn msbsdf_material_create(
+    desc: *const msbsdf_material_desc,
+    out: *mut *mut msbsdf_material,
+) -> msbsdf_status {
+    if out.is_null() {
+        return MSBSDF_STATUS_NULL_POINTER;
+    }
+    // SAFETY: `out` is non-NULL and writable per the contract.
+    unsafe { out.write(std::ptr::null_mut()) };
+    guard(|| {
+        // SAFETY: forwarded contract on `desc`.
+        let material = unsafe { material_from_c(desc) }?;
+        let layout = std::alloc::Layout::new::<Stored>();
+        // SAFETY: `Stored` has non-zero size.
+        let p = unsafe { std::alloc::alloc(layout) } as *mut Stored;
+        if p.is_null() {
+            return Err(Error::OutOfMemory);
+        }
+        // SAFETY: `p` is a fresh allocation with the layout of `Stored`;
+        // `out` was checked above.
+        unsafe {
+            p.write(Stored {
+                owned: true,
+                material,
+            });
+            out.write(p as *mut msbsdf_material);
+        }
+        Ok(())
+    })
+}
+
+/// Frees a material from `msbsdf_material_create`. NULL, or a material
+/// initialised in caller storage by `msbsdf_material_init`: no-op.
+///
+/// # Safety
+/// `material` must be NULL or a live handle not used after this call.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn msbsdf_material_destroy(material: *mut msbsdf_material) {
+    let p = material as *mut Stored;
+    // SAFETY: the caller guarantees a live handle or NULL.
+    let Some(stored) = (unsafe { p.as_ref() }) else {
+        return;
+    };
+    if stored.owned {
+        // SAFETY: owned handles were allocated in `msbsdf_material_create`
+        // with this layout; `Stored` has no drop glue.
+        unsafe { std::alloc::dealloc(p as *mut u8, std::alloc::Layout::new::<Stored>()) };
+    }
+}
+
+/// Validates `desc` and builds the material in caller storage of at least
+/// `msbsdf_material_size()` bytes aligned to `msbsdf_material_align()`: no
+/// allocation at all. The storage must outlive every use of `*out`; nothing
+/// needs freeing (destroy on it is a no-op). On failure `*out` is NULL.
+///
+/// # Safety
+/// `desc` as for create; `storage` NULL or writable for `size` bytes; `out`
+/// NULL or writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn msbsdf_material_init(
+    desc: *const msbsdf_material_desc,
+    storage: *mut std::ffi::c_void,
+    size: usize,
+    out: *mut *mut msbsdf_material,
+) -> msbsdf_status {
+    if out.is_null() {
+        return MSBSDF_STATUS_NULL_POINTER;
+    }
+    // SAFETY: `out` is non-NULL and writable per the contract.
+    unsafe { out.write(std::ptr::null_mut()) };
+    guard(|| {
+        if storage.is_null() {
+            return Err(Error::NullPointer);
+        }
+        if size < std::mem::size_of::<Stored>() {
+            return Err(Error::StorageTooSmall);
+        }
+        if !(storage as usize).is_multiple_of(std::mem::align_of::<Stored>()) {
+            return Err(Error::StorageMisaligned);
+        }
+        // SAFETY: forwarded contract on `desc`.
+        let material = unsafe { material_from_c(desc) }?;
+        let p = storage as *mut Stored;
+        // SAFETY: size and alignment were checked; the caller owns the bytes.
+        unsafe {
+            p.write(Stored {
+                owned: false,
+                material,
+            });
+            out.write(p as *mut msbsdf_material);
+        }
+        Ok(())
+    })
+}
+
+/// `f(wi, wo) * |cos theta_o|` per channel. Directions need not be
+/// normalised. `rng` may be NULL for deterministic models (SINGLE, V-groove,
+/// energy-compensated); stochastic models need it and advance it.
+/// `*out` is zero on any failure.
+///
+/// # Safety
+/// `material` NULL or live; `rng` NULL or valid; `out` NULL or writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn msbsdf_eval(
+    material: *const msbsdf_material,
+    wi: msbsdf_vec3,
+    wo: msbsdf_vec3,
+    rng: *mut msbsdf_rng,
+    out: *mut msbsdf_rgb,
+) -> msbsdf_status {
+    if out.is_null() {
+        return MSBSDF_STATUS_NULL_POINTER;
+    }
+    // SAFETY: `out` is non-NULL and writable per the contract.
+    unsafe { out.write(msbsdf_rgb::default()) };
+    guard(|| {
+        // SAFETY: forwarded contract on `material`.
+        let m = unsafe { material_ref(material) }?;
+        let (wi, wo) = (direction(wi)?, direction(wo)?);
+        // SAFETY: the caller guarantees `rng` is NULL or valid.
+        let rng = unsafe { rng.as_mut() };
+        let value = with_rng(m, rng, |r| m.eval(wi, wo, r))?;
+        // SAFETY: `out` checked above.
+        unsafe { out.write(from_rgb(value)) };
+        Ok(())
+    })
+}
+
+/// Runs `f` with the caller's generator (copied in and back out) or, for a
+/// deterministic material, a local one when `rng` is NULL.
+fn with_rng<T>(
+    m: &Material,
+    rng: Option<&mut msbsdf_rng>,
+    f: impl FnOnce(&mut Rng) -> T,
+) -> Result<T, Error> {
+    match rng {
+        Some(c) => {
+            let mut r = Rng {
+                state: c.state,
+                inc: c.inc,
+            };
+            let v = f(&mut r);
+            c.state = r.state;
+            c.inc = r.inc;
+            Ok(v)
+        }
+        None if m.is_stochastic() => Err(Error::NullPointer),
+        None => Ok(f(&mut Rng::new(0, 0))),
+    }
+}
+
+/// Samples an outgoing direction for `wi`. `rng` is required. On failure
+/// `*out` is all zeros.
+///
+/// # Safety
+/// `material` NULL or live; `rng` NULL or valid; `out` NULL or writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn msbsdf_sample(
+    material: *const msbsdf_material,
+    wi: msbsdf_vec3,
+    rng: *mut msbsdf_rng,
+    out: *mut msbsdf_sample_result,
+) -> msbsdf_status {
+    if out.is_null() {
+        return MSBSDF_STATUS_NULL_POINTER;
+    }
+    // SAFETY: `out` is non-NULL and writable per the contract.
+    unsafe { out.write(msbsdf_sample_result::default()) };
+    guard(|| {
+        // SAFETY: forwarded contract on `material`.
+        let m = unsafe { material_ref(material) }?;
+        let wi = direction(wi)?;
+        // SAFETY: the caller guarantees `rng` is NULL or valid.
+        let c = unsafe { rng.as_mut() }.ok_or(Error::NullPointer)?;
+        let s: Sample = with_rng(m, Some(c), |r| m.sample(wi, r))?;
+        let result = msbsdf_sample_result {
+            wo: from_vec3(s.wo),
+            weight: from_rgb(s.weight),
+            pdf: s.pdf,
+            flags: s.flags,
+        };
+        // SAFETY: `out` checked above.
+        unsafe { out.write(result) };
+        Ok(())
+    })
+}
+
+/// Density per solid angle with which `msbsdf_sample` picks `wo` given `wi`
+/// (exact for deterministic models, an approximation positive wherever
+/// sampling can go for stochastic ones). `*out` is 0 on failure.
+///
+/// # Safety
+/// `material` NULL or live; `out` NULL or writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn msbsdf_pdf(
+    material: *const msbsdf_material,
+    wi: msbsdf_vec3,
+    wo: msbsdf_vec3,
+    out: *mut f32,
+) -> msbsdf_status {
+    if out.is_null() {
+        return MSBSDF_STATUS_NULL_POINTER;
+    }
+    // SAFETY: `out` is non-NULL and writable per the contract.
+    unsafe { out.write(0.0) };
+    guard(|| {
+        // SAFETY: forwarded contract on `material`.
+        let m = unsafe { material_ref(material) }?;
+        let (wi, wo) = (direction(wi)?, direction(wo)?);
+        let p = m.pdf(wi, wo);
+        // SAFETY: `out` checked above.
+        unsafe { out.write(p) };
+        Ok(())
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn status_codes_match_rust_errors() {
+        for (e, code) in [
+            (Error::NullPointer, MSBSDF_STATUS_NULL_POINTER),
+            (Error::InvalidArgument, MSBSDF_STATUS_INVALID_ARGUMENT),
+            (Error::Unsupported, MSBSDF_STATUS_UNSUPPORTED),
+            (Error::OutOfMemory, MSBSDF_STATUS_OUT_OF_MEMORY),
+            (Error::Panic, MSBSDF_STATUS_PANIC),
+            (Error::StructTooSmall, MSBSDF_STATUS_STRUCT_TOO_SMALL),
+            (Error::StorageTooSmall, MSBSDF_STATUS_STORAGE_TOO_SMALL),
+            (Error::StorageMisaligned, MSBSDF_STATUS_STORAGE_MISALIGNED),
+            (Error::InvalidDirection, MSBSDF_STATUS_INVALID_DIRECTION),
+            (Error::UnknownConstant, MSBSDF_STATUS_UNKNOWN_CONSTANT),
+        ] {
+            assert_eq!(e as u32, code);
+            // SAFETY: the message is a static NUL-terminated string.
+            let c = unsafe { std::ffi::CStr::from_ptr(msbsdf_status_message(code)) };
+            assert_eq!(c.to_str().ok(), Some(e.message()));
+        }
+    }
+
+    #[test]
+    fn guard_turns_panic_into_status() {
+        let prev = std::panic::take_hook();
+        std::panic::set_hook(Box::new(|_| {}));
+        let s = guard(|| panic!("boom"));
+        std::panic::set_hook(prev);
+        assert_eq!(s, MSBSDF_STATUS_PANIC);
+    }
+
+    #[test]
+    fn version_packs_cargo_version() {
+        let v = msbsdf_version();
+        assert_eq!(v >> 16, VERSION_MAJOR);
+        assert_eq!((v >> 8) & 0xff, VERSION_MINOR);
+        assert_eq!(v & 0xff, VERSION_PATCH);
+        assert_eq!(
+            format!("{}.{}.{}", v >> 16, (v >> 8) & 0xff, v & 0xff),
+            env!("CARGO_PKG_VERSION")
+        );
+    }
+}

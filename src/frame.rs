@@ -1,0 +1,45 @@
+//! Local shading frame helpers. z is the macro-surface normal, x the tangent
+//! along `alpha_x`; all directions point away from the surface.
+
+use glam::Vec3;
+
+/// Mirror `v` about the unit normal `m`: `2 (v.m) m - v`.
+#[inline]
+pub fn reflect(v: Vec3, m: Vec3) -> Vec3 {
+    2.0 * v.dot(m) * m - v
+}
+
+/// Refract `v` (pointing away, on the side `m` faces) through the facet `m`
+/// with relative index `eta` = n_transmitted / n_incident. Returns `None` on
+/// total internal reflection. The result points away from the facet on the
+/// other side.
+#[inline]
+pub fn refract(v: Vec3, m: Vec3, eta: f32) -> Option<Vec3> {
+    let cos_i = v.dot(m);
+    let sin2_t = (1.0 - cos_i * cos_i).max(0.0) / (eta * eta);
+    if sin2_t >= 1.0 {
+        return None;
+    }
+    let cos_t = (1.0 - sin2_t).sqrt();
+    Some((-v / eta + (cos_i / eta - cos_t) * m).normalize_or_zero())
+}
+
+/// Direction from spherical angles (theta from +z, phi from +x).
+#[inline]
+pub fn spherical(theta: f32, phi: f32) -> Vec3 {
+    let (st, ct) = theta.sin_cos();
+    let (sp, cp) = phi.sin_cos();
+    Vec3::new(st * cp, st * sp, ct)
+}
+
+/// The same direction with z negated (mirror through the macro-surface).
+#[inline]
+pub fn flip_z(v: Vec3) -> Vec3 {
+    Vec3::new(v.x, v.y, -v.z)
+}
+
+/// True when every component is finite and the vector is not zero-length.
+#[inline]
+pub fn is_valid_direction(v: Vec3) -> bool {
+    v.is_finite() && v.length_squared() > 0.0
+}

@@ -1,0 +1,153 @@
+//! Exact Fresnel reflectance: conductors with a complex index of refraction
+//! per RGB channel, and dielectrics with total internal reflection. Nothing
+//! here knows about microfacets.
+
+use glam::Vec3;
+
+#[derive(Clone, Copy, Debug)]
+struct Complex {
+    re: f32,
+    im: f32,
+}
+
+impl Complex {
+    fn new(re: f32, im: f32) -> Self {
+        Complex { re, im }
+    }
+    fn add(self, o: Self) -> Self {
+        Complex::new(self.re + o.re, self.im + o.im)
+    }
+    fn sub(self, o: Self) -> Self {
+        Complex::new(self.re - o.re, self.im - o.im)
+    }
+    fn mul(self, o: Self) -> Self {
+        Complex::new(
+            self.re * o.re - self.im * o.im,
+            self.re * o.im + self.im * o.re,
+        )
+    }
+    fn norm2(self) -> f32 {
+        self.re * self.re + self.im * self.im
+    }
+    fn div(self, o: Self) -> Self {
+        let d = o.norm2();
+        Complex::new(
+            (self.re * o.re + self.im * o.im) / d,
+            (self.im * o.re - self.re * o.im) / d,
+        )
+    }
+    /// Principal square root.
+    fn sqrt(self) -> Self {
+        let n = self.norm2().sqrt();
+        if n == 0.0 {
+            return Complex::new(0.0, 0.0);
+        }
+        let t1 = (0.5 * (n + self.re.abs())).sqrt();
+        let t2 = 0.5 * self.im / t1;
+        if self.re >= 0.0 {
+            Complex::new(t1, t2)
+        } else {
+            Complex::new(t2.abs(), t1.copysign(self.im))
+        }
+    }
+}
+
+/// Unpolarised reflectance of a conductor with complex relative index
+/// `eta + i k` for the cosine `cos_i` of the angle between the incident
+/// direction and the facet normal (clamped to [0, 1]).
+pub fn conductor_scalar(cos_i: f32, eta: f32, k: f32) -> f32 {
+    let c = cos_i.clamp(0.0, 1.0);
+    let n = Complex::new(eta, k);
+    let sin2_i = 1.0 - c * c;
+    // cos_t = sqrt(1 - sin^2_i / n^2)
+    let sin2_t = Complex::new(sin2_i, 0.0).div(n.mul(n));
+    let cos_t = Complex::new(1.0, 0.0).sub(sin2_t).sqrt();
+    let ci = Complex::new(c, 0.0);
+    let n_cos_t = n.mul(cos_t);
+    let r_s = ci.sub(n_cos_t).div(ci.add(n_cos_t));
+    let n_cos_i = n.mul(ci);
+    let r_p = n_cos_i.sub(cos_t).div(n_cos_i.add(cos_t));
+    let f = 0.5 * (r_s.norm2() + r_p.norm2());
+    if f.is_finite() {
+        f.clamp(0.0, 1.0)
+    } else {
+        1.0
+    }
+}
+
+/// [`conductor_scalar`] per RGB channel.
+#[inline]
+pub fn conductor(cos_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
+    Vec3::new(
+        conductor_scalar(cos_i, eta.x, k.x),
+        conductor_scalar(cos_i, eta.y, k.y),
+        conductor_scalar(cos_i, eta.z, k.z),
+    )
+}
+
+/// Unpolarised reflectance of a dielectric interface, `eta` = n_transmitted /
+/// n_incident, for `cos_i >= 0` measured on the incident side. Returns 1 under
+/// total internal reflection.
+pub fn dielectric(cos_i: f32, eta: f32) -> f32 {
+    let c = cos_i.clamp(0.0, 1.0);
+    let sin2_t = (1.0 - c * c) / (eta * eta);
+    if sin2_t >= 1.0 {
+        return 1.0;
+    }
+    let cos_t = (1.0 - sin2_t).sqrt();
+    let r_s = (c - eta * cos_t) / (c + eta * cos_t);
+    let r_p = (eta * c - cos_t) / (eta * c + cos_t);
+    let f = 0.5 * (r_s * r_s + r_p * r_p);
+    if f.is_finite() {
+        f.clamp(0.0, 1.0)
+    } else {
+        1.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn perfect_mirror_is_one() {
+        for i in 0..=20 {
+            let c = i as f32 / 20.0;
+            assert!(
+                (conductor_scalar(c, 0.0, 1.0) - 1.0).abs() < 1e-6,
+                "cos {c}"
+            );
+        }
+    }
+
+    #[test]
+    fn conductor_with_zero_k_equals_dielectric() {
+        for i in 1..=20 {
+            let c = i as f32 / 20.0;
+            let a = conductor_scalar(c, 1.5, 0.0);
+            let b = dielectric(c, 1.5);
+            assert!((a - b).abs() < 1e-5, "cos {c}: {a} vs {b}");
+        }
+    }
+
+    #[test]
+    fn dielectric_normal_incidence_and_tir() {
+        // ((n-1)/(n+1))^2 = 0.04 for n = 1.5.
+        assert!((dielectric(1.0, 1.5) - 0.04).abs() < 1e-6);
+        assert!((dielectric(1.0, 1.0 / 1.5) - 0.04).abs() < 1e-6);
+        // Critical angle of glass to air: sin = 1/1.5.
+        let c = (1.0f32 - (1.0 / 1.5f32).powi(2)).sqrt();
+        assert_eq!(dielectric(c - 1e-3, 1.0 / 1.5), 1.0);
+        assert!(dielectric(c + 1e-3, 1.0 / 1.5) < 1.0);
+    }
+
+    #[test]
+    fn gold_normal_incidence() {
+        // |(n - 1 + ik) / (n + 1 + ik)|^2 at normal incidence.
+        let (n, k) = (0.143f32, 3.983f32);
+        let expect = ((n - 1.0).powi(2) + k * k) / ((n + 1.0).powi(2) + k * k);
+        assert!((conductor_scalar(1.0, n, k) - expect).abs() < 1e-5);
+        // Grazing: reflectance tends to 1.
+        assert!(conductor_scalar(0.0, n, k) > 0.999);
+    }
+}

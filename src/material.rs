@@ -1,0 +1,292 @@
+//! A validated material: the description, its checks, and the dispatch to the
+//! scattering models (an enum `match`; no `dyn`, no heap).
+
+use crate::bsdf::{Sample, ScatterModel};
+use crate::facet::Facet;
+use crate::frame::is_valid_direction;
+use crate::ndf::{Ndf, NdfKind};
+use crate::rng::Rng;
+use crate::single::{G2Form, Single};
+use crate::status::Error;
+use glam::Vec3;
+
+/// Largest number of scattering events any walk follows (path state on the
+/// stack is bounded by it).
+pub const MAX_BOUNCES: u32 = 256;
+
+/// Smallest roughness used internally; smaller positive values are clamped
+/// to it (the lobe is then a near-mirror in f32 anyway).
+pub const MIN_ALPHA: f32 = 1e-4;
+/// Largest roughness accepted.
+pub const MAX_ALPHA: f32 = 10.0;
+
+/// The scattering method (`MSBSDF_MODEL_*`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Model {
+    /// Single scattering (Cook-Torrance / Walter 2007).
+    Single,
+    /// Kulla-Conty / Turquin energy compensation.
+    EnergyCompensated,
+    /// Heitz et al. 2016 height random walk.
+    HeitzRandomWalk,
+    /// Position-free path integral (seed 000).
+    PositionFree,
+    /// Invariance principle (seed 003).
+    Invariance,
+    /// Bitterli and d'Eon 2022 exit probability.
+    BitterliDeon,
+    /// Symmetric V-groove (seed 002).
+    VGroove,
+    /// Nonsymmetric V-groove (seed 002).
+    VGrooveNonsymmetric,
+    /// Null-scattering walk for general NDFs (seed 001).
+    NullScattering,
+    /// Picks the cheapest model meeting a tolerance.
+    Auto,
+}
+
+/// Estimator of the position-free models (`MSBSDF_ESTIMATOR_*`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Estimator {
+    /// Unidirectional path tracing with next-event estimation.
+    Pt,
+    /// Bidirectional path tracing with MIS.
+    Bdpt,
+}
+
+/// The NDF requested (`MSBSDF_NDF_*`); not all are implemented by every model.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NdfId {
+    /// Beckmann.
+    Beckmann,
+    /// GGX / Trowbridge-Reitz.
+    Ggx,
+    /// Student-T with shape gamma > 1.5.
+    StudentT,
+    /// Phong (V-groove models).
+    Phong,
+    /// Exponential (null scattering).
+    Exponential,
+    /// Bessel K0 (null scattering).
+    BesselK0,
+    /// von Mises-Fisher, full sphere (null scattering).
+    Vmf,
+}
+
+/// The facet kind (`MSBSDF_FACET_*`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FacetKind {
+    /// Conductor with complex IOR.
+    Conductor,
+    /// Dielectric interface.
+    Dielectric,
+    /// Lambertian facets.
+    Diffuse,
+    /// Facets scatter as another material (composition).
+    Material,
+}
+
+/// Everything that describes a material, as plain Rust values.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MaterialDesc {
+    /// Scattering method.
+    pub model: Model,
+    /// Estimator (position-free / invariance models).
+    pub estimator: Estimator,
+    /// Microfacet distribution.
+    pub ndf: NdfId,
+    /// Facet material.
+    pub facet: FacetKind,
+    /// Roughness along x (> 0).
+    pub alpha_x: f32,
+    /// Roughness along y (> 0).
+    pub alpha_y: f32,
+    /// NDF shape parameter (Student-T gamma).
+    pub shape: f32,
+    /// Conductor: real index per channel; dielectric: `eta.x` = inside / outside.
+    pub eta: Vec3,
+    /// Conductor extinction per channel.
+    pub k: Vec3,
+    /// Diffuse facet albedo per channel.
+    pub albedo: Vec3,
+    /// Bounce limit, 0 for the model default.
+    pub max_bounces: u32,
+    /// Error tolerance for [`Model::Auto`].
+    pub tolerance: f32,
+}
+
+impl Default for MaterialDesc {
+    /// GGX alpha 0.5, perfectly reflecting conductor facets, single scattering.
+    fn default() -> Self {
+        MaterialDesc {
+            model: Model::Single,
+            estimator: Estimator::Pt,
+            ndf: NdfId::Ggx,
+            facet: FacetKind::Conductor,
+            alpha_x: 0.5,
+            alpha_y: 0.5,
+            shape: 2.0,
+            eta: Vec3::ZERO,
+            k: Vec3::ONE,
+            albedo: Vec3::splat(0.8),
+            max_bounces: 0,
+            tolerance: 0.01,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum ModelImpl {
+    Single(Single),
+}
+
+/// A validated, immutable material. `Copy`, heap-free, `Send + Sync`: any
+/// number of threads may query it at once, each with its own [`Rng`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Material {
+    imp: ModelImpl,
+    desc: MaterialDesc,
+}
+
+fn valid_rgb(v: Vec3, lo: f32) -> bool {
+    v.is_finite() && v.min_element() >= lo
+}
+
+impl Material {
+    /// Validates `desc` and builds the material.
+    pub fn new(desc: &MaterialDesc) -> Result<Material, Error> {
+        let d = *desc;
+        for a in [d.alpha_x, d.alpha_y] {
+            if !(a.is_finite() && a > 0.0 && a <= MAX_ALPHA) {
+                return Err(Error::InvalidArgument);
+            }
+        }
+        if !d.shape.is_finite() || !d.tolerance.is_finite() || d.tolerance < 0.0 {
+            return Err(Error::InvalidArgument);
+        }
+        if d.max_bounces > MAX_BOUNCES {
+            return Err(Error::InvalidArgument);
+        }
+        if d.ndf == NdfId::StudentT && d.shape <= 1.5 {
+            return Err(Error::InvalidArgument);
+        }
+        let facet = match d.facet {
+            FacetKind::Conductor => {
+                if !valid_rgb(d.eta, 0.0) || !valid_rgb(d.k, 0.0) {
+                    return Err(Error::InvalidArgument);
+                }
+                let both_zero = (d.eta.cmpeq(Vec3::ZERO) & d.k.cmpeq(Vec3::ZERO)).any();
+                if both_zero {
+                    return Err(Error::InvalidArgument);
+                }
+                Facet::Conductor { eta: d.eta, k: d.k }
+            }
+            FacetKind::Dielectric => {
+                if !(d.eta.x.is_finite() && d.eta.x > 0.0) {
+                    return Err(Error::InvalidArgument);
+                }
+                Facet::Dielectric { eta: d.eta.x }
+            }
+            FacetKind::Diffuse => {
+                if !valid_rgb(d.albedo, 0.0) || d.albedo.max_element() > 1.0 {
+                    return Err(Error::InvalidArgument);
+                }
+                Facet::Diffuse { albedo: d.albedo }
+            }
+            FacetKind::Material => return Err(Error::Unsupported),
+        };
+        let ndf_kind = match d.ndf {
+            NdfId::Beckmann => Some(NdfKind::Beckmann),
+            NdfId::Ggx => Some(NdfKind::Ggx),
+            _ => None,
+        };
+        let imp = match d.model {
+            Model::Single => {
+                let kind = ndf_kind.ok_or(Error::Unsupported)?;
+                if matches!(facet, Facet::Diffuse { .. }) {
+                    return Err(Error::Unsupported);
+                }
+                let ndf = Ndf::new(kind, d.alpha_x.max(MIN_ALPHA), d.alpha_y.max(MIN_ALPHA));
+                ModelImpl::Single(Single::new(ndf, facet, G2Form::HeightCorrelated))
+            }
+            _ => return Err(Error::Unsupported),
+        };
+        Ok(Material { imp, desc: d })
+    }
+
+    /// The description this material was built from.
+    pub fn desc(&self) -> &MaterialDesc {
+        &self.desc
+    }
+
+    /// True when eval is a Monte Carlo estimate (it then needs an [`Rng`]).
+    pub fn is_stochastic(&self) -> bool {
+        match self.imp {
+            ModelImpl::Single(_) => false,
+        }
+    }
+
+    /// `f(wi, wo) |wo.z|` per RGB channel. Directions need not be normalised;
+    /// invalid or horizon directions give zero.
+    pub fn eval(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3 {
+        let Some((wi, wo)) = prepare(wi, wo) else {
+            return Vec3::ZERO;
+        };
+        let v = match &self.imp {
+            ModelImpl::Single(m) => m.eval(wi, wo, rng),
+        };
+        finite_or_zero(v)
+    }
+
+    /// Samples an outgoing direction for `wi` (need not be normalised).
+    pub fn sample(&self, wi: Vec3, rng: &mut Rng) -> Sample {
+        if !is_valid_direction(wi) {
+            return Sample::ABSORBED;
+        }
+        let wi = wi.normalize();
+        if wi.z == 0.0 {
+            return Sample::ABSORBED;
+        }
+        let s = match &self.imp {
+            ModelImpl::Single(m) => m.sample(wi, rng),
+        };
+        if !(s.weight.is_finite() && s.pdf.is_finite() && s.wo.is_finite())
+            || s.weight.min_element() < 0.0
+        {
+            return Sample::ABSORBED;
+        }
+        s
+    }
+
+    /// Density with which [`Material::sample`] picks `wo` (exact for
+    /// deterministic models; an approximation for stochastic ones).
+    pub fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
+        let Some((wi, wo)) = prepare(wi, wo) else {
+            return 0.0;
+        };
+        let p = match &self.imp {
+            ModelImpl::Single(m) => m.pdf(wi, wo),
+        };
+        if p.is_finite() && p > 0.0 { p } else { 0.0 }
+    }
+}
+
+/// Normalises both directions; `None` for invalid or horizon directions.
+#[inline]
+fn prepare(wi: Vec3, wo: Vec3) -> Option<(Vec3, Vec3)> {
+    if !is_valid_direction(wi) || !is_valid_direction(wo) {
+        return None;
+    }
+    let (wi, wo) = (wi.normalize(), wo.normalize());
+    if wi.z == 0.0 || wo.z == 0.0 || !wi.is_finite() || !wo.is_finite() {
+        return None;
+    }
+    Some((wi, wo))
+}
+
+/// Last line of defence: a non-finite or negative channel becomes 0.
+#[inline]
+fn finite_or_zero(v: Vec3) -> Vec3 {
+    let f = |x: f32| if x.is_finite() && x > 0.0 { x } else { 0.0 };
+    Vec3::new(f(v.x), f(v.y), f(v.z))
+}

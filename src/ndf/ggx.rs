@@ -1,0 +1,70 @@
+//! GGX (Trowbridge-Reitz) microfacet distribution, anisotropic.
+//!
+//! Smith quantities are defined over the full sphere of directions (seed 000,
+//! eqs. 8-9): for `v.z < 0`, `Lambda(v) = -1 - Lambda(-v)`, and the projected
+//! area `sigma(v) = (1 + Lambda(v)) v.z` stays positive.
+
+use glam::{DVec3, Vec3};
+use std::f32::consts::PI;
+
+/// D(m) for a unit normal `m` (0 below the macro-surface).
+#[inline]
+pub fn d(ax: f32, ay: f32, m: Vec3) -> f32 {
+    if m.z <= 0.0 {
+        return 0.0;
+    }
+    let t = (m.x / ax).powi(2) + (m.y / ay).powi(2) + m.z * m.z;
+    1.0 / (PI * ax * ay * t * t)
+}
+
+/// Projected area of the microsurface seen from the unit direction `v`,
+/// `sigma(v) = integral of max(0, v.m) D(m) dm = (1 + Lambda(v)) v.z`.
+/// One closed form holds on the whole sphere.
+#[inline]
+pub fn sigma(ax: f32, ay: f32, v: Vec3) -> f32 {
+    let r2 = (ax * v.x).powi(2) + (ay * v.y).powi(2);
+    let root = (v.z * v.z + r2).sqrt();
+    if v.z >= 0.0 {
+        0.5 * (v.z + root)
+    } else {
+        // (root - |z|) / 2 without cancellation.
+        0.5 * r2 / (root - v.z)
+    }
+}
+
+/// Smith Lambda of the unit direction `v` for `v.z > 0` (infinite at z = 0).
+#[inline]
+pub fn lambda_upper(ax: f32, ay: f32, v: Vec3) -> f32 {
+    let z2 = v.z * v.z;
+    if z2 == 0.0 {
+        return f32::INFINITY;
+    }
+    let t = ((ax * v.x).powi(2) + (ay * v.y).powi(2)) / z2;
+    // (sqrt(1 + t) - 1) / 2, stable for small t.
+    t / (2.0 * (1.0 + (1.0 + t).sqrt()))
+}
+
+/// Visible normal sampling from direction `v` (any hemisphere; `v.z > -1`)
+/// by the spherical-cap method (Dupuy and Benyoub 2023): in the stretched
+/// configuration the visible normals of the hemisphere are `v + c` with `c`
+/// uniform on the cap `c.z > -v.z`.
+/// Computed in f64: seen from below at low roughness the cap is tiny and
+/// `c + v` cancels catastrophically in f32.
+#[inline]
+pub fn sample_visible(ax: f32, ay: f32, v: Vec3, u1: f32, u2: f32) -> Vec3 {
+    let (ax, ay) = (ax as f64, ay as f64);
+    let vs = DVec3::new(ax * v.x as f64, ay * v.y as f64, v.z as f64).normalize();
+    let phi = 2.0 * std::f64::consts::PI * u1 as f64;
+    let z = (1.0 - u2 as f64) * (1.0 + vs.z) - vs.z;
+    let sin_theta = (1.0 - z * z).max(0.0).sqrt();
+    let (sp, cp) = phi.sin_cos();
+    let h = DVec3::new(sin_theta * cp, sin_theta * sp, z) + vs;
+    // h.z can round to 0 on the rim of the cap; keep the normal strictly upward.
+    let m = DVec3::new(ax * h.x, ay * h.y, h.z.max(1e-9));
+    let len2 = m.length_squared();
+    if len2 > 0.0 && len2.is_finite() {
+        (m / len2.sqrt()).as_vec3()
+    } else {
+        Vec3::Z
+    }
+}

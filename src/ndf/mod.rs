@@ -1,0 +1,146 @@
+//! Microfacet normal distributions: `D`, Smith `Lambda` over the full sphere,
+//! masking `G1`, masking-shadowing `G2`, and visible-normal sampling with its
+//! density. Nothing here knows about Fresnel or bounces.
+//!
+//! Conventions: every direction is a unit vector in the local frame (z is the
+//! macro-normal); `v` is a direction the microsurface is *seen from*. The
+//! visible normals seen from `v` have density `D_v(m) = max(0, v.m) D(m) / sigma(v)`
+//! with `sigma(v) = (1 + Lambda(v)) v.z > 0` for every `v` with a visible
+//! facet, in either hemisphere; a ray travelling along `w` hits facets
+//! distributed as `D_{-w}`.
+
+pub mod beckmann;
+pub mod ggx;
+
+use glam::Vec3;
+
+/// Which distribution.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NdfKind {
+    /// Beckmann (Gaussian slopes).
+    Beckmann,
+    /// GGX / Trowbridge-Reitz.
+    Ggx,
+}
+
+/// A microfacet distribution with its roughness.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ndf {
+    /// The distribution.
+    pub kind: NdfKind,
+    /// Roughness along the tangent x.
+    pub alpha_x: f32,
+    /// Roughness along the bitangent y.
+    pub alpha_y: f32,
+}
+
+impl Ndf {
+    /// A distribution; roughness is taken as given (validated by the caller).
+    pub fn new(kind: NdfKind, alpha_x: f32, alpha_y: f32) -> Self {
+        Ndf {
+            kind,
+            alpha_x,
+            alpha_y,
+        }
+    }
+
+    /// D(m): microfacet normal density per steradian, with
+    /// `integral D(m) m.z dm = 1`.
+    #[inline]
+    pub fn d(&self, m: Vec3) -> f32 {
+        match self.kind {
+            NdfKind::Beckmann => beckmann::d(self.alpha_x, self.alpha_y, m),
+            NdfKind::Ggx => ggx::d(self.alpha_x, self.alpha_y, m),
+        }
+    }
+
+    /// Projected area `sigma(v) = (1 + Lambda(v)) v.z` seen from the unit
+    /// direction `v`, positive on the whole sphere (0 only from straight below).
+    #[inline]
+    pub fn sigma(&self, v: Vec3) -> f32 {
+        match self.kind {
+            NdfKind::Beckmann => beckmann::sigma(self.alpha_x, self.alpha_y, v),
+            NdfKind::Ggx => ggx::sigma(self.alpha_x, self.alpha_y, v),
+        }
+    }
+
+    /// Smith Lambda for `v.z > 0` (the direction is taken as given).
+    #[inline]
+    fn lambda_upper(&self, v: Vec3) -> f32 {
+        match self.kind {
+            NdfKind::Beckmann => beckmann::lambda_upper(self.alpha_x, self.alpha_y, v),
+            NdfKind::Ggx => ggx::lambda_upper(self.alpha_x, self.alpha_y, v),
+        }
+    }
+
+    /// Full-sphere Smith Lambda (seed 000, eq. 8): `Lambda(v) >= 0` for
+    /// `v.z > 0`, `Lambda(v) = -1 - Lambda(-v) <= -1` for `v.z < 0`.
+    #[inline]
+    pub fn lambda(&self, v: Vec3) -> f32 {
+        if v.z >= 0.0 {
+            self.lambda_upper(v)
+        } else {
+            -1.0 - self.lambda_upper(-v)
+        }
+    }
+
+    /// Smith masking `G1(v) = 1 / (1 + Lambda(v))` of the direction `v` taken
+    /// on the upper side (`|v.z|`); 0 at the horizon.
+    #[inline]
+    pub fn g1(&self, v: Vec3) -> f32 {
+        let up = Vec3::new(v.x, v.y, v.z.abs());
+        1.0 / (1.0 + self.lambda_upper(up))
+    }
+
+    /// Height-correlated masking-shadowing for reflection,
+    /// `1 / (1 + Lambda(wi) + Lambda(wo))`, both taken on the upper side.
+    #[inline]
+    pub fn g2_correlated(&self, wi: Vec3, wo: Vec3) -> f32 {
+        let li = self.lambda_upper(Vec3::new(wi.x, wi.y, wi.z.abs()));
+        let lo = self.lambda_upper(Vec3::new(wo.x, wo.y, wo.z.abs()));
+        1.0 / (1.0 + li + lo)
+    }
+
+    /// Uncorrelated masking-shadowing `G1(wi) G1(wo)` (for comparisons).
+    #[inline]
+    pub fn g2_uncorrelated(&self, wi: Vec3, wo: Vec3) -> f32 {
+        self.g1(wi) * self.g1(wo)
+    }
+
+    /// Height-correlated masking-shadowing for transmission (Heitz 2014):
+    /// `B(1 + Lambda(wi), 1 + Lambda(wo))` with both directions taken on
+    /// their own side (upper-hemisphere Lambda of `|z|`).
+    #[inline]
+    pub fn g2_transmission_correlated(&self, wi: Vec3, wo: Vec3) -> f32 {
+        let li = self.lambda_upper(Vec3::new(wi.x, wi.y, wi.z.abs())) as f64;
+        let lo = self.lambda_upper(Vec3::new(wo.x, wo.y, wo.z.abs())) as f64;
+        if !(li.is_finite() && lo.is_finite()) {
+            return 0.0;
+        }
+        crate::math::beta(1.0 + li, 1.0 + lo) as f32
+    }
+
+    /// Density of visible normals seen from `v`: `max(0, v.m) D(m) / sigma(v)`.
+    #[inline]
+    pub fn d_visible(&self, v: Vec3, m: Vec3) -> f32 {
+        let cos = v.dot(m);
+        if cos <= 0.0 {
+            return 0.0;
+        }
+        let s = self.sigma(v);
+        if s <= 1e-30 {
+            return 0.0;
+        }
+        cos * self.d(m) / s
+    }
+
+    /// Samples a visible normal seen from the unit direction `v` (either
+    /// hemisphere) from two uniforms in `[0, 1)`.
+    #[inline]
+    pub fn sample_visible(&self, v: Vec3, u1: f32, u2: f32) -> Vec3 {
+        match self.kind {
+            NdfKind::Beckmann => beckmann::sample_visible(self.alpha_x, self.alpha_y, v, u1, u2),
+            NdfKind::Ggx => ggx::sample_visible(self.alpha_x, self.alpha_y, v, u1, u2),
+        }
+    }
+}

@@ -1,0 +1,238 @@
+//! `MSBSDF_MODEL_SINGLE`: the single-scattering microfacet baseline
+//! (Cook-Torrance reflection; Walter et al. 2007 rough dielectric), sampled by
+//! visible normals, with an exact pdf.
+//!
+//! Masking-shadowing is Smith's height-correlated form by default: reflection
+//! `G2 = 1 / (1 + Lambda(wi) + Lambda(wo))`, transmission
+//! `G2 = B(1 + Lambda(wi), 1 + Lambda(wo))` (Heitz 2014); the uncorrelated
+//! product `G1(wi) G1(wo)` is available for comparisons ([`G2Form`]).
+//!
+//! Conductors are two-sided (a `wi` below the surface is mirrored with `wo`).
+//! Dielectrics with `wi` below see the inverse relative index. Transmission is
+//! the flux-conserving form: `f(wi, wo) / eta_o^2 = f(wo, wi) / eta_i^2`, no
+//! radiance scaling by `1 / eta^2`.
+
+use crate::bsdf::{Sample, ScatterModel};
+use crate::facet::Facet;
+use crate::frame::{flip_z, reflect, refract};
+use crate::fresnel;
+use crate::ndf::Ndf;
+use crate::rng::Rng;
+use glam::Vec3;
+
+/// Which masking-shadowing function couples `wi` and `wo`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum G2Form {
+    /// Smith height-correlated (default, what the random walks reduce to).
+    HeightCorrelated,
+    /// Product of the two masking terms.
+    Uncorrelated,
+}
+
+/// The single-scattering microfacet BSDF.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Single {
+    ndf: Ndf,
+    facet: Facet,
+    g2: G2Form,
+}
+
+/// Relative index and directions in the frame where `wi.z > 0`.
+#[inline]
+fn orient(wi: Vec3, wo: Vec3, eta: f32) -> (Vec3, Vec3, f32, bool) {
+    if wi.z < 0.0 {
+        (flip_z(wi), flip_z(wo), 1.0 / eta, true)
+    } else {
+        (wi, wo, eta, false)
+    }
+}
+
+/// Generalised half vector of a refraction from `wi` (upper side, index 1)
+/// to `wo` (lower side, index `eta`), facing up; `None` when the pair cannot
+/// be a refraction through an upward facet.
+#[inline]
+fn refraction_half(wi: Vec3, wo: Vec3, eta: f32) -> Option<(Vec3, f32, f32, f32)> {
+    let h = -(wi + eta * wo);
+    let len2 = h.length_squared();
+    if len2 < 1e-12 || !len2.is_finite() {
+        return None;
+    }
+    let mut h = h / len2.sqrt();
+    if h.z < 0.0 {
+        h = -h;
+    }
+    let ci = wi.dot(h);
+    let co = wo.dot(h);
+    if ci <= 0.0 || co >= 0.0 {
+        return None;
+    }
+    let denom = ci + eta * co;
+    let denom2 = denom * denom;
+    if denom2 < 1e-12 {
+        return None;
+    }
+    // Jacobian |d omega_h / d omega_o| = eta^2 |wo.h| / (wi.h + eta wo.h)^2.
+    let jacobian = eta * eta * (-co) / denom2;
+    Some((h, ci, co, jacobian))
+}
+
+impl Single {
+    /// A single-scattering BSDF; `facet` must be a conductor or a dielectric.
+    pub fn new(ndf: Ndf, facet: Facet, g2: G2Form) -> Self {
+        Single { ndf, facet, g2 }
+    }
+
+    #[inline]
+    fn g2_reflection(&self, wi: Vec3, wo: Vec3) -> f32 {
+        match self.g2 {
+            G2Form::HeightCorrelated => self.ndf.g2_correlated(wi, wo),
+            G2Form::Uncorrelated => self.ndf.g2_uncorrelated(wi, wo),
+        }
+    }
+
+    #[inline]
+    fn g2_transmission(&self, wi: Vec3, wo: Vec3) -> f32 {
+        match self.g2 {
+            G2Form::HeightCorrelated => self.ndf.g2_transmission_correlated(wi, wo),
+            G2Form::Uncorrelated => self.ndf.g2_uncorrelated(wi, wo),
+        }
+    }
+
+    /// Reflection `f |wo.z|` for `wi.z > 0`, `wo.z > 0` given the facet reflectance.
+    #[inline]
+    fn reflection(&self, wi: Vec3, wo: Vec3) -> Option<(Vec3, f32)> {
+        let h = (wi + wo).normalize_or_zero();
+        let ci = wi.dot(h);
+        if ci <= 0.0 {
+            return None;
+        }
+        let value = self.ndf.d(h) * self.g2_reflection(wi, wo) / (4.0 * wi.z);
+        Some((h, value))
+    }
+}
+
+impl ScatterModel for Single {
+    fn eval(&self, wi: Vec3, wo: Vec3, _rng: &mut Rng) -> Vec3 {
+        match self.facet {
+            Facet::Dielectric { eta } => {
+                let (wi, wo, eta, _) = orient(wi, wo, eta);
+                if wo.z > 0.0 {
+                    match self.reflection(wi, wo) {
+                        Some((h, v)) => Vec3::splat(fresnel::dielectric(wi.dot(h), eta) * v),
+                        None => Vec3::ZERO,
+                    }
+                } else {
+                    let Some((h, ci, _co, jac)) = refraction_half(wi, wo, eta) else {
+                        return Vec3::ZERO;
+                    };
+                    let f = fresnel::dielectric(ci, eta);
+                    let v =
+                        (1.0 - f) * self.ndf.d(h) * self.g2_transmission(wi, wo) * ci * jac / wi.z;
+                    Vec3::splat(v)
+                }
+            }
+            _ => {
+                let (wi, wo) = if wi.z < 0.0 {
+                    (flip_z(wi), flip_z(wo))
+                } else {
+                    (wi, wo)
+                };
+                if wo.z <= 0.0 {
+                    return Vec3::ZERO;
+                }
+                match self.reflection(wi, wo) {
+                    Some((h, v)) => self.facet.conductor_fresnel(wi.dot(h)) * v,
+                    None => Vec3::ZERO,
+                }
+            }
+        }
+    }
+
+    fn sample(&self, wi: Vec3, rng: &mut Rng) -> Sample {
+        let (u1, u2) = (rng.next_f32(), rng.next_f32());
+        match self.facet {
+            Facet::Dielectric { eta } => {
+                let u3 = rng.next_f32();
+                let (wi_l, _, eta_l, flipped) = orient(wi, Vec3::Z, eta);
+                let m = self.ndf.sample_visible(wi_l, u1, u2);
+                let ci = wi_l.dot(m);
+                if ci <= 0.0 {
+                    return Sample::ABSORBED;
+                }
+                let g1 = self.ndf.g1(wi_l);
+                let dvis = self.ndf.d_visible(wi_l, m);
+                let f = fresnel::dielectric(ci, eta_l);
+                let (wo, weight, pdf) = if u3 < f {
+                    let wo = reflect(wi_l, m);
+                    if wo.z <= 0.0 {
+                        return Sample::ABSORBED;
+                    }
+                    (wo, self.g2_reflection(wi_l, wo) / g1, f * dvis / (4.0 * ci))
+                } else {
+                    let Some(wo) = refract(wi_l, m, eta_l) else {
+                        return Sample::ABSORBED;
+                    };
+                    if wo.z >= 0.0 {
+                        return Sample::ABSORBED;
+                    }
+                    let pdf = match refraction_half(wi_l, wo, eta_l) {
+                        Some((_, _, _, jac)) => (1.0 - f) * dvis * jac,
+                        None => 0.0, // index-matched: a Dirac lobe, no density
+                    };
+                    (wo, self.g2_transmission(wi_l, wo) / g1, pdf)
+                };
+                let wo = if flipped { flip_z(wo) } else { wo };
+                Sample::new(wi, wo, Vec3::splat(weight), pdf)
+            }
+            _ => {
+                let flipped = wi.z < 0.0;
+                let wi_l = if flipped { flip_z(wi) } else { wi };
+                let m = self.ndf.sample_visible(wi_l, u1, u2);
+                let ci = wi_l.dot(m);
+                if ci <= 0.0 {
+                    return Sample::ABSORBED;
+                }
+                let wo = reflect(wi_l, m);
+                if wo.z <= 0.0 {
+                    return Sample::ABSORBED;
+                }
+                let weight = self.facet.conductor_fresnel(ci) * self.g2_reflection(wi_l, wo)
+                    / self.ndf.g1(wi_l);
+                let pdf = self.ndf.d_visible(wi_l, m) / (4.0 * ci);
+                let wo = if flipped { flip_z(wo) } else { wo };
+                Sample::new(wi, wo, weight, pdf)
+            }
+        }
+    }
+
+    fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
+        let eta = match self.facet {
+            Facet::Dielectric { eta } => eta,
+            _ => 1.0,
+        };
+        let dielectric = matches!(self.facet, Facet::Dielectric { .. });
+        let (wi, wo, eta, _) = orient(wi, wo, eta);
+        if wo.z > 0.0 {
+            let h = (wi + wo).normalize_or_zero();
+            let ci = wi.dot(h);
+            if ci <= 0.0 {
+                return 0.0;
+            }
+            let f = if dielectric {
+                fresnel::dielectric(ci, eta)
+            } else {
+                1.0
+            };
+            f * self.ndf.d_visible(wi, h) / (4.0 * ci)
+        } else if dielectric {
+            match refraction_half(wi, wo, eta) {
+                Some((h, ci, _, jac)) => {
+                    (1.0 - fresnel::dielectric(ci, eta)) * self.ndf.d_visible(wi, h) * jac
+                }
+                None => 0.0,
+            }
+        } else {
+            0.0
+        }
+    }
+}

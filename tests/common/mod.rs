@@ -1,0 +1,197 @@
+//! Shared test tools: deterministic quadrature over microfacet normals,
+//! chi-square statistics, and small helpers. Included by each integration
+//! test with `mod common;` (not every test uses every item).
+#![allow(dead_code)]
+
+use glam::{DVec3, Vec3};
+use std::f64::consts::PI;
+
+/// Gold, copper and aluminium complex IOR (RGB at ~650, 550, 450 nm).
+pub const GOLD_ETA: [f32; 3] = [0.143, 0.374, 1.442];
+/// Gold extinction.
+pub const GOLD_K: [f32; 3] = [3.983, 2.385, 1.603];
+
+/// Unit direction at polar angle `theta_deg` in the x-z plane.
+pub fn dir_deg(theta_deg: f64) -> Vec3 {
+    let t = theta_deg.to_radians();
+    Vec3::new(t.sin() as f32, 0.0, t.cos() as f32)
+}
+
+/// Maps the unit square onto microfacet normals with the anisotropic GGX
+/// distribution of normals (density `D_ggx(h) h.z` per solid angle). Returns
+/// the normal and that density. Used to turn integrals over normals into
+/// integrals over the square that stay smooth for very low roughness.
+pub fn ggx_warp(ax: f64, ay: f64, u: f64, v: f64) -> (DVec3, f64) {
+    let phi = 2.0 * PI * v;
+    let t = (u / (1.0 - u)).sqrt(); // tan(theta) in the stretched space
+    let (sx, sy) = (ax * t * phi.cos(), ay * t * phi.sin());
+    let h = DVec3::new(-sx, -sy, 1.0).normalize();
+    // D_ggx(h) h.z
+    let tt = (h.x / ax).powi(2) + (h.y / ay).powi(2) + h.z * h.z;
+    let d = 1.0 / (PI * ax * ay * tt * tt);
+    (h, d * h.z)
+}
+
+/// Inverse of [`ggx_warp`]: the square coordinates of the normal `h` (h.z > 0).
+pub fn ggx_unwarp(ax: f64, ay: f64, h: DVec3) -> (f64, f64) {
+    let (sx, sy) = (-h.x / h.z / ax, -h.y / h.z / ay);
+    let t2 = sx * sx + sy * sy;
+    let u = t2 / (1.0 + t2);
+    let mut v = sy.atan2(sx) / (2.0 * PI);
+    if v < 0.0 {
+        v += 1.0;
+    }
+    (u.clamp(0.0, 1.0 - 1e-15), v.clamp(0.0, 1.0 - 1e-15))
+}
+
+/// [`ggx_warp`] composed with `u = 1 - (1 - s)^4`, which crowds the square's
+/// points towards the heavy tail of large slopes (grazing views at low
+/// roughness). Returns the normal and its density per unit square area.
+pub fn tail_warp(ax: f64, ay: f64, s: f64, v: f64) -> (DVec3, f64) {
+    let u = 1.0 - (1.0 - s).powi(4);
+    let du_ds = 4.0 * (1.0 - s).powi(3);
+    let (h, p) = ggx_warp(ax, ay, u, v);
+    (h, p / du_ds)
+}
+
+/// Inverse of [`tail_warp`].
+pub fn tail_unwarp(ax: f64, ay: f64, h: DVec3) -> (f64, f64) {
+    let (u, v) = ggx_unwarp(ax, ay, h);
+    let s = 1.0 - (1.0 - u).powf(0.25);
+    (s.clamp(0.0, 1.0 - 1e-15), v)
+}
+
+/// Upper regularised incomplete gamma Q(a, x).
+pub fn gamma_q(a: f64, x: f64) -> f64 {
+    if x <= 0.0 {
+        return 1.0;
+    }
+    let gln = msbsdf::math::ln_gamma(a);
+    if x < a + 1.0 {
+        // Series for P.
+        let mut sum = 1.0 / a;
+        let mut del = sum;
+        let mut ap = a;
+        for _ in 0..10_000 {
+            ap += 1.0;
+            del *= x / ap;
+            sum += del;
+            if del.abs() < sum.abs() * 1e-15 {
+                break;
+            }
+        }
+        1.0 - sum * (-x + a * x.ln() - gln).exp()
+    } else {
+        // Continued fraction for Q (modified Lentz).
+        let tiny = 1e-300;
+        let mut b = x + 1.0 - a;
+        let mut c = 1.0 / tiny;
+        let mut d = 1.0 / b;
+        let mut h = d;
+        for i in 1..10_000 {
+            let an = -(i as f64) * (i as f64 - a);
+            b += 2.0;
+            d = an * d + b;
+            if d.abs() < tiny {
+                d = tiny;
+            }
+            c = b + an / c;
+            if c.abs() < tiny {
+                c = tiny;
+            }
+            d = 1.0 / d;
+            let del = d * c;
+            h *= del;
+            if (del - 1.0).abs() < 1e-15 {
+                break;
+            }
+        }
+        (-x + a * x.ln() - gln).exp() * h
+    }
+}
+
+/// Result of a chi-square test.
+#[derive(Debug, Clone, Copy)]
+pub struct Chi2 {
+    /// The statistic.
+    pub chi2: f64,
+    /// Degrees of freedom (pooled cells minus one).
+    pub dof: usize,
+    /// p-value.
+    pub p: f64,
+}
+
+/// Pearson chi-square of observed against expected counts, pooling cells
+/// whose expectation is below `min_expected` (pbrt-v4's procedure). Cells
+/// whose quadrature gave zero expectation join the pool (a cell may be
+/// partly inside the support with all its quadrature points outside); tests
+/// check separately that every sample has a positive pdf.
+pub fn chi2_test(observed: &[f64], expected: &[f64], min_expected: f64) -> Chi2 {
+    let mut idx: Vec<usize> = (0..expected.len()).collect();
+    idx.sort_by(|&a, &b| expected[a].partial_cmp(&expected[b]).unwrap());
+    let (mut pooled_o, mut pooled_e, mut pooled_n) = (0.0, 0.0, 0usize);
+    let (mut chi2, mut cells) = (0.0, 0usize);
+    for &i in &idx {
+        if expected[i] < min_expected {
+            pooled_o += observed[i];
+            pooled_e += expected[i];
+            pooled_n += 1;
+        } else if pooled_n > 0 && pooled_e < min_expected {
+            pooled_o += observed[i];
+            pooled_e += expected[i];
+            pooled_n += 1;
+        } else {
+            let d = observed[i] - expected[i];
+            chi2 += d * d / expected[i];
+            cells += 1;
+        }
+    }
+    if pooled_n > 0 {
+        let d = pooled_o - pooled_e;
+        chi2 += d * d / pooled_e;
+        cells += 1;
+    }
+    let dof = cells.saturating_sub(1).max(1);
+    Chi2 {
+        chi2,
+        dof,
+        p: gamma_q(dof as f64 / 2.0, chi2 / 2.0),
+    }
+}
+
+/// Significance for one of `n` tests so that the family has level `alpha`
+/// (Sidak correction).
+pub fn sidak(alpha: f64, n: usize) -> f64 {
+    1.0 - (1.0 - alpha).powf(1.0 / n as f64)
+}
+
+/// Mean and standard error of a sequence.
+pub fn mean_and_error(values: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (mut n, mut s, mut s2) = (0.0, 0.0, 0.0);
+    for v in values {
+        n += 1.0;
+        s += v;
+        s2 += v * v;
+    }
+    let mean = s / n;
+    let var = (s2 / n - mean * mean).max(0.0) * n / (n - 1.0);
+    (mean, (var / n).sqrt())
+}
+
+#[test]
+fn gamma_q_known_values() {
+    // Q(1, x) = exp(-x); chi2 with 2 dof at 5.991 has p = 0.05.
+    assert!((gamma_q(1.0, 2.0) - (-2.0f64).exp()).abs() < 1e-12);
+    assert!((gamma_q(1.0, 5.991 / 2.0) - 0.05).abs() < 1e-4);
+    // chi2 with 10 dof at 18.307 has p = 0.05.
+    assert!((gamma_q(5.0, 18.307 / 2.0) - 0.05).abs() < 1e-4);
+}
+
+#[test]
+fn warp_roundtrip() {
+    for &(u, v) in &[(0.1, 0.2), (0.5, 0.9), (0.99, 0.01)] {
+        let (h, _) = ggx_warp(0.3, 0.7, u, v);
+        let (u2, v2) = ggx_unwarp(0.3, 0.7, h);
+        assert!((u - u2).abs() < 1e-9 && (v - v2).abs() < 1e-9);
+    }
+}
