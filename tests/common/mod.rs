@@ -132,11 +132,9 @@ pub fn chi2_test(observed: &[f64], expected: &[f64], min_expected: f64) -> Chi2 
     let (mut pooled_o, mut pooled_e, mut pooled_n) = (0.0, 0.0, 0usize);
     let (mut chi2, mut cells) = (0.0, 0usize);
     for &i in &idx {
-        if expected[i] < min_expected {
-            pooled_o += observed[i];
-            pooled_e += expected[i];
-            pooled_n += 1;
-        } else if pooled_n > 0 && pooled_e < min_expected {
+        // Low cells join the pool; so does the next cell while the pool is
+        // itself still below the threshold.
+        if expected[i] < min_expected || (pooled_n > 0 && pooled_e < min_expected) {
             pooled_o += observed[i];
             pooled_e += expected[i];
             pooled_n += 1;
