@@ -4,6 +4,8 @@
 use crate::bsdf::{Sample, ScatterModel};
 use crate::facet::Facet;
 use crate::frame::is_valid_direction;
+use crate::multiple::bitterli_deon::BitterliDeon;
+use crate::multiple::invariance::Invariance;
 use crate::ndf::{Ndf, NdfKind};
 use crate::rng::Rng;
 use crate::single::{G2Form, Single};
@@ -138,6 +140,8 @@ impl Default for MaterialDesc {
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum ModelImpl {
     Single(Single),
+    Invariance(Invariance),
+    BitterliDeon(BitterliDeon),
 }
 
 /// A validated, immutable material. `Copy`, heap-free, `Send + Sync`: any
@@ -209,6 +213,21 @@ impl Material {
                 let ndf = Ndf::new(kind, d.alpha_x.max(MIN_ALPHA), d.alpha_y.max(MIN_ALPHA));
                 ModelImpl::Single(Single::new(ndf, facet, G2Form::HeightCorrelated))
             }
+            Model::Invariance | Model::BitterliDeon => {
+                let kind = ndf_kind.ok_or(Error::Unsupported)?;
+                if !matches!(facet, Facet::Conductor { .. }) {
+                    return Err(Error::Unsupported);
+                }
+                let ndf = Ndf::new(kind, d.alpha_x.max(MIN_ALPHA), d.alpha_y.max(MIN_ALPHA));
+                if d.model == Model::Invariance {
+                    ModelImpl::Invariance(Invariance::new(ndf, facet, d.estimator, d.max_bounces))
+                } else {
+                    if d.estimator != Estimator::Pt {
+                        return Err(Error::Unsupported);
+                    }
+                    ModelImpl::BitterliDeon(BitterliDeon::new(ndf, facet, d.max_bounces))
+                }
+            }
             _ => return Err(Error::Unsupported),
         };
         Ok(Material { imp, desc: d })
@@ -223,6 +242,7 @@ impl Material {
     pub fn is_stochastic(&self) -> bool {
         match self.imp {
             ModelImpl::Single(_) => false,
+            ModelImpl::Invariance(_) | ModelImpl::BitterliDeon(_) => true,
         }
     }
 
@@ -234,6 +254,8 @@ impl Material {
         };
         let v = match &self.imp {
             ModelImpl::Single(m) => m.eval(wi, wo, rng),
+            ModelImpl::Invariance(m) => m.eval(wi, wo, rng),
+            ModelImpl::BitterliDeon(m) => m.eval(wi, wo, rng),
         };
         finite_or_zero(v)
     }
@@ -249,6 +271,8 @@ impl Material {
         }
         let s = match &self.imp {
             ModelImpl::Single(m) => m.sample(wi, rng),
+            ModelImpl::Invariance(m) => m.sample(wi, rng),
+            ModelImpl::BitterliDeon(m) => m.sample(wi, rng),
         };
         if !(s.weight.is_finite() && s.pdf.is_finite() && s.wo.is_finite())
             || s.weight.min_element() < 0.0
@@ -266,6 +290,8 @@ impl Material {
         };
         let p = match &self.imp {
             ModelImpl::Single(m) => m.pdf(wi, wo),
+            ModelImpl::Invariance(m) => m.pdf(wi, wo),
+            ModelImpl::BitterliDeon(m) => m.pdf(wi, wo),
         };
         if p.is_finite() && p > 0.0 { p } else { 0.0 }
     }

@@ -1,0 +1,4 @@
+//! Multiple-scattering models, one file per method.
+
+pub mod bitterli_deon;
+pub mod invariance;
