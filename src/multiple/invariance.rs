@@ -164,6 +164,35 @@ impl<const C: usize> SegmentTerm<C> {
     }
 }
 
+/// Conductor Fresnel reflectance for all three channels at once, in real
+/// arithmetic (the closed form of `fresnel::conductor` for an incident
+/// medium of index 1, as in pbrt's `FrConductor`), about 10x faster than the
+/// complex form and equal to it to 1e-5 (unit test). Non-conductor facets
+/// reflect everything.
+#[inline]
+pub(crate) fn fresnel(facet: &Facet, cos_i: f32) -> Vec3 {
+    let Facet::Conductor { eta, k } = *facet else {
+        return Vec3::ONE;
+    };
+    let c = cos_i.clamp(0.0, 1.0);
+    let cos2 = c * c;
+    let sin2 = 1.0 - cos2;
+    let eta2 = eta * eta;
+    let k2 = k * k;
+    let t0 = eta2 - k2 - Vec3::splat(sin2);
+    let a2b2 = (t0 * t0 + 4.0 * eta2 * k2).max(Vec3::ZERO);
+    let a2b2 = Vec3::new(a2b2.x.sqrt(), a2b2.y.sqrt(), a2b2.z.sqrt());
+    let t1 = a2b2 + Vec3::splat(cos2);
+    let ha = (0.5 * (a2b2 + t0)).max(Vec3::ZERO);
+    let a = Vec3::new(ha.x.sqrt(), ha.y.sqrt(), ha.z.sqrt());
+    let t2 = 2.0 * c * a;
+    let rs = (t1 - t2) / (t1 + t2).max(Vec3::splat(1e-30));
+    let t3 = cos2 * a2b2 + Vec3::splat(sin2 * sin2);
+    let t4 = t2 * sin2;
+    let rp = rs * (t3 - t4) / (t3 + t4).max(Vec3::splat(1e-30));
+    (0.5 * (rp + rs)).clamp(Vec3::ZERO, Vec3::ONE)
+}
+
 /// `|Lambda(d)|` and the signed full-sphere `Lambda(d)` of a travel direction.
 #[inline]
 pub(crate) fn lambda_signed(ndf: &Ndf, d: Vec3) -> f64 {
@@ -186,7 +215,7 @@ pub(crate) fn scatter(ndf: &Ndf, facet: &Facet, d: Vec3, rng: &mut Rng) -> Optio
     if o.z == 0.0 || o == Vec3::ZERO || !o.is_finite() {
         return None;
     }
-    Some((o, facet.conductor_fresnel(c)))
+    Some((o, fresnel(facet, c)))
 }
 
 /// Position-free vertex term `v(d, o) = F D(h) / (4 |d.z|)`, `h` the half
@@ -200,7 +229,7 @@ pub(crate) fn vertex(ndf: &Ndf, facet: &Facet, d: Vec3, o: Vec3) -> (Vec3, f32) 
         return (Vec3::ZERO, 0.0);
     }
     let dm = ndf.d(h);
-    (facet.conductor_fresnel(c) * (dm / (4.0 * d.z.abs())), dm)
+    (fresnel(facet, c) * (dm / (4.0 * d.z.abs())), dm)
 }
 
 /// The default bounce limit for a roughness: 10 (seed 000 and 003's choice)
@@ -353,24 +382,44 @@ impl Invariance {
 
     /// Bidirectional estimator (seed 000, sec. 4.2, eqs. 14-16) with `S_k`
     /// as the segment term: a camera sub-path from `-wi` and a light
-    /// sub-path from `-wo`, every connection, balance heuristic.
+    /// sub-path from `-wo`, every connection of `s` camera and `t` light
+    /// directions with `s + t - 1 <= max_bounces` bounces, balance heuristic.
+    ///
+    /// For the path `z_0..z_k`, strategy `s'` samples the forward edges
+    /// `i < s' - 1` with pdf `D_i / (4 sigma(-z_i))` and the reverse edges
+    /// `i >= s'` with pdf `D_i / (4 sigma(z_{i+1}))` (the VNDF reflection
+    /// pdf). The balance-heuristic denominator `sum_{s'} p_{s'} / p_s` is
+    /// `1 + rev_conn C_s + fwd_conn L_t` with per-sub-path sums `C_s`, `L_t`
+    /// built once by recurrences, so each connection costs O(1) for MIS and
+    /// O(t N) for the segment term. Both sub-paths are sampled to full
+    /// length, so every strategy is available.
     fn eval_bdpt<const C: usize>(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3 {
         let kmax = self.max_bounces as usize;
         let ndf = &self.ndf;
-        // Camera sub-path x_0 = -wi, ..., light sub-path y_0 = -wo, ...
+        // Camera sub-path x_0 = -wi, ...; light sub-path y_0 = -wo, ...
         let mut x = [Vec3::ZERO; C];
         let mut y = [Vec3::ZERO; C];
         // Throughput ratios (f / pdf of the sampled part) per prefix length.
         let mut thr_c = [Vec3::ZERO; C];
         let mut thr_l = [Vec3::ZERO; C];
-        // D(m) of each sampled edge (for MIS).
-        let mut dx = [0.0f32; C];
-        let mut dy = [0.0f32; C];
-        let n = kmax.min(C);
+        // Signed Lambda(x_i) and Lambda(-y_j) for the segment term.
+        let mut lam_x = [0.0f64; C];
+        let mut lam_y = [0.0f64; C];
+        // sigma(-x_i) and sigma(-y_j): projected areas seen by the rays.
+        let mut sig_x = [0.0f64; C];
+        let mut sig_y = [0.0f64; C];
+        // MIS partial sums C_s and L_t (see above).
+        let mut mis_c = [0.0f64; C];
+        let mut mis_l = [0.0f64; C];
+        let n = kmax.min(C - 1);
         x[0] = -wi;
         y[0] = -wo;
         thr_c[1] = Vec3::ONE;
         thr_l[1] = Vec3::ONE;
+        lam_x[0] = lambda_signed(ndf, x[0]);
+        lam_y[0] = lambda_signed(ndf, -y[0]);
+        sig_x[0] = ndf.sigma(wi) as f64;
+        sig_y[0] = ndf.sigma(wo) as f64;
         let mut nc = 1;
         while nc < n {
             let d = x[nc - 1];
@@ -378,8 +427,19 @@ impl Invariance {
                 break;
             };
             x[nc] = o;
-            dx[nc - 1] = ndf.d((o - d).normalize_or_zero());
-            thr_c[nc + 1] = thr_c[nc] * fr * lambda_signed(ndf, d).abs() as f32;
+            lam_x[nc] = lambda_signed(ndf, o);
+            sig_x[nc] = ndf.sigma(-o) as f64;
+            let dm = ndf.d((o - d).normalize_or_zero()) as f64;
+            // C_{s+1} = (1 + pr(s-1) C_s) / pc(s-1), pc = D / sigma(-x_{s-1}),
+            // pr = D / sigma(x_s) (the reverse pdf of the same edge).
+            let pc = dm / sig_x[nc - 1].max(1e-30);
+            let pr = dm / (ndf.sigma(o) as f64).max(1e-30);
+            mis_c[nc + 1] = if pc > 0.0 {
+                (1.0 + pr * mis_c[nc]) / pc
+            } else {
+                0.0
+            };
+            thr_c[nc + 1] = thr_c[nc] * fr * lam_x[nc - 1].abs() as f32;
             nc += 1;
         }
         let mut nl = 1;
@@ -389,32 +449,39 @@ impl Invariance {
                 break;
             };
             y[nl] = o;
-            dy[nl - 1] = ndf.d((o - d).normalize_or_zero());
+            lam_y[nl] = lambda_signed(ndf, -o);
+            sig_y[nl] = ndf.sigma(-o) as f64;
+            let dm = ndf.d((o - d).normalize_or_zero()) as f64;
+            let pl = dm / sig_y[nl - 1].max(1e-30);
+            let pr = dm / (ndf.sigma(o) as f64).max(1e-30);
+            mis_l[nl + 1] = if pl > 0.0 {
+                (1.0 + pr * mis_l[nl]) / pl
+            } else {
+                0.0
+            };
             // v(-y_{j+1}, -y_j) / pdf(y_j -> y_{j+1}) = F sigma(-y_j) / |y_{j+1}.z|.
-            let r = ndf.sigma(-d) / o.z.abs();
-            thr_l[nl + 1] = thr_l[nl] * fr * r;
+            thr_l[nl + 1] = thr_l[nl] * fr * (sig_y[nl - 1] / o.z.abs() as f64) as f32;
             nl += 1;
         }
         let lo = lambda_signed(ndf, wo);
-        let mut cam = SegmentTerm::<C>::start(-lambda_signed(ndf, x[0]));
+        let mut cam = SegmentTerm::<C>::start(-lam_x[0]);
         let mut tmp = SegmentTerm::<C>::default();
-        // Path buffer for MIS: directions z, edge D values.
-        let mut z = [Vec3::ZERO; C];
-        let mut de = [0.0f32; C];
         let mut f = Vec3::ZERO;
         for s in 1..=nc {
             if s > 1 {
-                cam.push(lambda_signed(ndf, x[s - 1]));
+                cam.push(lam_x[s - 1]);
             }
+            if thr_c[s] == Vec3::ZERO {
+                continue;
+            }
+            let xs = x[s - 1];
             for t in 1..=nl {
-                let k = s + t - 1; // bounces
-                if k > kmax || k + 1 > C {
+                if s + t - 1 > kmax {
                     break;
                 }
-                let xs = x[s - 1];
                 let yt = -y[t - 1];
                 let (vc, dconn) = vertex(ndf, &self.facet, xs, yt);
-                if vc == Vec3::ZERO || thr_c[s] == Vec3::ZERO || thr_l[t] == Vec3::ZERO {
+                if vc == Vec3::ZERO || thr_l[t] == Vec3::ZERO {
                     continue;
                 }
                 let seg = if t == 1 {
@@ -422,72 +489,26 @@ impl Invariance {
                 } else {
                     tmp.copy_from(&cam);
                     for j in (1..t).rev() {
-                        tmp.push(lambda_signed(ndf, -y[j]));
+                        tmp.push(lam_y[j]);
                     }
                     tmp.value(lo)
                 };
                 if seg <= 0.0 {
                     continue;
                 }
-                // The full path z_0..z_k and its edge D values.
-                z[..s].copy_from_slice(&x[..s]);
-                for j in 0..t {
-                    z[k - j] = -y[j];
-                }
-                de[..s - 1].copy_from_slice(&dx[..s - 1]);
-                de[s - 1] = dconn;
-                for j in 0..t - 1 {
-                    // light edge j joins -y_{j+1} (z_{k-j-1}) and -y_j (z_{k-j})
-                    de[k - j - 1] = dy[j];
-                }
-                let mis = mis_sum(ndf, &z[..=k], &de[..k], s, nc, nl);
-                if mis <= 0.0 || !mis.is_finite() {
+                // Balance heuristic: connection edge pdfs in both directions.
+                let dc = dconn as f64;
+                let fwd_conn = dc / sig_x[s - 1].max(1e-30);
+                let rev_conn = dc / sig_y[t - 1].max(1e-30);
+                let mis = 1.0 + rev_conn * mis_c[s] + fwd_conn * mis_l[t];
+                if !(mis.is_finite() && mis >= 1.0) {
                     continue;
                 }
-                let c = thr_c[s] * vc * thr_l[t] * ((seg / mis) as f32);
-                f += c;
+                f += thr_c[s] * vc * thr_l[t] * ((seg / mis) as f32);
             }
         }
         f
     }
-}
-
-/// Balance-heuristic denominator `sum_{s'} p_{s'} / p_s` for the path `z`
-/// (k + 1 directions, `de[i]` = D of the half vector of edge i) generated by
-/// the strategy with `s` camera directions. Strategy `s'` samples the
-/// forward edges `i < s' - 1` with pdf `D_i / (4 sigma(-z_i))` and the
-/// reverse edges `i >= s'` with pdf `D_i / (4 sigma(z_{i+1}))`.
-fn mis_sum(ndf: &Ndf, z: &[Vec3], de: &[f32], s: usize, nc: usize, nl: usize) -> f64 {
-    let k = de.len();
-    let fwd = |i: usize| de[i] as f64 / (ndf.sigma(-z[i]) as f64).max(1e-30);
-    let rev = |i: usize| de[i] as f64 / (ndf.sigma(z[i + 1]) as f64).max(1e-30);
-    let mut sum = 1.0;
-    // s' > s: p_{s'+1} / p_{s'} = fwd(s' - 1) / rev(s').
-    let mut r = 1.0;
-    let mut sp = s;
-    while sp < k && sp < nc {
-        let den = rev(sp);
-        if den <= 0.0 {
-            break;
-        }
-        r *= fwd(sp - 1) / den;
-        sp += 1;
-        // strategy sp needs sp camera directions and k + 1 - sp light ones
-        sum += r;
-    }
-    // s' < s: p_{s'-1} / p_{s'} = rev(s' - 1) / fwd(s' - 2).
-    let mut r = 1.0;
-    let mut sp = s;
-    while sp > 1 && k + 2 - sp <= nl {
-        let den = fwd(sp - 2);
-        if den <= 0.0 {
-            break;
-        }
-        r *= rev(sp - 1) / den;
-        sp -= 1;
-        sum += r;
-    }
-    sum
 }
 
 impl ScatterModel for Invariance {
@@ -559,5 +580,37 @@ impl Invariance {
             d = o;
         }
         Sample::ABSORBED
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fast_fresnel_equals_complex_form() {
+        for (eta, k) in [
+            (
+                Vec3::new(0.143, 0.374, 1.442),
+                Vec3::new(3.983, 2.385, 1.603),
+            ),
+            (Vec3::ZERO, Vec3::ONE),
+            (Vec3::new(1.5, 0.2, 2.9), Vec3::new(0.0, 7.0, 3.1)),
+        ] {
+            let facet = Facet::Conductor { eta, k };
+            for i in 0..=1000 {
+                let c = i as f32 / 1000.0;
+                let a = fresnel(&facet, c);
+                let b = crate::fresnel::conductor(c, eta, k);
+                assert!((a - b).abs().max_element() < 1e-5, "cos {c}: {a} vs {b}");
+            }
+        }
+    }
+
+    #[test]
+    fn segment_term_single_bounce_is_height_correlated_g2() {
+        // S_1 = 1 / (|Lambda(d_0)| + Lambda(o)).
+        let s = SegmentTerm::<4>::start(1.3);
+        assert!((s.value(0.4) - 1.0 / 1.7).abs() < 1e-15);
     }
 }
