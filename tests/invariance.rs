@@ -260,7 +260,10 @@ fn invariance_equals_bitterli_deon_within_4_sigma() {
         let bd = gold(Model::BitterliDeon, Estimator::Pt, ndf, a);
         let (m1, e1) = eval_stats(&inv, wi, wo, 20_000, &mut rng);
         let (m2, e2) = eval_stats(&bd, wi, wo, 20_000, &mut rng);
-        let tol = 4.0 * (e1 * e1 + e2 * e2).sqrt();
+        // 4 sigma, plus 1e-5 relative: where the value is all single
+        // scattering (no noise) the two models still compute it through
+        // different f32 formulas (v S_1 against f_p p_exit).
+        let tol = 4.0 * (e1 * e1 + e2 * e2).sqrt() + 1e-5 * m1.abs();
         assert!(
             (m1 - m2).abs() <= tol,
             "{ndf:?} {a} {wi} {wo}: invariance {m1} +- {e1}, bitterli-deon {m2} +- {e2}"
