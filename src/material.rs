@@ -4,6 +4,7 @@
 use crate::bsdf::{Sample, ScatterModel};
 use crate::facet::Facet;
 use crate::frame::is_valid_direction;
+use crate::multiple::heitz::Heitz;
 use crate::ndf::{Ndf, NdfKind};
 use crate::rng::Rng;
 use crate::single::{G2Form, Single};
@@ -138,6 +139,7 @@ impl Default for MaterialDesc {
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum ModelImpl {
     Single(Single),
+    Heitz(Heitz),
 }
 
 /// A validated, immutable material. `Copy`, heap-free, `Send + Sync`: any
@@ -209,6 +211,11 @@ impl Material {
                 let ndf = Ndf::new(kind, d.alpha_x.max(MIN_ALPHA), d.alpha_y.max(MIN_ALPHA));
                 ModelImpl::Single(Single::new(ndf, facet, G2Form::HeightCorrelated))
             }
+            Model::HeitzRandomWalk => {
+                let kind = ndf_kind.ok_or(Error::Unsupported)?;
+                let ndf = Ndf::new(kind, d.alpha_x.max(MIN_ALPHA), d.alpha_y.max(MIN_ALPHA));
+                ModelImpl::Heitz(Heitz::new(ndf, facet, d.max_bounces))
+            }
             _ => return Err(Error::Unsupported),
         };
         Ok(Material { imp, desc: d })
@@ -223,6 +230,7 @@ impl Material {
     pub fn is_stochastic(&self) -> bool {
         match self.imp {
             ModelImpl::Single(_) => false,
+            ModelImpl::Heitz(_) => true,
         }
     }
 
@@ -234,6 +242,7 @@ impl Material {
         };
         let v = match &self.imp {
             ModelImpl::Single(m) => m.eval(wi, wo, rng),
+            ModelImpl::Heitz(m) => m.eval(wi, wo, rng),
         };
         finite_or_zero(v)
     }
@@ -249,6 +258,7 @@ impl Material {
         }
         let s = match &self.imp {
             ModelImpl::Single(m) => m.sample(wi, rng),
+            ModelImpl::Heitz(m) => m.sample(wi, rng),
         };
         if !(s.weight.is_finite() && s.pdf.is_finite() && s.wo.is_finite())
             || s.weight.min_element() < 0.0
@@ -266,6 +276,7 @@ impl Material {
         };
         let p = match &self.imp {
             ModelImpl::Single(m) => m.pdf(wi, wo),
+            ModelImpl::Heitz(m) => m.pdf(wi, wo),
         };
         if p.is_finite() && p > 0.0 { p } else { 0.0 }
     }
