@@ -40,18 +40,22 @@
 //!
 //! Bounce limit: `max_bounces = 0` selects [`default_max_bounces`]. A walk
 //! reaching one more vertex than the limit is absorbed (weight 0). The rule
-//! was chosen from measured truncated energy (white furnace, perfect
-//! mirror facets, GGX, fraction of walks needing more than `n` vertices,
-//! 10^6 walks, worst over theta_i in {0, 60, 89} degrees):
+//! comes from the measured truncated energy: the smallest limit `n` whose
+//! fraction of white-furnace walks needing more than `n` vertices is below
+//! 1e-3 (2 x 10^5 walks, GGX, worst of theta_i in {0, 60, 89} degrees;
+//! Beckmann needs fewer; `cargo run --release --example heitz_measure trunc`):
 //!
-//! | alpha | n = 10 | n = 16 | n = 24 | n = 32 | n = 48 |
-//! |-------|--------|--------|--------|--------|--------|
-//! | 0.5   | 0      | 0      | 0      | 0      | 0      |
-//! | 1.0   | 4.0e-4 | 1.1e-5 | 0      | 0      | 0      |
-//! | 2.0   | 1.5e-2 | 2.8e-3 | 5.0e-4 | 1.1e-4 | 3e-6   |
+//! | alpha | mirror | glass 1.5 (from above) | glass 1/1.5 (from below) | glass 1/3 | diffuse, albedo 1 |
+//! |-------|--------|------|------|------|------|
+//! | 0.5   | 3      | 3    | 6    | 5    | 8    |
+//! | 1.0   | 8      | 8    | 9    | 8    | 15   |
+//! | 2.0   | 13     | 13   | 16   | 13   | 35   |
+//! | 5.0   | 26     | 24   | 32   | 26   | 140  |
+//! | 10.0  | 47     | 39   | -    | -    | -    |
 //!
-//! Dielectric facets (total internal reflection inside) need more; see
-//! [`default_max_bounces`] for the rule and its numbers.
+//! With the default limit 10, the truncated energy of a GGX mirror is
+//! 5e-6 at alpha 1 and 7.4e-3 at alpha 2 (normal incidence), so alpha
+//! above 1 needs more.
 //!
 //! The walk keeps no path arrays: its whole state (direction, log height,
 //! side, throughput) lives in a few registers.
@@ -69,24 +73,22 @@ use std::f32::consts::PI;
 
 /// Default bounce limit for the given roughness and facets: keeps the
 /// truncated energy of the white furnace below 0.1% (measured, see the module
-/// docs and the tests in `tests/heitz.rs`).
+/// docs), with `alpha = max(alpha_x, alpha_y)`:
 ///
-/// Conductor and diffuse facets: 10 for `alpha <= 1`, then
-/// `10 + 12 (alpha - 1)` rounded up (22 at alpha 2), capped at
-/// [`MAX_BOUNCES`]. Dielectric facets: twice that (light trapped under
-/// the interface by total internal reflection bounces longer).
+/// - conductor facets: `max(10, ceil(5 alpha + 4))` (14 at alpha 2, 54 at 10);
+/// - dielectric facets: `max(10, ceil(7.5 alpha + 6))` (21 at alpha 2);
+/// - diffuse facets (Lambert lobes send light down into the surface, a long
+///   tail): `max(10, ceil(16 alpha^1.4))` (16 at alpha 1, 43 at alpha 2);
+///
+/// all capped at [`MAX_BOUNCES`].
 pub fn default_max_bounces(alpha_x: f32, alpha_y: f32, facet: &Facet) -> u32 {
     let a = alpha_x.max(alpha_y);
-    let base = if a <= 1.0 {
-        10.0
-    } else {
-        (10.0 + 12.0 * (a - 1.0)).ceil()
-    };
     let n = match facet {
-        Facet::Dielectric { .. } => 2.0 * base,
-        _ => base,
+        Facet::Conductor { .. } => 5.0 * a + 4.0,
+        Facet::Dielectric { .. } => 7.5 * a + 6.0,
+        Facet::Diffuse { .. } => 16.0 * a.powf(1.4),
     };
-    (n.min(MAX_BOUNCES as f32)) as u32
+    (n.ceil().clamp(10.0, MAX_BOUNCES as f32)) as u32
 }
 
 /// The Heitz et al. 2016 height random walk over a Smith microsurface.
@@ -427,7 +429,11 @@ impl ScatterModel for Heitz {
         let scale = wo.z.abs() / wi.z.abs() * self.reciprocity_factor(wi, wo);
         let backward = backward * scale;
         let v = 0.5 * (forward + backward);
-        if v.is_finite() { v.max(Vec3::ZERO) } else { Vec3::ZERO }
+        if v.is_finite() {
+            v.max(Vec3::ZERO)
+        } else {
+            Vec3::ZERO
+        }
     }
 
     fn sample(&self, wi: Vec3, rng: &mut Rng) -> Sample {
