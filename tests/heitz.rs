@@ -109,6 +109,7 @@ fn furnace_heitz_conductor_sample_albedo_is_one() {
         for th in thetas {
             seed += 1;
             let (m, se) = sample_albedo(&h, dir(th, 0.4), 40_000, seed);
+            println!("furnace conductor {kind:?} ({ax},{ay}) theta {th}: {m:.5} +- {se:.5}");
             assert!(se < 3e-4, "{kind:?} ({ax},{ay}) {th}: standard error {se}");
             assert!(
                 (m - 1.0).abs() < 3e-3,
@@ -135,6 +136,9 @@ fn furnace_heitz_dielectric_reflection_plus_transmission_is_one() {
                         wi.z = -wi.z;
                     }
                     let (m, se) = sample_albedo(&h, wi, 20_000, seed);
+                    println!(
+                        "furnace dielectric {kind:?} {a} theta {th} below {below}: {m:.5} +- {se:.5}"
+                    );
                     assert!(se < 5e-4, "standard error {se}");
                     assert!(
                         (m - 1.0).abs() < 5e-3,
@@ -157,6 +161,7 @@ fn furnace_heitz_diffuse_facets_albedo_one() {
             for th in [0.0, 60.0, 89.0] {
                 seed += 1;
                 let (m, se) = sample_albedo(&h, dir(th, 0.0), 20_000, seed);
+                println!("furnace diffuse {kind:?} {a} theta {th}: {m:.5} +- {se:.5}");
                 assert!(se < 4e-4, "standard error {se}");
                 assert!(
                     (m - 1.0).abs() < 3e-3,
@@ -264,6 +269,9 @@ fn furnace_heitz_eval_integrates_to_the_sample_albedo() {
             let se_eval = ((s2 / n as f64 - mean * mean).max(0.0) / n as f64).sqrt();
             let (albedo, se_s) = sample_albedo(&h, wi, 200_000, seed + 77);
             let sigma = (se_eval * se_eval + se_s * se_s).sqrt();
+            println!(
+                "eval furnace {kind:?} {a} {facet:?} theta {th} below {below}: eval {mean:.4} +- {se_eval:.4}, sample {albedo:.4} +- {se_s:.4}"
+            );
             assert!(
                 sigma < 0.01 * albedo,
                 "{kind:?} {a} {th}: sigma {sigma} too large to decide"
@@ -386,6 +394,10 @@ fn heitz_walk_is_reciprocal() {
                 let ratio = if transmit { 1.5f64 * 1.5 } else { 1.0 };
                 let (lhs, rhs) = (f_io, f_oi * ratio);
                 let sigma = (se_io * se_io + (se_oi * ratio).powi(2)).sqrt();
+                println!(
+                    "reciprocity {kind:?} {facet:?} transmit {transmit}: {lhs:.5} vs {rhs:.5} ({:.2} sigma)",
+                    (lhs - rhs) / sigma
+                );
                 assert!(
                     (lhs - rhs).abs() < 4.0 * sigma + 1e-6,
                     "{kind:?} {facet:?} wi {wi} wo {wo}: f(wi,wo) {lhs} vs {rhs} (sigma {sigma})"
@@ -529,6 +541,9 @@ fn heitz_sample_matches_eval_chi2() {
         let p = gamma_q(dof as f64 / 2.0, chi2 / 2.0);
         let total_o: f64 = terms.iter().map(|t| t.0).sum();
         let total_e: f64 = terms.iter().map(|t| t.1).sum();
+        println!(
+            "chi2 config {ci} {kind:?} ({ax},{ay}) theta {th}: chi2 {chi2:.1} dof {dof} p {p:.3} (albedo sample {total_o:.4} eval {total_e:.4})"
+        );
         assert!(dof > 20, "config {ci}: only {dof} bins");
         assert!(
             p > level,
