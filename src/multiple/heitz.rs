@@ -233,12 +233,34 @@ impl Heitz {
     /// Phase function times escape probability towards `o` (local frame of
     /// the current side) from a vertex at log height `lc`, for a ray
     /// travelling along `w` that hit the sampled facet `m_sampled`.
+    /// `sigma_i` is the projected area seen from `-w` and `lam_o` the
+    /// Lambda of `o` taken on its escape side (both computed once by the
+    /// caller).
     #[inline]
-    fn next_event(&self, w: Vec3, m_sampled: Vec3, lc: f64, eta: f32, o: Vec3) -> Vec3 {
+    #[allow(clippy::too_many_arguments)]
+    fn next_event(
+        &self,
+        w: Vec3,
+        m_sampled: Vec3,
+        lc: f64,
+        eta: f32,
+        o: Vec3,
+        sigma_i: f32,
+        lam_o: f64,
+    ) -> Vec3 {
         let i = -w;
+        // D_{-w}(m) = max(0, -w.m) D(m) / sigma(-w).
+        let d_vis = |m: Vec3| {
+            let c = i.dot(m);
+            if c <= 0.0 || sigma_i <= 0.0 {
+                0.0
+            } else {
+                c * self.ndf.d(m) / sigma_i
+            }
+        };
         if o.z > 0.0 {
             // Escape upward from the vertex: G1(o, h) = C1(h)^Lambda(o).
-            let lam = self.ndf.lambda(o) as f64;
+            let lam = lam_o;
             if !lam.is_finite() {
                 return Vec3::ZERO;
             }
@@ -258,10 +280,11 @@ impl Heitz {
                         return Vec3::ZERO;
                     }
                     // Notes: p(w, o) = F(o.m) D_{-w}(m) / (4 |o.m|).
-                    let p = self.ndf.d_visible(i, m) / (4.0 * ci);
+                    let p = d_vis(m) / (4.0 * ci);
                     let f = match self.facet {
                         Facet::Dielectric { .. } => Vec3::splat(fresnel::dielectric(ci, eta)),
-                        _ => self.facet.conductor_fresnel(ci),
+                        Facet::Conductor { eta, k } => fresnel::conductor_rgb(ci, eta, k),
+                        Facet::Diffuse { .. } => Vec3::ONE,
                     };
                     f * p
                 }
@@ -276,13 +299,12 @@ impl Heitz {
             let Some((m, ci, jac)) = refraction_half(i, o, eta) else {
                 return Vec3::ZERO;
             };
-            let lam = self.ndf.lambda(flip_z(o)) as f64;
-            if !lam.is_finite() {
+            if !lam_o.is_finite() {
                 return Vec3::ZERO;
             }
-            let escape = (lam * log1mexp(lc)).exp() as f32;
+            let escape = (lam_o * log1mexp(lc)).exp() as f32;
             // Walter 2007 eq. (17) with the visible-normal density.
-            let p = (1.0 - fresnel::dielectric(ci, eta)) * self.ndf.d_visible(i, m) * jac;
+            let p = (1.0 - fresnel::dielectric(ci, eta)) * d_vis(m) * jac;
             Vec3::splat(p * escape)
         }
     }
@@ -298,6 +320,11 @@ impl Heitz {
         let mut weight = Vec3::ONE;
         let mut nee = Vec3::ZERO;
         let mut bounces = 0u32;
+        // Lambda of the target on the side it escapes to (|z|), fixed for the walk.
+        let lam_target = match target {
+            Some(t) => self.ndf.lambda(Vec3::new(t.x, t.y, t.z.abs())) as f64,
+            None => 0.0,
+        };
         loop {
             // Next event along w.
             let lam = self.ndf.lambda(w) as f64;
@@ -345,11 +372,19 @@ impl Heitz {
                 };
             }
             if let Some(t) = target {
-                nee += weight * self.next_event(w, m, lc, eta, to_local(t, flipped));
+                // sigma(-w) = (1 + Lambda(-w)) (-w.z) = Lambda(w) w.z by the
+                // full-sphere symmetry Lambda(-w) = -1 - Lambda(w).
+                let sigma_i = if lam.is_finite() {
+                    (lam * w.z as f64) as f32
+                } else {
+                    self.ndf.sigma(i)
+                };
+                let o = to_local(t, flipped);
+                nee += weight * self.next_event(w, m, lc, eta, o, sigma_i, lam_target);
             }
             match self.facet {
-                Facet::Conductor { .. } => {
-                    weight *= self.facet.conductor_fresnel(ci);
+                Facet::Conductor { eta, k } => {
+                    weight *= fresnel::conductor_rgb(ci, eta, k);
                     w = reflect(i, m);
                 }
                 Facet::Diffuse { albedo } => {
