@@ -4,7 +4,7 @@
 //!
 //! The microsurface is a volume of facets whose heights follow a distribution
 //! `C1(h)`; the walk tracks the height and direction of a ray scattering in
-//! it (seed 003, Sec. 3 and Fig. 2: the path is `(h_0, d_0, h_1, d_1, ...)`).
+//! it (seed 003, Sec. 3.1 and Fig. 2: the path is `(h_0, d_0, h_1, d_1, ...)`).
 //! The result does not depend on the height distribution; this file uses
 //! the uniform one on `[-1, 1]` and stores the state as `ln C1(h)`, so the
 //! notes' formulas read directly:
@@ -12,7 +12,7 @@
 //! - escape of an upward ray from height `h`: `G1(w, h) = C1(h)^Lambda(w)`;
 //! - next hit: `C1(h') = C1(h) / (1 - U)^(1 / Lambda(w))` for both signs of
 //!   `Lambda` (the full-sphere `Lambda(w) = -1 - Lambda(-w)` for `w.z < 0`,
-//!   seed 000 eq. (8)); an upward ray that does not escape hits at the height
+//!   seed 000 eqs. (8)-(9)); an upward ray that does not escape hits at the height
 //!   this formula gives with `U` restricted to `[0, 1 - G1)`, never at the top;
 //! - facet normal from the visible normals of the travel direction,
 //!   `D_{-w}(m) = max(0, -w.m) D(m) / sigma(-w)`;
@@ -22,7 +22,7 @@
 //!   `eta -> 1 / eta`), or a Lambert lobe about `m` for diffuse facets.
 //!
 //! `eval` is next-event estimation at every vertex: the phase function
-//! towards `wo` (seed 003, eq. (1) of the supplement / the notes:
+//! towards `wo` (seed 003, eq. (6), as defined by Heitz 2016:
 //! `p(w, o) = F(o.m) D_{-w}(m) / (4 |o.m|)`, `m = normalize(o - w)`, and the
 //! Walter 2007 refraction Jacobian for transmission) times the escape
 //! probability towards `wo` from the vertex height. The estimate from `wi`
@@ -30,7 +30,8 @@
 //! generalised reciprocity `f(wi, wo) / eta_o^2 = f(wo, wi) / eta_i^2`, so the
 //! estimate is reciprocal.
 //!
-//! `pdf` is an approximation (as in Heitz 2016 and seed 000, Sec. 3.6): the
+//! `pdf` is an approximation (as in Heitz 2016, seed 000 Sec. 4.3 and
+//! seed 003 Sec. 4.4): the
 //! single-scattering visible-normal pdf (exactly SINGLE's) with weight
 //! `1 - q`, plus a cosine lobe with weight `q = clamp(0.3 alpha, 0.02, 0.5)`
 //! (`alpha` = the mean of the two roughnesses) for the multiply scattered
@@ -47,7 +48,7 @@
 //!
 //! | alpha | mirror | glass 1.5 (from above) | glass 1/1.5 (from below) | glass 1/3 | diffuse, albedo 1 |
 //! |-------|--------|------|------|------|------|
-//! | 0.5   | 3      | 3    | 6    | 5    | 8    |
+//! | 0.5   | 5      | 6    | 6    | 5    | 8    |
 //! | 1.0   | 8      | 8    | 9    | 8    | 15   |
 //! | 2.0   | 13     | 13   | 16   | 13   | 35   |
 //! | 5.0   | 26     | 24   | 32   | 26   | 140  |
@@ -279,7 +280,7 @@ impl Heitz {
                     if ci <= 0.0 {
                         return Vec3::ZERO;
                     }
-                    // Notes: p(w, o) = F(o.m) D_{-w}(m) / (4 |o.m|).
+                    // seed 003, eq. (6): p(w, o) = F(o.m) D_{-w}(m) / (4 |o.m|).
                     let p = d_vis(m) / (4.0 * ci);
                     let f = match self.facet {
                         Facet::Dielectric { .. } => Vec3::splat(fresnel::dielectric(ci, eta)),
@@ -302,7 +303,7 @@ impl Heitz {
             if !lam_o.is_finite() {
                 return Vec3::ZERO;
             }
-            let escape = (lam_o * log1mexp(lc)).exp() as f32;
+            let escape = (lam_o * log1mexp(lc).max(-700.0)).exp() as f32;
             // Walter 2007 eq. (17) with the visible-normal density.
             let p = (1.0 - fresnel::dielectric(ci, eta)) * d_vis(m) * jac;
             Vec3::splat(p * escape)
@@ -400,7 +401,8 @@ impl Heitz {
                             // Continue on the other side: mirror direction
                             // and height, invert the relative index.
                             w = flip_z(t);
-                            lc = log1mexp(lc);
+                            // Kept finite (C1 >= e^-700) so 0 * ln C1 never makes a NaN.
+                            lc = log1mexp(lc).max(-700.0);
                             flipped = !flipped;
                             eta = 1.0 / eta;
                         }
