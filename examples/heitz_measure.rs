@@ -114,69 +114,75 @@ fn main() {
         return;
     }
     // Timing, eval variance and bounce counts: GGX gold.
-    for alpha in [0.5f32, 1.0] {
-        let m = Material::new(&MaterialDesc {
-            model: Model::HeitzRandomWalk,
-            alpha_x: alpha,
-            alpha_y: alpha,
-            eta: Vec3::new(0.143, 0.374, 1.442),
-            k: Vec3::new(3.983, 2.385, 1.603),
-            ..MaterialDesc::default()
-        })
-        .unwrap();
-        let h = Heitz::new(
-            Ndf::new(NdfKind::Ggx, alpha, alpha),
-            Facet::Conductor {
+    for (kind, ndf_id) in [
+        (NdfKind::Ggx, msbsdf::NdfId::Ggx),
+        (NdfKind::Beckmann, msbsdf::NdfId::Beckmann),
+    ] {
+        for alpha in [0.5f32, 1.0] {
+            let m = Material::new(&MaterialDesc {
+                model: Model::HeitzRandomWalk,
+                ndf: ndf_id,
+                alpha_x: alpha,
+                alpha_y: alpha,
                 eta: Vec3::new(0.143, 0.374, 1.442),
                 k: Vec3::new(3.983, 2.385, 1.603),
-            },
-            0,
-        );
-        for th in [0.0f32, 60.0] {
-            let wi = dir(th);
-            let wo = Vec3::new(-0.5, 0.3, 0.8).normalize();
-            let n = 1_000_000;
-            let mut rng = Rng::new(9, 9);
-            // Minimum over batches of the time per call: robust to other
-            // processes sharing the cores.
-            let batches = 20;
-            let per = n / batches;
-            let time_min = |f: &mut dyn FnMut()| {
-                let mut best = f64::INFINITY;
-                for _ in 0..batches {
-                    let t0 = Instant::now();
-                    for _ in 0..per {
-                        f();
-                    }
-                    best = best.min(t0.elapsed().as_nanos() as f64 / per as f64);
-                }
-                best
-            };
-            let mut acc = Vec3::ZERO;
-            let ns_sample = time_min(&mut || acc += m.sample(wi, &mut rng).weight);
-            let (mut s1, mut s2) = (0.0f64, 0.0f64);
-            let mut rng2 = Rng::new(10, 10);
-            let ns_eval = time_min(&mut || {
-                let v = m.eval(wi, wo, &mut rng2).y as f64;
-                s1 += v;
-                s2 += v * v;
-            });
-            let mean = s1 / n as f64;
-            let var = s2 / n as f64 - mean * mean;
-            let mut p = 0.0;
-            let ns_pdf = time_min(&mut || p += m.pdf(wi, wo));
-            let mut bsum = 0u64;
-            for _ in 0..n / 4 {
-                bsum += h.sample_with_bounces(wi, &mut rng).1 as u64;
-            }
-            println!(
-                "gold GGX a {alpha} th {th}: sample {ns_sample:.0} ns eval {ns_eval:.0} ns pdf {ns_pdf:.0} ns | albedo {:.4} {:.4} {:.4} | eval(wo=(-.5,.3,.8)) G mean {mean:.5} var {var:.3e} rel.std {:.3} | mean bounces {:.3} {p}",
-                acc.x / n as f32,
-                acc.y / n as f32,
-                acc.z / n as f32,
-                var.sqrt() / mean,
-                bsum as f64 / (n / 4) as f64
+                ..MaterialDesc::default()
+            })
+            .unwrap();
+            let h = Heitz::new(
+                Ndf::new(kind, alpha, alpha),
+                Facet::Conductor {
+                    eta: Vec3::new(0.143, 0.374, 1.442),
+                    k: Vec3::new(3.983, 2.385, 1.603),
+                },
+                0,
             );
+            for th in [0.0f32, 60.0] {
+                let wi = dir(th);
+                let wo = Vec3::new(-0.5, 0.3, 0.8).normalize();
+                let n = 1_000_000;
+                let mut rng = Rng::new(9, 9);
+                // Minimum over batches of the time per call: robust to other
+                // processes sharing the cores.
+                let batches = 400;
+                let per = n / batches;
+                let time_min = |f: &mut dyn FnMut()| {
+                    let mut best = f64::INFINITY;
+                    for _ in 0..batches {
+                        let t0 = Instant::now();
+                        for _ in 0..per {
+                            f();
+                        }
+                        best = best.min(t0.elapsed().as_nanos() as f64 / per as f64);
+                    }
+                    best
+                };
+                let mut acc = Vec3::ZERO;
+                let ns_sample = time_min(&mut || acc += m.sample(wi, &mut rng).weight);
+                let (mut s1, mut s2) = (0.0f64, 0.0f64);
+                let mut rng2 = Rng::new(10, 10);
+                let ns_eval = time_min(&mut || {
+                    let v = m.eval(wi, wo, &mut rng2).y as f64;
+                    s1 += v;
+                    s2 += v * v;
+                });
+                let mean = s1 / n as f64;
+                let var = s2 / n as f64 - mean * mean;
+                let mut p = 0.0;
+                let ns_pdf = time_min(&mut || p += m.pdf(wi, wo));
+                let mut bsum = 0u64;
+                for _ in 0..n / 4 {
+                    bsum += h.sample_with_bounces(wi, &mut rng).1 as u64;
+                }
+                println!(
+                    "gold {kind:?} a {alpha} th {th}: sample {ns_sample:.0} ns eval {ns_eval:.0} ns pdf {ns_pdf:.0} ns | albedo {:.4} {:.4} {:.4} | eval(wo=(-.5,.3,.8)) G mean {mean:.5} var {var:.3e} rel.std {:.3} | mean bounces {:.3} {p}",
+                    acc.x / n as f32,
+                    acc.y / n as f32,
+                    acc.z / n as f32,
+                    var.sqrt() / mean,
+                    bsum as f64 / (n / 4) as f64
+                );
+            }
         }
     }
 }
