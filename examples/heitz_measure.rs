@@ -109,6 +109,46 @@ fn main() {
         }
         return;
     }
+    if what == "extreme" {
+        // Furnace at the edges of the range: energy lost to numerically
+        // invisible facets or the bounce limit.
+        for kind in [NdfKind::Ggx, NdfKind::Beckmann] {
+            for alpha in [1e-3f32, 1e-2, 0.05] {
+                for facet in [
+                    Facet::Conductor {
+                        eta: Vec3::ZERO,
+                        k: Vec3::ONE,
+                    },
+                    Facet::Dielectric { eta: 1.01 },
+                    Facet::Dielectric { eta: 3.0 },
+                    Facet::Diffuse { albedo: Vec3::ONE },
+                ] {
+                    let h = Heitz::new(Ndf::new(kind, alpha, alpha), facet, 0);
+                    for th in [0.0f32, 80.0, 89.0, 89.9, 89.99] {
+                        for below in [false, true] {
+                            let mut wi = dir(th);
+                            if below {
+                                wi.z = -wi.z;
+                            }
+                            let n = 200_000;
+                            let mut rng = Rng::new(5, 6);
+                            let mut acc = 0.0f64;
+                            for _ in 0..n {
+                                acc += h.sample(wi, &mut rng).weight.x as f64;
+                            }
+                            let a = acc / n as f64;
+                            if (a - 1.0).abs() > 1e-3 {
+                                println!(
+                                    "{kind:?} {alpha} {facet:?} th {th} below {below}: albedo {a:.5}"
+                                );
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        return;
+    }
     if what == "trunc" {
         truncation();
         return;

@@ -575,7 +575,7 @@ fn heitz_stability_sweep() {
         msbsdf::FacetKind::Dielectric,
         msbsdf::FacetKind::Diffuse,
     ];
-    for i in 0..3000 {
+    for i in 0..20000 {
         let ndf = if i % 2 == 0 {
             NdfId::Ggx
         } else {

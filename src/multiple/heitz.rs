@@ -6,8 +6,12 @@
 //! `C1(h)`; the walk tracks the height and direction of a ray scattering in
 //! it (seed 003, Sec. 3.1 and Fig. 2: the path is `(h_0, d_0, h_1, d_1, ...)`).
 //! The result does not depend on the height distribution; this file uses
-//! the uniform one on `[-1, 1]` and stores the state as `ln C1(h)`, so the
-//! notes' formulas read directly:
+//! the uniform one on `[-1, 1]` and stores the state as `ln C1(h)`. Every
+//! formula below involves heights only through `C1(h)`, and the mirror
+//! across a dielectric interface maps `C1 -> 1 - C1` for any distribution
+//! symmetric about 0, so the walk draws the same sequence of `C1` values
+//! for every continuous symmetric height distribution: the independence
+//! is exact, not statistical. The formulas:
 //!
 //! - escape of an upward ray from height `h`: `G1(w, h) = C1(h)^Lambda(w)`;
 //! - next hit: `C1(h') = C1(h) / (1 - U)^(1 / Lambda(w))` for both signs of
