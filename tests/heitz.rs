@@ -10,7 +10,7 @@ use common::*;
 use glam::Vec3;
 use msbsdf::bsdf::ScatterModel;
 use msbsdf::facet::Facet;
-use msbsdf::multiple::heitz::{Heitz, default_max_bounces};
+use msbsdf::multiple::heitz::{Heitz, cosine_weight, default_max_bounces};
 use msbsdf::ndf::{Ndf, NdfKind};
 use msbsdf::single::{G2Form, Single};
 use msbsdf::{Material, MaterialDesc, Model, NdfId, Rng, SAMPLE_REFLECTION, SAMPLE_TRANSMISSION};
@@ -206,14 +206,6 @@ fn draw_from_pdf(
     }
 }
 
-/// The mixture weight `q` the model documents.
-fn q_of(alpha: f32, facet: &Facet) -> f32 {
-    match facet {
-        Facet::Diffuse { .. } => 1.0,
-        _ => (0.3 * alpha).clamp(0.02, 0.5),
-    }
-}
-
 /// Integral of `eval` over the sphere (importance-sampled with the model's
 /// own pdf) against the sample-weight albedo. Placing the hit height of an
 /// upward ray at the top of the height range loses ~15% here at alpha 1
@@ -245,7 +237,7 @@ fn furnace_heitz_eval_integrates_to_the_sample_albedo() {
         let dielectric = matches!(facet, Facet::Dielectric { .. });
         let single_facet = if dielectric { facet } else { MIRROR };
         let single = Single::new(ndf, single_facet, G2Form::HeightCorrelated);
-        let q = q_of(a, &facet);
+        let q = cosine_weight(a, &facet);
         for th in [0.0, 60.0] {
             seed += 1;
             let mut wi = dir(th, 0.3);
