@@ -5,6 +5,7 @@ use crate::bsdf::{Sample, ScatterModel};
 use crate::facet::Facet;
 use crate::frame::is_valid_direction;
 use crate::multiple::bitterli_deon::BitterliDeon;
+use crate::multiple::heitz::Heitz;
 use crate::multiple::invariance::Invariance;
 use crate::ndf::{Ndf, NdfKind};
 use crate::rng::Rng;
@@ -142,6 +143,7 @@ enum ModelImpl {
     Single(Single),
     Invariance(Invariance),
     BitterliDeon(BitterliDeon),
+    Heitz(Heitz),
 }
 
 /// A validated, immutable material. `Copy`, heap-free, `Send + Sync`: any
@@ -228,6 +230,11 @@ impl Material {
                     ModelImpl::BitterliDeon(BitterliDeon::new(ndf, facet, d.max_bounces))
                 }
             }
+            Model::HeitzRandomWalk => {
+                let kind = ndf_kind.ok_or(Error::Unsupported)?;
+                let ndf = Ndf::new(kind, d.alpha_x.max(MIN_ALPHA), d.alpha_y.max(MIN_ALPHA));
+                ModelImpl::Heitz(Heitz::new(ndf, facet, d.max_bounces))
+            }
             _ => return Err(Error::Unsupported),
         };
         Ok(Material { imp, desc: d })
@@ -243,6 +250,7 @@ impl Material {
         match self.imp {
             ModelImpl::Single(_) => false,
             ModelImpl::Invariance(_) | ModelImpl::BitterliDeon(_) => true,
+            ModelImpl::Heitz(_) => true,
         }
     }
 
@@ -256,6 +264,7 @@ impl Material {
             ModelImpl::Single(m) => m.eval(wi, wo, rng),
             ModelImpl::Invariance(m) => m.eval(wi, wo, rng),
             ModelImpl::BitterliDeon(m) => m.eval(wi, wo, rng),
+            ModelImpl::Heitz(m) => m.eval(wi, wo, rng),
         };
         finite_or_zero(v)
     }
@@ -273,6 +282,7 @@ impl Material {
             ModelImpl::Single(m) => m.sample(wi, rng),
             ModelImpl::Invariance(m) => m.sample(wi, rng),
             ModelImpl::BitterliDeon(m) => m.sample(wi, rng),
+            ModelImpl::Heitz(m) => m.sample(wi, rng),
         };
         if !(s.weight.is_finite() && s.pdf.is_finite() && s.wo.is_finite())
             || s.weight.min_element() < 0.0
@@ -292,6 +302,7 @@ impl Material {
             ModelImpl::Single(m) => m.pdf(wi, wo),
             ModelImpl::Invariance(m) => m.pdf(wi, wo),
             ModelImpl::BitterliDeon(m) => m.pdf(wi, wo),
+            ModelImpl::Heitz(m) => m.pdf(wi, wo),
         };
         if p.is_finite() && p > 0.0 { p } else { 0.0 }
     }
