@@ -595,3 +595,29 @@ fn stability_sweep() {
     }
     assert_eq!(zero_pdf, 0, "samples where pdf() is 0");
 }
+
+/// INVARIANCE (both estimators) and HEITZ_RANDOM_WALK are both unbiased:
+/// the same values on the 24 configurations, within 4 combined sigma.
+#[test]
+fn invariance_equals_heitz_within_4_sigma() {
+    let mut rng = Rng::new(20, 10);
+    let mut worst: f64 = 0.0;
+    for (i, (ndf, a, wi, wo)) in agreement_configs().into_iter().enumerate() {
+        let est = if i % 2 == 0 {
+            Estimator::Pt
+        } else {
+            Estimator::Bdpt
+        };
+        let inv = gold(Model::Invariance, est, ndf, a);
+        let heitz = gold(Model::HeitzRandomWalk, Estimator::Pt, ndf, a);
+        let (m1, e1) = eval_stats(&inv, wi, wo, 20_000, &mut rng);
+        let (m2, e2) = eval_stats(&heitz, wi, wo, 20_000, &mut rng);
+        let sigma = (e1 * e1 + e2 * e2).sqrt();
+        worst = worst.max((m1 - m2).abs() / sigma.max(1e-300));
+        assert!(
+            (m1 - m2).abs() <= 4.0 * sigma,
+            "{ndf:?} {a} {est:?} {wi} {wo}: invariance {m1} +- {e1}, heitz {m2} +- {e2}"
+        );
+    }
+    eprintln!("invariance vs heitz: worst deviation {worst:.2} sigma");
+}
