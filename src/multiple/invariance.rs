@@ -12,28 +12,31 @@
 //! and `p_exit = prod |Lambda(d_i)| S_k` (supplement eq. 7).
 //!
 //! # What differs from the paper, and why
-//! - **Eq. (14) misses terms.** Its derivation keeps the cases where the
-//!   thin top layer holds the first or the last collision, but a path that
-//!   turns from up to down (`... up, down ...`) can also have an *inner*
-//!   collision in the layer; that case is Ambartsumian's quadratic term
-//!   `S(d_0..d_{c-1}) S(d_c..d_k)`. Literal eq. (14) gives `S = 0` for every
-//!   such path (e.g. down-up-down-up), although the path clearly carries
-//!   energy; it matches Bitterli and d'Eon only for paths of the form
-//!   `down* up*` (the 2- and 3-bounce cases of supplement sec. 1.2).
-//!   The exact recursion, with all collisions `c` that may lie in the layer, is
-//!   `(|Lambda(d_0)| + Lambda(d_k)) S(0..k) = sum_c B(0, c-1) A(c, k)`.
-//! - **The O(k) programme (supplement Alg. 1/4) is replaced by an exact one**
-//!   ([`SegmentTerm`]) that keeps the same cost and the same freedom from
-//!   singularities: the Laplace transform `R(s)` of the collision-depth
-//!   density is held as a non-negative combination of suffix products
-//!   `prod_{j >= m} 1 / (l_j + s)` over the downward directions' `l_j =
-//!   |Lambda|`. A downward direction appends a factor (O(1)); an upward one
-//!   with `Lambda = lambda` is the divided difference
+//! - **Eq. (14) and the paths it covers.** Its derivation keeps the cases
+//!   where the thin top layer holds the first or the last collision. A path
+//!   that turns from up to down (`... up, down ...`) could also have an
+//!   *inner* collision in the layer (Ambartsumian's quadratic term
+//!   `S(d_0..d_{c-1}) S(d_c..d_k)`), and literal eq. (14) gives `S = 0` for
+//!   it. For conductor facets this never matters: an upward ray hits a facet
+//!   with `m.z > 0` from below and leaves with
+//!   `o.z = d.z + 2 |d.m| m.z > d.z`, so every path with a non-zero vertex
+//!   product is `down* up*`, where eq. (14) is exact (the example
+//!   `invariance_eq14` measures identical furnace albedos). The segment
+//!   term below is exact for any sequence, so it would also serve paths that
+//!   do turn (transmission, diffuse facets).
+//! - **The O(k) programme (supplement Alg. 1/4)** is written in an
+//!   equivalent form ([`SegmentTerm`]) with the same cost and the same
+//!   freedom from singularities: the Laplace transform `R(s)` of the
+//!   collision-depth density is held as a non-negative combination of suffix
+//!   products `prod_{j >= m} 1 / (l_j + s)` over the downward directions'
+//!   `l_j = |Lambda|`. A downward direction appends a factor (O(1)); an
+//!   upward one with `Lambda = lambda` is the divided difference
 //!   `(R(s) - R(lambda)) / (lambda - s)`, which the Leibniz rule maps back to
 //!   suffix products with positive coefficients (O(N)); `S = R(Lambda(wo))`
-//!   (O(N)). Every denominator is a sum `l_j + lambda >= 1`: no difference of
-//!   two Lambdas, unlike the hyperexponential form of Bitterli and d'Eon.
-//!   It agrees with [`crate::multiple::bitterli_deon`] to rounding (tests).
+//!   (O(N)). Every denominator is a sum `l_j + lambda >= 1`: no difference
+//!   of two Lambdas, unlike the hyperexponential form of Bitterli and
+//!   d'Eon. It equals `p_exit / prod |Lambda|` of
+//!   [`crate::multiple::bitterli_deon`] to 1e-6 on random sequences (tests).
 //! - **Sample** follows Alg. 2's walk (VNDF at each bounce, decide to exit on
 //!   upward directions) but exits with the exact conditional probability
 //!   given the directions so far, `R(Lambda(d))/R(0)`, instead of `G1`: the
@@ -68,15 +71,15 @@ pub(crate) const RR_DEPTH: u32 = 3;
 /// Smallest Russian-roulette continuation probability.
 pub(crate) const RR_MIN_Q: f64 = 0.1;
 
-/// The segment term of a growing path (seed 003, eq. 14 with the missing
-/// inner-collision terms; see the module docs), in O(N) per upward bounce,
+/// The segment term of a growing path (seed 003, eq. 14; exact for any
+/// sequence of directions, see the module docs), in O(N) per upward bounce,
 /// O(1) per downward bounce and O(N) per query, N the number of downward
 /// directions so far, on fixed-size stack arrays of capacity `C`.
 ///
 /// After `start(l_0)` and `push` of `d_1..d_n`, [`SegmentTerm::value`]`(Lambda(o))`
 /// is `S(d_0, ..., d_n, o)` for any exit direction `o` with `Lambda(o) >= 0`,
-/// and `value(0)` is the probability mass `prod |Lambda(d_i)|^-1`-scaled of
-/// reaching collision `n + 1`.
+/// and `value(0)` is the probability of reaching collision `n + 1` divided
+/// by `prod_{i <= n} |Lambda(d_i)|`.
 #[derive(Clone, Copy, Debug)]
 pub struct SegmentTerm<const C: usize> {
     n: usize,
@@ -193,11 +196,18 @@ pub(crate) fn fresnel(facet: &Facet, cos_i: f32) -> Vec3 {
     (0.5 * (rp + rs)).clamp(Vec3::ZERO, Vec3::ONE)
 }
 
-/// `|Lambda(d)|` and the signed full-sphere `Lambda(d)` of a travel direction.
+/// The signed full-sphere `Lambda(d)` of a travel direction (finite).
 #[inline]
 pub(crate) fn lambda_signed(ndf: &Ndf, d: Vec3) -> f64 {
     let l = ndf.lambda(d) as f64;
-    if l.is_finite() { l } else { f64::MAX }
+    if l.is_finite() {
+        l
+    } else if l < 0.0 {
+        // A downward direction so close to the horizon that Lambda overflows.
+        -f64::MAX
+    } else {
+        f64::MAX
+    }
 }
 
 /// One scattering event of a ray travelling along `d`: a visible normal of
