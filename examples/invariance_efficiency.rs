@@ -1,6 +1,9 @@
 //! Time per call, variance of one evaluation and efficiency
 //! `1 / (variance x time)` (seed 003, Figure 5) of INVARIANCE (PT, BDPT) and
-//! BITTERLI_DEON (PT) on GGX gold.
+//! BITTERLI_DEON (PT) on GGX gold, with HEITZ_RANDOM_WALK for reference.
+//! Times are the fastest of 7 interleaved repetitions (shared machine);
+//! the variance is the mean over 7 outgoing directions in the incidence
+//! plane of the variance of one evaluation (green channel).
 //!
 //! `cargo run --release --example invariance_efficiency`
 
@@ -17,11 +20,26 @@ fn dir(theta_deg: f64, phi_deg: f64) -> Vec3 {
     )
 }
 
+fn material(model: Model, est: Estimator, alpha: f32) -> Material {
+    Material::new(&MaterialDesc {
+        model,
+        estimator: est,
+        ndf: NdfId::Ggx,
+        alpha_x: alpha,
+        alpha_y: alpha,
+        eta: Vec3::new(0.143, 0.374, 1.442),
+        k: Vec3::new(3.983, 2.385, 1.603),
+        ..MaterialDesc::default()
+    })
+    .unwrap()
+}
+
 fn main() {
     let models = [
         ("INVARIANCE PT", Model::Invariance, Estimator::Pt),
         ("INVARIANCE BDPT", Model::Invariance, Estimator::Bdpt),
         ("BITTERLI_DEON PT", Model::BitterliDeon, Estimator::Pt),
+        ("HEITZ", Model::HeitzRandomWalk, Estimator::Pt),
     ];
     let n = 40_000usize;
     println!(
@@ -39,22 +57,36 @@ fn main() {
                     },
                 )
                 .collect();
-            for (name, model, est) in models {
-                let m = Material::new(&MaterialDesc {
-                    model,
-                    estimator: est,
-                    ndf: NdfId::Ggx,
-                    alpha_x: alpha,
-                    alpha_y: alpha,
-                    eta: Vec3::new(0.143, 0.374, 1.442),
-                    k: Vec3::new(3.983, 2.385, 1.603),
-                    ..MaterialDesc::default()
-                })
-                .unwrap();
+            // Timing: the machine is shared, so take the fastest of 7
+            // interleaved repetitions.
+            let mut best_eval = [f64::MAX; 4];
+            let mut best_sample = [f64::MAX; 4];
+            let mut sink = 0.0f32;
+            let reps = 5_000usize;
+            for _ in 0..7 {
+                for (mi, &(_, model, est)) in models.iter().enumerate() {
+                    let m = material(model, est, alpha);
+                    let mut rng = Rng::new(9, mi as u64);
+                    let t0 = Instant::now();
+                    for &wo in &outs {
+                        for _ in 0..reps {
+                            sink += m.eval(wi, wo, &mut rng).y;
+                        }
+                    }
+                    let t = t0.elapsed().as_secs_f64() * 1e9 / (reps * outs.len()) as f64;
+                    best_eval[mi] = best_eval[mi].min(t);
+                    let t1 = Instant::now();
+                    for _ in 0..reps * 2 {
+                        sink += m.sample(wi, &mut rng).weight.y;
+                    }
+                    let t = t1.elapsed().as_secs_f64() * 1e9 / (reps * 2) as f64;
+                    best_sample[mi] = best_sample[mi].min(t);
+                }
+            }
+            for (mi, &(name, model, est)) in models.iter().enumerate() {
+                let m = material(model, est, alpha);
                 let mut rng = Rng::new(1, 2);
                 let (mut var_sum, mut mean_sum, mut rel_sum) = (0.0, 0.0, 0.0);
-                let t0 = Instant::now();
-                let mut sink = 0.0f32;
                 for &wo in &outs {
                     let (mut s, mut s2) = (0.0f64, 0.0f64);
                     for _ in 0..n {
@@ -67,24 +99,18 @@ fn main() {
                     var_sum += var;
                     mean_sum += mean;
                     rel_sum += (var / 4.0).sqrt() / mean.max(1e-30);
-                    sink += mean as f32;
                 }
-                let ns_eval = t0.elapsed().as_secs_f64() * 1e9 / (n * outs.len()) as f64;
-                let t1 = Instant::now();
-                for _ in 0..n {
-                    sink += m.sample(wi, &mut rng).weight.y;
-                }
-                let ns_sample = t1.elapsed().as_secs_f64() * 1e9 / n as f64;
                 let k = outs.len() as f64;
                 let var = var_sum / k;
+                let (ns_eval, ns_sample) = (best_eval[mi], best_sample[mi]);
                 let eff = 1.0 / (var * ns_eval * 1e-9);
                 println!(
                     "{name:<18} {alpha:>5} {theta_i:>7} {ns_eval:>8.0} {ns_sample:>10.0} {:>11.4} {var:>12.3e} {:>17.4} {eff:>20.3e}",
                     mean_sum / k,
                     rel_sum / k
                 );
-                std::hint::black_box(sink);
             }
+            std::hint::black_box(sink);
         }
     }
 }

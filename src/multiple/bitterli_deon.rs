@@ -182,7 +182,8 @@ impl BitterliDeon {
         let mut w = Vec3::ONE;
         let mut f = Vec3::ZERO;
         let mut k = 0u32;
-        let mut mass = hd.raw(0.0);
+        // Probability of reaching the current collision (once RR starts).
+        let mut mass = f64::NAN;
         loop {
             k += 1;
             // NEE: f_p(d_{k-1}, wo) p_exit(d_0..d_{k-1}, wo).
@@ -196,23 +197,34 @@ impl BitterliDeon {
             let Some((o, fr)) = scatter(&self.ndf, &self.facet, d, rng) else {
                 break;
             };
-            hd.push(lambda_signed(&self.ndf, o));
-            let new_mass = hd.raw(0.0);
+            let lam_o = lambda_signed(&self.ndf, o);
             w *= fr;
             if k >= RR_DEPTH {
-                // Same exact continuation probability as INVARIANCE (there
-                // |Lambda| appears because its mass excludes the |Lambda| factors).
-                let q = if mass > 0.0 {
-                    (new_mass / mass).clamp(RR_MIN_Q, 1.0)
+                if mass.is_nan() {
+                    mass = hd.raw(0.0);
+                }
+                hd.push(lam_o);
+                // The same exact continuation probability as INVARIANCE
+                // (1 after a downward direction).
+                let (q, new_mass) = if lam_o < 0.0 {
+                    (1.0, mass)
                 } else {
-                    0.0
+                    let nm = hd.raw(0.0);
+                    let q = if mass > 0.0 {
+                        (nm / mass).clamp(RR_MIN_Q, 1.0)
+                    } else {
+                        0.0
+                    };
+                    (q, nm)
                 };
-                if q.is_nan() || q <= 0.0 || (rng.next_f32() as f64) >= q {
+                if q.is_nan() || q <= 0.0 || (q < 1.0 && (rng.next_f32() as f64) >= q) {
                     break;
                 }
                 w /= q as f32;
+                mass = new_mass;
+            } else {
+                hd.push(lam_o);
             }
-            mass = new_mass;
             d = o;
             if !w.is_finite() || w.max_element() <= 0.0 {
                 break;

@@ -344,11 +344,14 @@ impl Invariance {
     fn eval_pt<const C: usize>(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3 {
         let lo = lambda_signed(&self.ndf, wo);
         let mut d = -wi;
-        let mut seg = SegmentTerm::<C>::start(-lambda_signed(&self.ndf, d));
+        let mut lam_d = lambda_signed(&self.ndf, d);
+        let mut seg = SegmentTerm::<C>::start(-lam_d);
         let mut w = Vec3::ONE;
         let mut f = Vec3::ZERO;
         let mut k = 0u32;
-        let mut mass = seg.value(0.0); // probability mass of reaching the next collision / prod |Lambda|
+        // R_k(0): probability of reaching collision k over prod |Lambda|
+        // (computed once Russian roulette starts).
+        let mut mass = f64::NAN;
         loop {
             k += 1;
             // Next-event estimation to wo from collision k: v(d_{k-1}, wo) S(d_0..d_{k-1}, wo).
@@ -363,25 +366,36 @@ impl Invariance {
                 break;
             };
             // v / pdf = F |Lambda(d)| (seed 003, eq. 5: f_p |Lambda| = v).
-            let lam_d = lambda_signed(&self.ndf, d).abs();
             let lam_o = lambda_signed(&self.ndf, o);
-            seg.push(lam_o);
-            let new_mass = seg.value(0.0);
-            w *= fr * lam_d as f32;
+            w *= fr * lam_d.abs() as f32;
             if k >= RR_DEPTH {
-                // Continue with the walk's own probability of another collision.
-                // P(collision k + 1 | collision k) = |Lambda(d_k)| R_{k+1}(0) / R_k(0).
-                let q = if mass > 0.0 {
-                    (lam_o.abs() * new_mass / mass).clamp(RR_MIN_Q, 1.0)
+                if mass.is_nan() {
+                    mass = seg.value(0.0);
+                }
+                seg.push(lam_o);
+                // Continue with the walk's own probability of another collision,
+                // P(collision k + 1 | collision k) = |Lambda(d_k)| R_{k+1}(0) / R_k(0)
+                // (1 after a downward direction, which always collides).
+                let (q, new_mass) = if lam_o < 0.0 {
+                    (1.0, mass / -lam_o)
                 } else {
-                    0.0
+                    let nm = seg.value(0.0);
+                    let q = if mass > 0.0 {
+                        (lam_o * nm / mass).clamp(RR_MIN_Q, 1.0)
+                    } else {
+                        0.0
+                    };
+                    (q, nm)
                 };
-                if q.is_nan() || q <= 0.0 || (rng.next_f32() as f64) >= q {
+                if q.is_nan() || q <= 0.0 || (q < 1.0 && (rng.next_f32() as f64) >= q) {
                     break;
                 }
                 w /= q as f32;
+                mass = new_mass;
+            } else {
+                seg.push(lam_o);
             }
-            mass = new_mass;
+            lam_d = lam_o;
             d = o;
             if !w.is_finite() || w.max_element() <= 0.0 {
                 break;
