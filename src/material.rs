@@ -4,6 +4,7 @@
 use crate::bsdf::{Sample, ScatterModel};
 use crate::facet::Facet;
 use crate::frame::is_valid_direction;
+use crate::multiple::compensation::{self, Compensated};
 use crate::ndf::{Ndf, NdfKind};
 use crate::rng::Rng;
 use crate::single::{G2Form, Single};
@@ -138,6 +139,7 @@ impl Default for MaterialDesc {
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum ModelImpl {
     Single(Single),
+    Compensated(Compensated),
 }
 
 /// A validated, immutable material. `Copy`, heap-free, `Send + Sync`: any
@@ -209,6 +211,24 @@ impl Material {
                 let ndf = Ndf::new(kind, d.alpha_x.max(MIN_ALPHA), d.alpha_y.max(MIN_ALPHA));
                 ModelImpl::Single(Single::new(ndf, facet, G2Form::HeightCorrelated))
             }
+            Model::EnergyCompensated => {
+                let kind = ndf_kind.ok_or(Error::Unsupported)?;
+                match facet {
+                    Facet::Diffuse { .. } => return Err(Error::Unsupported),
+                    Facet::Dielectric { eta }
+                        if !(1.0 / compensation::MAX_ETA..=compensation::MAX_ETA)
+                            .contains(&eta) =>
+                    {
+                        return Err(Error::InvalidArgument);
+                    }
+                    _ => {}
+                }
+                if d.alpha_x > compensation::MAX_ALPHA || d.alpha_y > compensation::MAX_ALPHA {
+                    return Err(Error::InvalidArgument);
+                }
+                let ndf = Ndf::new(kind, d.alpha_x.max(MIN_ALPHA), d.alpha_y.max(MIN_ALPHA));
+                ModelImpl::Compensated(Compensated::new(ndf, facet))
+            }
             _ => return Err(Error::Unsupported),
         };
         Ok(Material { imp, desc: d })
@@ -222,7 +242,7 @@ impl Material {
     /// True when eval is a Monte Carlo estimate (it then needs an [`Rng`]).
     pub fn is_stochastic(&self) -> bool {
         match self.imp {
-            ModelImpl::Single(_) => false,
+            ModelImpl::Single(_) | ModelImpl::Compensated(_) => false,
         }
     }
 
@@ -234,6 +254,7 @@ impl Material {
         };
         let v = match &self.imp {
             ModelImpl::Single(m) => m.eval(wi, wo, rng),
+            ModelImpl::Compensated(m) => m.eval(wi, wo, rng),
         };
         finite_or_zero(v)
     }
@@ -249,6 +270,7 @@ impl Material {
         }
         let s = match &self.imp {
             ModelImpl::Single(m) => m.sample(wi, rng),
+            ModelImpl::Compensated(m) => m.sample(wi, rng),
         };
         if !(s.weight.is_finite() && s.pdf.is_finite() && s.wo.is_finite())
             || s.weight.min_element() < 0.0
@@ -266,6 +288,7 @@ impl Material {
         };
         let p = match &self.imp {
             ModelImpl::Single(m) => m.pdf(wi, wo),
+            ModelImpl::Compensated(m) => m.pdf(wi, wo),
         };
         if p.is_finite() && p > 0.0 { p } else { 0.0 }
     }

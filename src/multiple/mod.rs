@@ -1,0 +1,5 @@
+//! Multiple-scattering models, one file per method.
+
+pub mod compensation;
+#[doc(hidden)]
+pub mod compensation_tables;
