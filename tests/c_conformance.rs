@@ -16,7 +16,7 @@
 //! neither place has them, the test runs `cargo build` for the same profile.
 //! The shared object carries the SONAME `libmsbsdf.so.0`, so programs linked
 //! against it look for that name at run time: the test copies the library to
-//! `$CARGO_TARGET_TMPDIR/c_conformance/lib/` next to a `libmsbsdf.so.0` link
+//! `$CARGO_TARGET_TMPDIR/c_conformance-<profile>/lib/` next to a `libmsbsdf.so.0` link
 //! and links with an RPATH to that directory.
 
 use msbsdf::capi::{
@@ -50,8 +50,15 @@ fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
+/// `$CARGO_TARGET_TMPDIR/c_conformance-<profile>` (the tmp dir is shared by
+/// all profiles; a debug and a release run must not overwrite each other).
 fn work_dir() -> PathBuf {
-    PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("c_conformance")
+    let (_, profile) = artifact_dirs();
+    let name = profile
+        .file_name()
+        .and_then(|n| n.to_str())
+        .unwrap_or("profile");
+    PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("c_conformance-{name}"))
 }
 
 /// The libraries under test.
