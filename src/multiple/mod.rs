@@ -3,3 +3,4 @@
 pub mod compensation;
 #[doc(hidden)]
 pub mod compensation_tables;
+pub mod heitz;
