@@ -4,6 +4,7 @@
 use crate::bsdf::{Sample, ScatterModel};
 use crate::facet::Facet;
 use crate::frame::is_valid_direction;
+use crate::multiple::position_free::PositionFree;
 use crate::ndf::{Ndf, NdfKind};
 use crate::rng::Rng;
 use crate::single::{G2Form, Single};
@@ -138,6 +139,7 @@ impl Default for MaterialDesc {
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum ModelImpl {
     Single(Single),
+    PositionFree(PositionFree),
 }
 
 /// A validated, immutable material. `Copy`, heap-free, `Send + Sync`: any
@@ -209,6 +211,14 @@ impl Material {
                 let ndf = Ndf::new(kind, d.alpha_x.max(MIN_ALPHA), d.alpha_y.max(MIN_ALPHA));
                 ModelImpl::Single(Single::new(ndf, facet, G2Form::HeightCorrelated))
             }
+            Model::PositionFree => {
+                let kind = ndf_kind.ok_or(Error::Unsupported)?;
+                if matches!(facet, Facet::Diffuse { .. }) {
+                    return Err(Error::Unsupported);
+                }
+                let ndf = Ndf::new(kind, d.alpha_x.max(MIN_ALPHA), d.alpha_y.max(MIN_ALPHA));
+                ModelImpl::PositionFree(PositionFree::new(ndf, facet, d.estimator, d.max_bounces))
+            }
             _ => return Err(Error::Unsupported),
         };
         Ok(Material { imp, desc: d })
@@ -223,6 +233,7 @@ impl Material {
     pub fn is_stochastic(&self) -> bool {
         match self.imp {
             ModelImpl::Single(_) => false,
+            ModelImpl::PositionFree(_) => true,
         }
     }
 
@@ -234,6 +245,7 @@ impl Material {
         };
         let v = match &self.imp {
             ModelImpl::Single(m) => m.eval(wi, wo, rng),
+            ModelImpl::PositionFree(m) => m.eval(wi, wo, rng),
         };
         finite_or_zero(v)
     }
@@ -249,6 +261,7 @@ impl Material {
         }
         let s = match &self.imp {
             ModelImpl::Single(m) => m.sample(wi, rng),
+            ModelImpl::PositionFree(m) => m.sample(wi, rng),
         };
         if !(s.weight.is_finite() && s.pdf.is_finite() && s.wo.is_finite())
             || s.weight.min_element() < 0.0
@@ -266,6 +279,7 @@ impl Material {
         };
         let p = match &self.imp {
             ModelImpl::Single(m) => m.pdf(wi, wo),
+            ModelImpl::PositionFree(m) => m.pdf(wi, wo),
         };
         if p.is_finite() && p > 0.0 { p } else { 0.0 }
     }

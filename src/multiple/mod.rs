@@ -1,0 +1,3 @@
+//! The multiple-scattering methods, one file each.
+
+pub mod position_free;
