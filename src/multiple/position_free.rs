@@ -439,7 +439,11 @@ impl PositionFree {
             return Vec3::ZERO;
         }
         let mut sum = Vec3::ZERO;
+        // Throughput reaching the current vertex, exit factors e_i (eq. 6)
+        // included deterministically; `e_w` is the factor of the direction
+        // that reached it.
         let mut beta = Vec3::ONE;
+        let mut e_w = 1.0f32;
         let mut w = d0;
         for bounce in 0..self.max_bounces {
             // Next event: this vertex sends the path to wo (eq. 12).
@@ -447,15 +451,21 @@ impl PositionFree {
             if bounce + 1 == self.max_bounces {
                 break;
             }
+            // Going on past this vertex: Russian roulette with the
+            // probability e_w already in beta (so the next-event term at
+            // every reached vertex keeps the exact factor, and long paths
+            // are cut where they are unlikely).
+            if e_w < 1.0 {
+                if rng.next_f32() >= e_w {
+                    break;
+                }
+                beta /= e_w;
+            }
             let Some((o, weight)) = self.sample_vertex(w, rng) else {
                 break;
             };
-            // e_i (eq. 6) by Russian roulette: the path goes on with
-            // probability e_i, so the factor cancels.
-            if rng.next_f32() >= continue_prob(&self.ndf, o.v) {
-                break;
-            }
-            beta *= weight;
+            e_w = continue_prob(&self.ndf, o.v);
+            beta *= weight * e_w;
             if !above(beta.max_element(), 0.0) {
                 break;
             }
@@ -483,9 +493,20 @@ impl PositionFree {
         cam_dir[0] = d0;
         cam_beta[0] = Vec3::ONE;
         let mut n_cam = 1;
+        // Exit factor of the last stored camera direction (in its beta).
+        let mut e_last = 1.0f32;
         while n_cam < n_max {
             let c = n_cam - 1;
             let w = cam_dir[c];
+            // Roulette on going past vertex c with the factor already in
+            // cam_beta[c] (as in eval_pt).
+            let mut beta = cam_beta[c];
+            if e_last < 1.0 {
+                if rng.next_f32() >= e_last {
+                    break;
+                }
+                beta /= e_last;
+            }
             let Some((o, weight)) = self.sample_vertex(w, rng) else {
                 break;
             };
@@ -500,11 +521,8 @@ impl PositionFree {
                     inside: w.inside,
                 },
             );
-            // e(d_{c+1}) by Russian roulette (the factor cancels).
-            if rng.next_f32() >= continue_prob(ndf, o.v) {
-                break;
-            }
-            let beta = cam_beta[c] * weight;
+            e_last = continue_prob(ndf, o.v);
+            let beta = beta * weight * e_last;
             if !(above(fwd, 0.0) && above(rev, 0.0) && above(beta.max_element(), 0.0)) {
                 break;
             }
@@ -527,9 +545,17 @@ impl PositionFree {
         };
         lig_beta[0] = Vec3::splat(exit);
         let mut n_lig = 1;
+        let mut e_last = 1.0f32;
         while n_lig < n_max {
             let q = n_lig - 1;
             let u = lig_dir[q];
+            let mut beta = lig_beta[q];
+            if e_last < 1.0 {
+                if rng.next_f32() >= e_last {
+                    break;
+                }
+                beta /= e_last;
+            }
             let Some((o, weight)) = self.sample_vertex(u, rng) else {
                 break;
             };
@@ -553,11 +579,9 @@ impl PositionFree {
                 value: weight * fwd_pdf,
                 pdf: fwd_pdf,
             };
-            // The forward exit factor e(-o) is the roulette probability.
-            if rng.next_f32() >= continue_prob(ndf, fwd_in.v) {
-                break;
-            }
-            let beta = lig_beta[q] * fwd.value / walk_pdf;
+            // The forward exit factor e(-o) of the new direction.
+            e_last = continue_prob(ndf, fwd_in.v);
+            let beta = beta * fwd.value * (e_last / walk_pdf);
             if !(above(beta.max_element(), 0.0) && beta.is_finite()) {
                 break;
             }
