@@ -605,7 +605,7 @@ fn stability_sweep_no_nan_inf_or_negative() {
                             180.0 * rng.next_f32()
                         };
                         let ph = 360.0 * rng.next_f32();
-                        let (t, p) = ((th as f32).to_radians(), ph.to_radians());
+                        let (t, p) = (th.to_radians(), ph.to_radians());
                         let wi = Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos());
                         let wo = cosine_dir(
                             rng.next_f32(),
