@@ -4,6 +4,7 @@
 use crate::bsdf::{Sample, ScatterModel};
 use crate::facet::Facet;
 use crate::frame::is_valid_direction;
+use crate::multiple::heitz::Heitz;
 use crate::multiple::position_free::PositionFree;
 use crate::ndf::{Ndf, NdfKind};
 use crate::rng::Rng;
@@ -140,6 +141,7 @@ impl Default for MaterialDesc {
 enum ModelImpl {
     Single(Single),
     PositionFree(PositionFree),
+    Heitz(Heitz),
 }
 
 /// A validated, immutable material. `Copy`, heap-free, `Send + Sync`: any
@@ -219,6 +221,11 @@ impl Material {
                 let ndf = Ndf::new(kind, d.alpha_x.max(MIN_ALPHA), d.alpha_y.max(MIN_ALPHA));
                 ModelImpl::PositionFree(PositionFree::new(ndf, facet, d.estimator, d.max_bounces))
             }
+            Model::HeitzRandomWalk => {
+                let kind = ndf_kind.ok_or(Error::Unsupported)?;
+                let ndf = Ndf::new(kind, d.alpha_x.max(MIN_ALPHA), d.alpha_y.max(MIN_ALPHA));
+                ModelImpl::Heitz(Heitz::new(ndf, facet, d.max_bounces))
+            }
             _ => return Err(Error::Unsupported),
         };
         Ok(Material { imp, desc: d })
@@ -234,6 +241,7 @@ impl Material {
         match self.imp {
             ModelImpl::Single(_) => false,
             ModelImpl::PositionFree(_) => true,
+            ModelImpl::Heitz(_) => true,
         }
     }
 
@@ -246,6 +254,7 @@ impl Material {
         let v = match &self.imp {
             ModelImpl::Single(m) => m.eval(wi, wo, rng),
             ModelImpl::PositionFree(m) => m.eval(wi, wo, rng),
+            ModelImpl::Heitz(m) => m.eval(wi, wo, rng),
         };
         finite_or_zero(v)
     }
@@ -262,6 +271,7 @@ impl Material {
         let s = match &self.imp {
             ModelImpl::Single(m) => m.sample(wi, rng),
             ModelImpl::PositionFree(m) => m.sample(wi, rng),
+            ModelImpl::Heitz(m) => m.sample(wi, rng),
         };
         if !(s.weight.is_finite() && s.pdf.is_finite() && s.wo.is_finite())
             || s.weight.min_element() < 0.0
@@ -280,6 +290,7 @@ impl Material {
         let p = match &self.imp {
             ModelImpl::Single(m) => m.pdf(wi, wo),
             ModelImpl::PositionFree(m) => m.pdf(wi, wo),
+            ModelImpl::Heitz(m) => m.pdf(wi, wo),
         };
         if p.is_finite() && p > 0.0 { p } else { 0.0 }
     }

@@ -1,3 +1,4 @@
 //! The multiple-scattering methods, one file each.
 
+pub mod heitz;
 pub mod position_free;
