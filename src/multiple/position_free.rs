@@ -225,6 +225,16 @@ impl PositionFree {
         self.estimator
     }
 
+    /// Conductor Fresnel per channel by the vectorised closed form (1 for
+    /// other facets).
+    #[inline]
+    fn conductor_fresnel(&self, cos_i: f32) -> Vec3 {
+        match self.facet {
+            Facet::Conductor { eta, k } => fresnel::conductor_rgb(cos_i, eta, k),
+            _ => Vec3::ONE,
+        }
+    }
+
     #[inline]
     fn is_dielectric(&self) -> bool {
         matches!(self.facet, Facet::Dielectric { .. })
@@ -296,7 +306,7 @@ impl PositionFree {
                 }
                 _ => VertexEval {
                     value: if with_value {
-                        self.facet.conductor_fresnel(ci) * base
+                        self.conductor_fresnel(ci) * base
                     } else {
                         Vec3::ZERO
                     },
@@ -385,7 +395,7 @@ impl PositionFree {
                         v: o,
                         inside: false,
                     },
-                    self.facet.conductor_fresnel(ci),
+                    self.conductor_fresnel(ci),
                 ))
             }
         }
