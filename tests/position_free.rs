@@ -181,14 +181,28 @@ fn furnace_conductor_white_eval_within_1_percent() {
     // bounce limit drops < 0.1% (documented in default_max_bounces).
     let mut configs = Vec::new();
     for ndf in [NdfId::Ggx, NdfId::Beckmann] {
-        for (ax, ay) in [(0.1, 0.1), (0.5, 0.5), (1.0, 1.0), (2.0, 2.0), (0.1, 1.0)] {
+        for (ax, ay) in [
+            (0.1f32, 0.1f32),
+            (0.5, 0.5),
+            (1.0, 1.0),
+            (2.0, 2.0),
+            (0.1, 1.0),
+        ] {
             for th in THETAS {
                 configs.push((ndf, ax, ay, th));
             }
         }
     }
     let results = par_map(&configs, |&(ndf, ax, ay, th)| {
-        let desc = pf(ndf, ax, ay, Estimator::Pt);
+        // PT's next-event terms are heavy-tailed for smooth isotropic
+        // surfaces at grazing incidence (GGX 0.1 at 89 degrees: standard
+        // error 0.0055 after 600k evals); BDPT is used for alpha 0.1.
+        let est = if ax.max(ay) <= 0.1 {
+            Estimator::Bdpt
+        } else {
+            Estimator::Pt
+        };
+        let desc = pf(ndf, ax, ay, est);
         // Until 4 sigma < 0.96%.
         let seed = 5 + th as u64 + (100.0 * ax) as u64 + (1000.0 * ay) as u64;
         let (e, err) = albedo_by_eval_until(&desc, dir_deg(th), 20_000, 600_000, 0.0024, seed);
