@@ -34,26 +34,33 @@ fn main() {
                 let wi = dir(theta, 0.0);
                 let wo = dir(45.0, 180.0);
                 let mut rng = Rng::new(3, 4);
-                let n = 400_000;
-                // Variance of one eval.
+                let (chunks, per) = (10usize, 40_000usize);
+                let n = chunks * per;
+                // Variance of one eval; time = fastest chunk (the machine is shared).
                 let (mut s, mut s2) = (0.0f64, 0.0f64);
-                let t0 = Instant::now();
-                for _ in 0..n {
-                    let v = m.eval(wi, wo, &mut rng);
-                    let x = ((v.x + v.y + v.z) / 3.0) as f64;
-                    s += x;
-                    s2 += x * x;
+                let mut t_eval = f64::INFINITY;
+                for _ in 0..chunks {
+                    let t0 = Instant::now();
+                    for _ in 0..per {
+                        let v = m.eval(wi, wo, &mut rng);
+                        let x = ((v.x + v.y + v.z) / 3.0) as f64;
+                        s += x;
+                        s2 += x * x;
+                    }
+                    t_eval = t_eval.min(t0.elapsed().as_secs_f64() / per as f64);
                 }
-                let t_eval = t0.elapsed().as_secs_f64() / n as f64;
                 let mean = s / n as f64;
                 let var = s2 / n as f64 - mean * mean;
-                let t0 = Instant::now();
+                let mut t_sample = f64::INFINITY;
                 let mut acc = Vec3::ZERO;
-                for _ in 0..n {
-                    acc += m.sample(black_box(wi), &mut rng).weight;
+                for _ in 0..chunks {
+                    let t0 = Instant::now();
+                    for _ in 0..per {
+                        acc += m.sample(black_box(wi), &mut rng).weight;
+                    }
+                    t_sample = t_sample.min(t0.elapsed().as_secs_f64() / per as f64);
                 }
                 black_box(acc);
-                let t_sample = t0.elapsed().as_secs_f64() / n as f64;
                 println!(
                     "{alpha:<5} {theta:<7} {:<5} {:>7.0} {:>9.0} {:.6} {:.3e} {:.3e}",
                     format!("{est:?}"),

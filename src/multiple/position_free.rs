@@ -87,7 +87,9 @@
 //! Fresnel choice) and `p_lambert = |wo.z| / pi` on `wi`'s side for
 //! conductors, `|wo.z| / (2 pi)` on each side for dielectrics, with the
 //! Lambert weight `c = clamp(0.25 sqrt(alpha_x alpha_y), 0.05, 0.5)`; it is
-//! positive wherever sample can go.
+//! positive wherever sample can go. It integrates to less than 1 (0.92
+//! for GGX 0.3 and 0.65 for GGX 1 at theta_i 30 degrees, conductor): the
+//! visible-normal reflections that go below the horizon carry no density.
 //!
 //! # Bounce limit
 //!
