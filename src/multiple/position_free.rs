@@ -285,14 +285,14 @@ fn above(x: f32, t: f32) -> bool {
     x > t
 }
 
-/// Exit probability of a direction leaving a vertex (eq. 9 with eq. 7):
+/// Exit probability of a direction leaving a vertex (seed 000, eqs. (7) and (9)):
 /// `G1_dist(d)` upwards, 0 downwards.
 #[inline]
 fn exit_prob(ndf: &Ndf, d: Vec3) -> f32 {
     if d.z > 0.0 { ndf.g1(d) } else { 0.0 }
 }
 
-/// Probability to hit the surface again (eq. 6): `1 - G1_dist(d)` upwards,
+/// Probability to hit the surface again (seed 000, eq. (6)): `1 - G1_dist(d)` upwards,
 /// written `Lambda / (1 + Lambda)` for precision, 1 downwards.
 #[inline]
 fn continue_prob(ndf: &Ndf, d: Vec3) -> f32 {
@@ -364,7 +364,7 @@ impl PositionFree {
         }
     }
 
-    /// The vertex term times its entering segment term (eqs. 2, 8-10) as a
+    /// The vertex term times its entering segment term (seed 000, eqs. (2, 8-10)) as a
     /// phase function: a ray travelling along `w` hits a facet and leaves
     /// along `o` (pointing away from the facet). Also returns the density with
     /// which [`Self::sample_vertex`] picks `o`.
@@ -399,7 +399,7 @@ impl PositionFree {
             }
             let ci = v.dot(m);
             let co = o.v.dot(m);
-            // chi+ of eq. 8 on both sides of the facet.
+            // chi+ on both sides of the facet (seed 000, eq. (8)).
             if ci <= 0.0 || co <= 0.0 {
                 return ZERO_VERTEX;
             }
@@ -551,21 +551,21 @@ impl PositionFree {
         }
     }
 
-    /// Path tracing with next-event estimation at every vertex (eqs. 11-13).
+    /// Path tracing with next-event estimation at every vertex (seed 000, eqs. (11-13)).
     fn eval_pt(&self, d0: Dir, dk: Dir, rng: &mut Rng) -> Vec3 {
-        let exit = exit_prob(&self.ndf, dk.v); // e_k, eq. 7
+        let exit = exit_prob(&self.ndf, dk.v); // e_k, seed 000, eq. (7)
         if exit <= 0.0 {
             return Vec3::ZERO;
         }
         let mut sum = Vec3::ZERO;
-        // Throughput reaching the current vertex, exit factors e_i (eq. 6)
+        // Throughput reaching the current vertex, exit factors e_i (seed 000, eq. (6))
         // included deterministically; `e_w` is the factor of the direction
         // that reached it.
         let mut beta = Vec3::ONE;
         let mut e_w = 1.0f32;
         let mut w = d0;
         for bounce in 0..self.max_bounces {
-            // Next event: this vertex sends the path to wo (eq. 12).
+            // Next event: this vertex sends the path to wo (seed 000, eq. (12)).
             sum += beta * self.vertex(w, dk).value;
             if bounce + 1 == self.max_bounces {
                 break;
@@ -593,7 +593,7 @@ impl PositionFree {
         sum * exit
     }
 
-    /// Bidirectional estimator with the balance heuristic (eqs. 14-16),
+    /// Bidirectional estimator with the balance heuristic (seed 000, eqs. (14-16)),
     /// subpaths stored in arrays of `CAP` entries.
     fn eval_bdpt<const CAP: usize>(&self, d0: Dir, dk: Dir, rng: &mut Rng) -> Vec3 {
         let n_max = (self.max_bounces as usize).min(CAP);
@@ -732,7 +732,7 @@ impl PositionFree {
                     },
                 );
                 let n = s + t + 1;
-                // pf(j), pb(j) over the whole path (eq. 14).
+                // pf(j), pb(j) over the whole path (seed 000, eq. (14)).
                 let pf = |j: usize| -> f32 {
                     if j < s {
                         cam_pf[j]
@@ -751,7 +751,7 @@ impl PositionFree {
                         lig_pb[n - 1 - j]
                     }
                 };
-                // Balance heuristic (eq. 15): sum over s' of p_{s'} / p_s.
+                // Balance heuristic (seed 000, eq. (15)): sum over s' of p_{s'} / p_s.
                 let mut denom = 1.0f32;
                 let mut r = 1.0f32;
                 for j in s..n - 1 {
