@@ -5,8 +5,10 @@ use crate::bsdf::{Sample, ScatterModel};
 use crate::facet::Facet;
 use crate::frame::is_valid_direction;
 use crate::multiple::bitterli_deon::BitterliDeon;
+use crate::multiple::compensation::{self, Compensated};
 use crate::multiple::heitz::Heitz;
 use crate::multiple::invariance::Invariance;
+use crate::multiple::position_free::PositionFree;
 use crate::ndf::{Ndf, NdfKind};
 use crate::rng::Rng;
 use crate::single::{G2Form, Single};
@@ -138,11 +140,27 @@ impl Default for MaterialDesc {
     }
 }
 
+/// `match` over every model (static dispatch: no `dyn`, no heap).
+macro_rules! dispatch {
+    ($imp:expr, $m:ident => $body:expr) => {
+        match $imp {
+            ModelImpl::Single($m) => $body,
+            ModelImpl::PositionFree($m) => $body,
+            ModelImpl::Compensated($m) => $body,
+            ModelImpl::Heitz($m) => $body,
+            ModelImpl::Invariance($m) => $body,
+            ModelImpl::BitterliDeon($m) => $body,
+        }
+    };
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum ModelImpl {
+    PositionFree(PositionFree),
     Single(Single),
     Invariance(Invariance),
     BitterliDeon(BitterliDeon),
+    Compensated(Compensated),
     Heitz(Heitz),
 }
 
@@ -230,10 +248,36 @@ impl Material {
                     ModelImpl::BitterliDeon(BitterliDeon::new(ndf, facet, d.max_bounces))
                 }
             }
+            Model::EnergyCompensated => {
+                let kind = ndf_kind.ok_or(Error::Unsupported)?;
+                match facet {
+                    Facet::Diffuse { .. } => return Err(Error::Unsupported),
+                    Facet::Dielectric { eta }
+                        if !(1.0 / compensation::MAX_ETA..=compensation::MAX_ETA)
+                            .contains(&eta) =>
+                    {
+                        return Err(Error::InvalidArgument);
+                    }
+                    _ => {}
+                }
+                if d.alpha_x > compensation::MAX_ALPHA || d.alpha_y > compensation::MAX_ALPHA {
+                    return Err(Error::InvalidArgument);
+                }
+                let ndf = Ndf::new(kind, d.alpha_x.max(MIN_ALPHA), d.alpha_y.max(MIN_ALPHA));
+                ModelImpl::Compensated(Compensated::new(ndf, facet))
+            }
             Model::HeitzRandomWalk => {
                 let kind = ndf_kind.ok_or(Error::Unsupported)?;
                 let ndf = Ndf::new(kind, d.alpha_x.max(MIN_ALPHA), d.alpha_y.max(MIN_ALPHA));
                 ModelImpl::Heitz(Heitz::new(ndf, facet, d.max_bounces))
+            }
+            Model::PositionFree => {
+                let kind = ndf_kind.ok_or(Error::Unsupported)?;
+                if matches!(facet, Facet::Diffuse { .. }) {
+                    return Err(Error::Unsupported);
+                }
+                let ndf = Ndf::new(kind, d.alpha_x.max(MIN_ALPHA), d.alpha_y.max(MIN_ALPHA));
+                ModelImpl::PositionFree(PositionFree::new(ndf, facet, d.estimator, d.max_bounces))
             }
             _ => return Err(Error::Unsupported),
         };
@@ -248,9 +292,10 @@ impl Material {
     /// True when eval is a Monte Carlo estimate (it then needs an [`Rng`]).
     pub fn is_stochastic(&self) -> bool {
         match self.imp {
-            ModelImpl::Single(_) => false,
+            ModelImpl::Single(_) | ModelImpl::Compensated(_) => false,
             ModelImpl::Invariance(_) | ModelImpl::BitterliDeon(_) => true,
             ModelImpl::Heitz(_) => true,
+            ModelImpl::PositionFree(_) => true,
         }
     }
 
@@ -260,12 +305,7 @@ impl Material {
         let Some((wi, wo)) = prepare(wi, wo) else {
             return Vec3::ZERO;
         };
-        let v = match &self.imp {
-            ModelImpl::Single(m) => m.eval(wi, wo, rng),
-            ModelImpl::Invariance(m) => m.eval(wi, wo, rng),
-            ModelImpl::BitterliDeon(m) => m.eval(wi, wo, rng),
-            ModelImpl::Heitz(m) => m.eval(wi, wo, rng),
-        };
+        let v = dispatch!(&self.imp, m => m.eval(wi, wo, rng));
         finite_or_zero(v)
     }
 
@@ -278,12 +318,7 @@ impl Material {
         if wi.z == 0.0 {
             return Sample::ABSORBED;
         }
-        let s = match &self.imp {
-            ModelImpl::Single(m) => m.sample(wi, rng),
-            ModelImpl::Invariance(m) => m.sample(wi, rng),
-            ModelImpl::BitterliDeon(m) => m.sample(wi, rng),
-            ModelImpl::Heitz(m) => m.sample(wi, rng),
-        };
+        let s = dispatch!(&self.imp, m => m.sample(wi, rng));
         if !(s.weight.is_finite() && s.pdf.is_finite() && s.wo.is_finite())
             || s.weight.min_element() < 0.0
         {
@@ -298,12 +333,7 @@ impl Material {
         let Some((wi, wo)) = prepare(wi, wo) else {
             return 0.0;
         };
-        let p = match &self.imp {
-            ModelImpl::Single(m) => m.pdf(wi, wo),
-            ModelImpl::Invariance(m) => m.pdf(wi, wo),
-            ModelImpl::BitterliDeon(m) => m.pdf(wi, wo),
-            ModelImpl::Heitz(m) => m.pdf(wi, wo),
-        };
+        let p = dispatch!(&self.imp, m => m.pdf(wi, wo));
         if p.is_finite() && p > 0.0 { p } else { 0.0 }
     }
 }

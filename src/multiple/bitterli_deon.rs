@@ -36,8 +36,7 @@ use crate::facet::Facet;
 use crate::frame::flip_z;
 use crate::material::MAX_BOUNCES;
 use crate::multiple::invariance::{
-    CAP_MAX, CAP_SMALL, RR_DEPTH, RR_MIN_Q, default_max_bounces, fresnel, hapke_pdf, lambda_signed,
-    scatter,
+    CAP_MAX, CAP_SMALL, RR_DEPTH, RR_MIN_Q, default_max_bounces, hapke_pdf, lambda_signed, scatter,
 };
 use crate::ndf::Ndf;
 use crate::rng::Rng;
@@ -172,7 +171,7 @@ impl BitterliDeon {
         if c <= 0.0 || h.z <= 0.0 {
             return Vec3::ZERO;
         }
-        fresnel(&self.facet, c) * (self.ndf.d_visible(-d, h) / (4.0 * c))
+        self.facet.conductor_fresnel(c) * (self.ndf.d_visible(-d, h) / (4.0 * c))
     }
 
     fn eval_pt<const C: usize>(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3 {

@@ -1,5 +1,9 @@
-//! Multiple-scattering models, one file per method.
+//! The multiple-scattering methods, one file each.
 
 pub mod bitterli_deon;
+pub mod compensation;
+#[doc(hidden)]
+pub mod compensation_tables;
 pub mod heitz;
 pub mod invariance;
+pub mod position_free;
