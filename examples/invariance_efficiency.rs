@@ -35,12 +35,48 @@ fn material(model: Model, est: Estimator, alpha: f32) -> Material {
 }
 
 fn main() {
+    let args: Vec<String> = std::env::args().collect();
     let models = [
         ("INVARIANCE PT", Model::Invariance, Estimator::Pt),
         ("INVARIANCE BDPT", Model::Invariance, Estimator::Bdpt),
         ("BITTERLI_DEON PT", Model::BitterliDeon, Estimator::Pt),
         ("HEITZ", Model::HeitzRandomWalk, Estimator::Pt),
     ];
+    if args.len() == 5 && args[1] == "count" {
+        // `count <model index> <alpha> <theta_i>`: a fixed workload of
+        // 7 x 2000 evaluations (or 14000 samples with a 6th argument), for
+        // counting instructions under `valgrind --tool=cachegrind`, which
+        // a loaded machine cannot disturb.
+        let (_, model, est) = models[args[2].parse::<usize>().unwrap_or(0).min(3)];
+        let alpha: f32 = args[3].parse().unwrap_or(1.0);
+        let theta: f64 = args[4].parse().unwrap_or(0.0);
+        let m = material(model, est, alpha);
+        let wi = dir(theta, 0.0);
+        let mut rng = Rng::new(1, 2);
+        let mut sink = 0.0f32;
+        for t in [-80.0, -60.0, -30.0, 0.0, 30.0, 60.0, 80.0f64] {
+            let wo = if t < 0.0 { dir(-t, 180.0) } else { dir(t, 0.0) };
+            for _ in 0..2000 {
+                sink += m.eval(wi, wo, &mut rng).y;
+            }
+        }
+        println!("{sink}");
+        return;
+    }
+    if args.len() == 6 && args[1] == "count" {
+        let (_, model, est) = models[args[2].parse::<usize>().unwrap_or(0).min(3)];
+        let alpha: f32 = args[3].parse().unwrap_or(1.0);
+        let theta: f64 = args[4].parse().unwrap_or(0.0);
+        let m = material(model, est, alpha);
+        let wi = dir(theta, 0.0);
+        let mut rng = Rng::new(1, 2);
+        let mut sink = 0.0f32;
+        for _ in 0..14000 {
+            sink += m.sample(wi, &mut rng).weight.y;
+        }
+        println!("{sink}");
+        return;
+    }
     let n = 40_000usize;
     println!(
         "model              alpha theta_i  ns/eval  ns/sample  mean f.cos  var(1 eval)  rel.err(4 evals)  efficiency 1/(var*s)"

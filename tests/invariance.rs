@@ -648,3 +648,38 @@ fn invariance_equals_heitz_within_4_sigma() {
     }
     eprintln!("invariance vs heitz: worst deviation {worst:.2} sigma");
 }
+
+/// The Hapke-based pdf (seed 003, eqs. 15-16, normalised) integrates to at
+/// most 1 over the hemisphere and is positive everywhere above it.
+#[test]
+fn hapke_pdf_integrates_to_at_most_one() {
+    let mut rng = Rng::new(21, 11);
+    for ndf in [NdfId::Ggx, NdfId::Beckmann] {
+        for (ax, ay) in [
+            (0.05f32, 0.05f32),
+            (0.3, 0.3),
+            (1.0, 1.0),
+            (2.0, 2.0),
+            (0.1, 1.0),
+        ] {
+            let m = mat(Model::Invariance, Estimator::Pt, ndf, ax, ay);
+            let prop = Proposal::new(kind_of(ndf), ax, ay);
+            for th in [0.0, 45.0, 80.0, 89.0] {
+                let wi = dir(th, 10.0);
+                let (mean, se) =
+                    mean_and_error((0..20_000).map(|_| match prop.sample(wi, &mut rng) {
+                        Some((wo, p)) => {
+                            let q = m.pdf(wi, wo) as f64;
+                            assert!(q > 0.0, "pdf 0 at {wo}");
+                            q / p
+                        }
+                        None => 0.0,
+                    }));
+                assert!(
+                    mean <= 1.0 + 4.0 * se && mean > 0.5,
+                    "{ndf:?} ({ax},{ay}) theta {th}: pdf integrates to {mean} +- {se}"
+                );
+            }
+        }
+    }
+}
