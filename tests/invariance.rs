@@ -124,6 +124,7 @@ fn furnace_configs() -> Vec<(NdfId, f32, f32)> {
 #[test]
 fn furnace_sample_albedo_is_one_within_0p3_percent() {
     let mut rng = Rng::new(11, 1);
+    let mut worst: f64 = 0.0;
     for model in [Model::Invariance, Model::BitterliDeon] {
         for (ndf, ax, ay) in furnace_configs() {
             let m = mat(model, Estimator::Pt, ndf, ax, ay);
@@ -137,9 +138,11 @@ fn furnace_sample_albedo_is_one_within_0p3_percent() {
                     "{model:?} {ndf:?} ({ax},{ay}) theta {th}: albedo {mean} +- {se}"
                 );
                 assert!(mean <= 1.0 + 4.0 * se + 1e-6);
+                worst = worst.max((mean - 1.0).abs());
             }
         }
     }
+    eprintln!("furnace through sample: worst |albedo - 1| = {worst:.5}");
 }
 
 /// The integral of eval over the hemisphere equals the sample albedo
@@ -282,6 +285,7 @@ fn invariance_equals_bitterli_deon_within_4_sigma() {
     let mut rng = Rng::new(14, 4);
     let configs = agreement_configs();
     assert!(configs.len() >= 24);
+    let mut worst: f64 = 0.0;
     for (ndf, a, wi, wo) in configs {
         let inv = gold(Model::Invariance, Estimator::Pt, ndf, a);
         let bd = gold(Model::BitterliDeon, Estimator::Pt, ndf, a);
@@ -291,11 +295,13 @@ fn invariance_equals_bitterli_deon_within_4_sigma() {
         // scattering (no noise) the two models still compute it through
         // different f32 formulas (v S_1 against f_p p_exit).
         let tol = 4.0 * (e1 * e1 + e2 * e2).sqrt() + 1e-5 * m1.abs();
+        worst = worst.max((m1 - m2).abs() / tol * 4.0);
         assert!(
             (m1 - m2).abs() <= tol,
             "{ndf:?} {a} {wi} {wo}: invariance {m1} +- {e1}, bitterli-deon {m2} +- {e2}"
         );
     }
+    eprintln!("invariance vs bitterli-deon: worst deviation {worst:.2} sigma");
 }
 
 /// PT and BDPT estimate the same value; BDPT with less variance.
@@ -337,6 +343,7 @@ fn bdpt_has_lower_variance_than_pt() {
 #[test]
 fn reciprocity_within_4_sigma() {
     let mut rng = Rng::new(16, 6);
+    let mut worst: f64 = 0.0;
     for model in [Model::Invariance, Model::BitterliDeon] {
         for est in [Estimator::Pt, Estimator::Bdpt] {
             if model == Model::BitterliDeon && est == Estimator::Bdpt {
@@ -354,6 +361,7 @@ fn reciprocity_within_4_sigma() {
                     let (b, eb) = eval_stats(&m, wo, wi, 20_000, &mut rng);
                     let (fa, fea) = (a / wo.z as f64, ea / wo.z as f64);
                     let (fb, feb) = (b / wi.z as f64, eb / wi.z as f64);
+                    worst = worst.max((fa - fb).abs() / (fea * fea + feb * feb).sqrt());
                     assert!(
                         (fa - fb).abs() <= 4.0 * (fea * fea + feb * feb).sqrt(),
                         "{model:?} {est:?} {ndf:?} {ti}->{to}: {fa} +- {fea} vs {fb} +- {feb}"
@@ -362,6 +370,7 @@ fn reciprocity_within_4_sigma() {
             }
         }
     }
+    eprintln!("reciprocity: worst deviation {worst:.2} sigma");
 }
 
 /// Histogram of sampled directions weighted by the sample weight against the
