@@ -692,3 +692,53 @@ fn hapke_pdf_integrates_to_at_most_one() {
         }
     }
 }
+
+/// Bounce limits beyond the small stack arrays (here 100 and the maximum,
+/// 256) take the large-capacity path: same furnace, finite values.
+#[test]
+fn large_bounce_limits_work() {
+    let mut rng = Rng::new(22, 12);
+    for kb in [100u32, 256] {
+        for (model, est) in [
+            (Model::Invariance, Estimator::Pt),
+            (Model::Invariance, Estimator::Bdpt),
+            (Model::BitterliDeon, Estimator::Pt),
+        ] {
+            let m = Material::new(&MaterialDesc {
+                model,
+                estimator: est,
+                alpha_x: 3.0,
+                alpha_y: 3.0,
+                max_bounces: kb,
+                ..MaterialDesc::default()
+            })
+            .unwrap();
+            let wi = dir(50.0, 0.0);
+            let (mean, se) =
+                mean_and_error((0..4_000).map(|_| m.sample(wi, &mut rng).weight.x as f64));
+            assert!(
+                (mean - 1.0).abs() < 0.003 + 4.0 * se,
+                "{model:?} {kb}: {mean}"
+            );
+            let n = if est == Estimator::Bdpt { 200 } else { 2_000 };
+            let (e, ese) = eval_stats(&m, wi, dir(30.0, 120.0), n, &mut rng);
+            assert!(
+                e.is_finite() && e > 0.0 && ese.is_finite(),
+                "{model:?} {est:?} {kb}: {e}"
+            );
+            if est == Estimator::Pt {
+                // Long paths keep their energy (throughput and S_k in f64).
+                let prop = Proposal::new(NdfKind::Ggx, 3.0, 3.0);
+                let (ev, ev_se) =
+                    mean_and_error((0..6_000).map(|_| match prop.sample(wi, &mut rng) {
+                        Some((wo, p)) => m.eval(wi, wo, &mut rng).x as f64 / p,
+                        None => 0.0,
+                    }));
+                assert!(
+                    (ev - 1.0).abs() < 4.0 * ev_se,
+                    "{model:?} {kb}: eval albedo {ev} +- {ev_se}"
+                );
+            }
+        }
+    }
+}

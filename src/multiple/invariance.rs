@@ -83,7 +83,7 @@ use crate::frame::flip_z;
 use crate::material::{Estimator, MAX_BOUNCES};
 use crate::ndf::Ndf;
 use crate::rng::Rng;
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 
 /// Capacity of the path arrays for any `max_bounces` (directions = bounces + 1).
 pub(crate) const CAP_MAX: usize = MAX_BOUNCES as usize + 1;
@@ -341,8 +341,10 @@ impl Invariance {
         let mut d = -wi;
         let mut lam_d = lambda_signed(&self.ndf, d);
         let mut seg = SegmentTerm::<C>::start(-lam_d);
-        let mut w = Vec3::ONE;
-        let mut f = Vec3::ZERO;
+        // Throughput and result in f64: prod |Lambda| and S_k can pass the f32
+        // range on long paths (their product stays below 1 / v).
+        let mut w = DVec3::ONE;
+        let mut f = DVec3::ZERO;
         let mut k = 0u32;
         // R_k(0): probability of reaching collision k over prod |Lambda|
         // (computed once Russian roulette starts).
@@ -352,7 +354,7 @@ impl Invariance {
             // Next-event estimation to wo from collision k: v(d_{k-1}, wo) S(d_0..d_{k-1}, wo).
             let (v, _) = vertex(&self.ndf, &self.facet, d, wo);
             if v != Vec3::ZERO {
-                f += w * v * seg.value(lo) as f32;
+                f += w * v.as_dvec3() * seg.value(lo);
             }
             if k >= self.max_bounces {
                 break;
@@ -362,7 +364,7 @@ impl Invariance {
             };
             // v / pdf = F |Lambda(d)| (seed 003, eq. 5: f_p |Lambda| = v).
             let lam_o = lambda_signed(&self.ndf, o);
-            w *= fr * lam_d.abs() as f32;
+            w *= fr.as_dvec3() * lam_d.abs();
             if k >= RR_DEPTH {
                 if mass.is_nan() {
                     mass = seg.value(0.0);
@@ -385,7 +387,7 @@ impl Invariance {
                 if q.is_nan() || q <= 0.0 || (q < 1.0 && (rng.next_f32() as f64) >= q) {
                     break;
                 }
-                w /= q as f32;
+                w /= q;
                 mass = new_mass;
             } else {
                 seg.push(lam_o);
@@ -396,7 +398,7 @@ impl Invariance {
                 break;
             }
         }
-        f
+        f.as_vec3()
     }
 
     /// Bidirectional estimator (seed 000, sec. 4.2, eqs. 14-16) with `S_k`
@@ -419,8 +421,8 @@ impl Invariance {
         let mut x = [Vec3::ZERO; C];
         let mut y = [Vec3::ZERO; C];
         // Throughput ratios (f / pdf of the sampled part) per prefix length.
-        let mut thr_c = [Vec3::ZERO; C];
-        let mut thr_l = [Vec3::ZERO; C];
+        let mut thr_c = [DVec3::ZERO; C];
+        let mut thr_l = [DVec3::ZERO; C];
         // Signed Lambda(x_i) and Lambda(-y_j) for the segment term.
         let mut lam_x = [0.0f64; C];
         let mut lam_y = [0.0f64; C];
@@ -433,8 +435,8 @@ impl Invariance {
         let n = kmax.min(C - 1);
         x[0] = -wi;
         y[0] = -wo;
-        thr_c[1] = Vec3::ONE;
-        thr_l[1] = Vec3::ONE;
+        thr_c[1] = DVec3::ONE;
+        thr_l[1] = DVec3::ONE;
         lam_x[0] = lambda_signed(ndf, x[0]);
         lam_y[0] = lambda_signed(ndf, -y[0]);
         sig_x[0] = ndf.sigma(wi) as f64;
@@ -458,7 +460,7 @@ impl Invariance {
             } else {
                 0.0
             };
-            thr_c[nc + 1] = thr_c[nc] * fr * lam_x[nc - 1].abs() as f32;
+            thr_c[nc + 1] = thr_c[nc] * fr.as_dvec3() * lam_x[nc - 1].abs();
             nc += 1;
         }
         let mut nl = 1;
@@ -479,18 +481,18 @@ impl Invariance {
                 0.0
             };
             // v(-y_{j+1}, -y_j) / pdf(y_j -> y_{j+1}) = F sigma(-y_j) / |y_{j+1}.z|.
-            thr_l[nl + 1] = thr_l[nl] * fr * (sig_y[nl - 1] / o.z.abs() as f64) as f32;
+            thr_l[nl + 1] = thr_l[nl] * fr.as_dvec3() * (sig_y[nl - 1] / o.z.abs() as f64);
             nl += 1;
         }
         let lo = lambda_signed(ndf, wo);
         let mut cam = SegmentTerm::<C>::start(-lam_x[0]);
         let mut tmp = SegmentTerm::<C>::default();
-        let mut f = Vec3::ZERO;
+        let mut f = DVec3::ZERO;
         for s in 1..=nc {
             if s > 1 {
                 cam.push(lam_x[s - 1]);
             }
-            if thr_c[s] == Vec3::ZERO {
+            if thr_c[s] == DVec3::ZERO {
                 continue;
             }
             let xs = x[s - 1];
@@ -500,7 +502,7 @@ impl Invariance {
                 }
                 let yt = -y[t - 1];
                 let (vc, dconn) = vertex(ndf, &self.facet, xs, yt);
-                if vc == Vec3::ZERO || thr_l[t] == Vec3::ZERO {
+                if vc == Vec3::ZERO || thr_l[t] == DVec3::ZERO {
                     continue;
                 }
                 let seg = if t == 1 {
@@ -523,10 +525,10 @@ impl Invariance {
                 if !(mis.is_finite() && mis >= 1.0) {
                     continue;
                 }
-                f += thr_c[s] * vc * thr_l[t] * ((seg / mis) as f32);
+                f += thr_c[s] * vc.as_dvec3() * thr_l[t] * (seg / mis);
             }
         }
-        f
+        f.as_vec3()
     }
 }
 
