@@ -75,7 +75,10 @@
 //! near noise-free. BDPT pays off at low roughness, where the PT estimator
 //! is heavy-tailed (next-event estimation from a grazing inner direction
 //! through the sharp `D(h)` peak; GGX alpha 0.1: single evaluations up to
-//! 4.5e3 times the mean, against 5 for BDPT).
+//! 4.5e3 times the mean, against 5 for BDPT). Variance of one evaluation,
+//! same setting, PT / BDPT: alpha 0.1, theta_i 0: 8.9e-3 / 4.3e-6 (2100x);
+//! theta_i 60: 2.2e-1 / 4.7e-3 (46x); alpha 0.3: 17x and 3.3x. So BDPT is
+//! the more efficient estimator for alpha <= 0.3, PT for alpha >= 0.5.
 
 use crate::bsdf::{Sample, ScatterModel};
 use crate::facet::Facet;
