@@ -80,7 +80,7 @@ void draw_text(float *img, int w, int h, int x, int y, int scale, const char *te
     char tmp[TEXT_LEN];
     snprintf(tmp, sizeof tmp, "%s", text);
     int tw = stb_easy_font_width(tmp) * scale, th = stb_easy_font_height(tmp) * scale;
-    fill_rect(img, w, h, x - 2, y - 2, x + tw + 2, y + th + 1, rgb(0, 0, 0), 0.6f);
+    fill_rect(img, w, h, x - 2, y - 2, x + tw + 2, y + th + 1, rgb(0, 0, 0), 0.75f);
     int quads = stb_easy_font_print(0.0f, 0.0f, tmp, NULL, buf, (int)sizeof buf);
     for (int q = 0; q < quads; q++) {
         const float *v0 = (const float *)(buf + 64 * q);      /* 4 vertices of 16 bytes */

@@ -30,6 +30,8 @@ static void usage(FILE *f) {
             "  --alpha A        set the roughness (alpha_x = alpha_y) of every material\n"
             "  --nee on|off     next-event estimation (default: the scene's 'render nee')\n"
             "  --quiet          no progress bar\n"
+            "exit status: 0 success, 1 scene/IO error, 2 bad command line,\n"
+            "             3 a material's model is not supported by this msbsdf build\n"
             "models: single energy_compensated heitz_random_walk (heitz) position_free invariance\n"
             "        bitterli_deon vgroove vgroove_nonsymmetric null_scattering auto\n");
 }
@@ -81,8 +83,7 @@ static void expand_label(const scene *s, const char *in, char *out, size_t n) {
                 if (!strcmp(s->mats[i].name, name)) {
                     char rep[TEXT_LEN];
                     if (s->mats[i].fell_back)
-                        snprintf(rep, sizeof rep, "%s (FALLBACK: %s missing)", model_name(s->mats[i].used_model),
-                                 model_name(s->mats[i].desc.model));
+                        snprintf(rep, sizeof rep, "%s (FALLBACK)", model_name(s->mats[i].used_model));
                     else
                         snprintf(rep, sizeof rep, "%s", model_name(s->mats[i].used_model));
                     int k = snprintf(out + o, n - o, "%s", rep);
@@ -105,7 +106,7 @@ static void draw_labels(const scene *s, float *img, int w, int h, int x0, int y0
         int sc = (int)s->labels[i].scale;
         if (pw < 400 && sc > 1) sc = sc / 2 > 1 ? sc / 2 : 1; /* small panels: smaller text */
         draw_text(img, w, h, x0 + (int)(s->labels[i].x * (float)pw), y0 + (int)(s->labels[i].y * (float)ph), sc,
-                  text, rgb(1, 1, 1));
+                  text, rgb(8, 8, 8));
     }
 }
 
@@ -123,6 +124,17 @@ static int write_outputs(const char *prefix, const char *suffix, const float *im
     snprintf(path, sizeof path, "%s%s.png", prefix, suffix);
     if (write_png(path, img, w, h, exposure, tonemap)) {
         fprintf(stderr, "tracer: cannot write %s\n", path);
+        return -1;
+    }
+    printf("wrote %s\n", path);
+    return 0;
+}
+
+static int write_pfm_checked(const char *prefix, const float *img, int w, int h) {
+    char path[PATH_LEN + 64];
+    snprintf(path, sizeof path, "%s.pfm", prefix);
+    if (write_pfm(path, img, w, h)) {
+        fprintf(stderr, "tracer: cannot write %s: %s\n", path, strerror(errno));
         return -1;
     }
     printf("wrote %s\n", path);
@@ -262,7 +274,7 @@ int main(int argc, char **argv) {
         if (mrc) {
             fprintf(stderr, "tracer: %s\n", err);
             scene_free(&s);
-            return 1;
+            return mrc == 1 ? 3 : 1; /* 3: a model this msbsdf build does not support */
         }
         float *img = malloc(sizeof(float) * 3 * npix);
         render_stats st;
@@ -275,12 +287,10 @@ int main(int argc, char **argv) {
         }
         printf("rendered %s: %dx%d, %d spp, %d threads, %.2f s, %.3f Msamples/s\n", scene_path, s.width, s.height,
                st.spp_done, ro.threads, st.seconds, (double)st.samples / st.seconds * 1e-6);
-        if (write_outputs(prefix, "", img, s.width, s.height, s.exposure, s.tonemap, 0)) rc = 1;
-        /* a labelled copy for viewing; the plain PNG/PFM above stay unlabelled */
-        if (!rc && s.nlabels) {
-            draw_labels(&s, img, s.width, s.height, 0, 0, s.width, s.height);
-            if (write_outputs(prefix, "_labelled", img, s.width, s.height, s.exposure, s.tonemap, 1)) rc = 1;
-        }
+        /* the PFM is the plain linear render; the PNG carries the scene's labels */
+        if (write_pfm_checked(prefix, img, s.width, s.height)) rc = 1;
+        draw_labels(&s, img, s.width, s.height, 0, 0, s.width, s.height);
+        if (!rc && write_outputs(prefix, "", img, s.width, s.height, s.exposure, s.tonemap, 1)) rc = 1;
         free(img);
         scene_free(&s);
         return rc;
@@ -336,7 +346,8 @@ int main(int argc, char **argv) {
             memcpy(grid + 3 * ((size_t)(y0 + y) * (size_t)gw + (size_t)x0), img + 3 * (size_t)y * (size_t)s.width,
                    sizeof(float) * 3 * (size_t)s.width);
         draw_labels(&s, grid, gw, gh, x0, y0, s.width, s.height);
-        draw_text(grid, gw, gh, x0 + 4, y0 + s.height - 20, 2, text, rgb(1, 1, 0.3f));
+        int ls = s.width >= 400 ? 2 : 1;
+        draw_text(grid, gw, gh, x0 + 4, y0 + s.height - 10 * ls, ls, text, rgb(8, 8, 2));
     }
     if (!rc) {
         for (int i = 0; i < ncmp; i++) {
@@ -355,7 +366,7 @@ int main(int argc, char **argv) {
             else
                 snprintf(text, sizeof text, "|%s - %s| x%g", model_name((uint32_t)cmp_models[i]),
                          model_name((uint32_t)cmp_models[ref]), diff_scale);
-            draw_text(diff, gw, gh, x0 + 4, y0 + 4, 2, text, rgb(1, 1, 0.3f));
+            draw_text(diff, gw, gh, x0 + 4, y0 + 4, s.width >= 400 ? 2 : 1, text, rgb(8, 8, 2));
         }
         if (write_outputs(prefix, "_compare", grid, gw, gh, s.exposure, s.tonemap, 1) ||
             write_outputs(prefix, "_compare_diff", diff, gw, gh, 1.0f, 0, 1))

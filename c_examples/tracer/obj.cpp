@@ -18,8 +18,9 @@ extern "C" int obj_load(const char *path, obj_mesh *out, char *err, size_t errle
         cfg.vertex_color = false;
         tinyobj::ObjReader reader;
         if (!reader.ParseFromFile(path, cfg)) {
-            std::snprintf(err, errlen, "cannot load OBJ '%s': %s", path,
-                          reader.Error().empty() ? "unknown error" : reader.Error().c_str());
+            std::string e = reader.Error();
+            while (!e.empty() && (e.back() == '\n' || e.back() == '\r' || e.back() == ' ')) e.pop_back();
+            std::snprintf(err, errlen, "cannot load OBJ '%s': %s", path, e.empty() ? "unknown error" : e.c_str());
             return -1;
         }
         const tinyobj::attrib_t &a = reader.GetAttrib();

@@ -200,11 +200,12 @@ static msbsdf_rgb trace(const scene *s, vec3 o, vec3 d, msbsdf_rng *rng, thread_
                 }
                 msbsdf_vec3 wo = to_local(&h, wl);
                 if (wo.z == 0.0f || vdot(wl, h.ng) * wo.z <= 0.0f) continue;
-                msbsdf_rgb f;
-                if (msbsdf_eval(m, wi, wo, rng, &f) != MSBSDF_STATUS_OK || rgb_max(f) <= 0.0f) continue;
+                /* visibility first: the stochastic models' eval costs more than a shadow ray */
                 vec3 org = offset_origin(&h, wl);
                 float tfar = isfinite(dist) ? dist * (1.0f - 1e-4f) : INFINITY;
                 if (occluded(s, org, wl, tfar)) continue;
+                msbsdf_rgb f;
+                if (msbsdf_eval(m, wi, wo, rng, &f) != MSBSDF_STATUS_OK || rgb_max(f) <= 0.0f) continue;
                 L = rgb_add(L, rgb_mul(rgb_mul(beta, f), li));
             }
             /* environment, MIS with the BSDF */
@@ -217,9 +218,9 @@ static msbsdf_rgb trace(const scene *s, vec3 o, vec3 d, msbsdf_rng *rng, thread_
                 if (pl > 0.0f && rgb_max(le) > 0.0f && wo.z != 0.0f && vdot(wl, h.ng) * wo.z > 0.0f) {
                     msbsdf_rgb f;
                     float pb = 0.0f;
-                    if (msbsdf_eval(m, wi, wo, rng, &f) == MSBSDF_STATUS_OK && rgb_max(f) > 0.0f &&
-                        msbsdf_pdf(m, wi, wo, &pb) == MSBSDF_STATUS_OK &&
-                        !occluded(s, offset_origin(&h, wl), wl, INFINITY)) {
+                    if (!occluded(s, offset_origin(&h, wl), wl, INFINITY) &&
+                        msbsdf_eval(m, wi, wo, rng, &f) == MSBSDF_STATUS_OK && rgb_max(f) > 0.0f &&
+                        msbsdf_pdf(m, wi, wo, &pb) == MSBSDF_STATUS_OK) {
                         float w = power_heuristic(pl, pb) / pl;
                         L = rgb_add(L, rgb_scale(rgb_mul(rgb_mul(beta, f), le), w));
                     }
