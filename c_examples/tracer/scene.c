@@ -1086,6 +1086,7 @@ int scene_load(scene *s, const char *path, char *err, size_t errlen) {
 /* ---------------------------------------------------------------- materials */
 
 int scene_create_materials(scene *s, int model_override, char *err, size_t errlen) {
+    int warned[16] = {0}; /* fallback warnings per requested model */
     for (int i = 0; i < s->nmats; i++) {
         material *m = &s->mats[i];
         msbsdf_material_desc d = m->desc;
@@ -1096,11 +1097,12 @@ int scene_create_materials(scene *s, int model_override, char *err, size_t errle
         m->used_model = d.model;
         m->fell_back = 0;
         if (st == MSBSDF_STATUS_UNSUPPORTED && model_override < 0 && m->fallback_model >= 0) {
-            fprintf(stderr,
-                    "warning: %s:%d: material '%s': model '%s' is not supported by this msbsdf build "
-                    "(%s); rendering it with the fallback model '%s'\n",
-                    s->path, m->line, m->name, model_name(d.model), msbsdf_status_message(st),
-                    model_name((uint32_t)m->fallback_model));
+            if (!warned[d.model & 15]++)
+                fprintf(stderr,
+                        "warning: %s:%d: material '%s': model '%s' is not supported by this msbsdf build "
+                        "(%s); rendering it with the fallback model '%s'\n",
+                        s->path, m->line, m->name, model_name(d.model), msbsdf_status_message(st),
+                        model_name((uint32_t)m->fallback_model));
             d.model = (uint32_t)m->fallback_model;
             st = msbsdf_material_create(&d, &m->handle);
             m->used_model = d.model;
@@ -1125,6 +1127,10 @@ int scene_create_materials(scene *s, int model_override, char *err, size_t errle
             }
         }
     }
+    for (int k = 0; k < 16; k++)
+        if (warned[k] > 1)
+            fprintf(stderr, "warning: %s: %d more materials asked for '%s' and use their fallback model\n", s->path,
+                    warned[k] - 1, model_name((uint32_t)k));
     return 0;
 }
 
