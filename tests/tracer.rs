@@ -61,10 +61,10 @@ fn embree_missing() -> Option<String> {
 /// The directory holding the libmsbsdf.so to link against.
 fn library_dir() -> PathBuf {
     let exe = std::env::current_exe().expect("current_exe");
-    if let Some(deps) = exe.parent() {
-        if deps.join("libmsbsdf.so").exists() {
-            return deps.to_path_buf();
-        }
+    if let Some(deps) = exe.parent()
+        && deps.join("libmsbsdf.so").exists()
+    {
+        return deps.to_path_buf();
     }
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let st = Command::new(cargo)
