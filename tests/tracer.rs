@@ -541,3 +541,73 @@ fn malformed_scenes_fail_with_file_line_and_reason() {
     );
     assert_eq!(out.status.code(), Some(3), "{}", text(&out));
 }
+
+/// Next-event estimation with MIS must not change the expected image: with
+/// only an environment map (no delta lights, which NEE alone can reach),
+/// the per-pixel difference between NEE + MIS and pure BSDF sampling has
+/// mean zero. Paired test over pixels: |mean(d)| < 4 standard errors, where
+/// the standard error comes from the spread of the per-pixel differences d.
+/// This checks the environment map's sampling pdf against its lookup, and
+/// the MIS weights.
+#[test]
+fn nee_and_mis_agree_with_bsdf_sampling_under_an_hdr_map() {
+    let Some(t) = tools() else { return };
+    let dir = tmp().join("mis");
+    std::fs::create_dir_all(&dir).expect("mkdir");
+    let hdr = scene("assets/studio.hdr").display().to_string();
+    let path = dir.join("mis.scene");
+    std::fs::write(
+        &path,
+        format!(
+            "camera position 0 1 5 look_at 0 0.3 0 fov 40\n\
+             render max_depth 8 tonemap aces\n\
+             env hdr \"{hdr}\" rotate 30\n\
+             material gold model single preset gold alpha 0.3\n\
+             material copper model single preset copper alpha 0.08\n\
+             material glass model single preset glass alpha 0.2\n\
+             material floor model single preset aluminium alpha 0.6\n\
+             sphere center -1.1 0.5 0 radius 0.5 material gold\n\
+             sphere center 0 0.5 0 radius 0.5 material glass\n\
+             sphere center 1.1 0.5 0 radius 0.5 material copper\n\
+             plane center 0 0 0 normal 0 1 0 size 6 material floor\n"
+        ),
+    )
+    .expect("write scene");
+    let p = path.display().to_string();
+    let mut images = Vec::new();
+    for nee in ["on", "off"] {
+        let prefix = out_prefix(&format!("mis_{nee}"));
+        let out = run(
+            &t.tracer,
+            &[
+                &p, "--width", "48", "--height", "32", "--spp", "64", "--nee", nee, "--out",
+                &prefix,
+            ],
+        );
+        assert!(out.status.success(), "{}", text(&out));
+        images.push(read_pfm(Path::new(&format!("{prefix}.pfm"))).2);
+    }
+    let d: Vec<f64> = images[0]
+        .iter()
+        .zip(&images[1])
+        .map(|(&a, &b)| a as f64 - b as f64)
+        .collect();
+    let n = d.len() as f64;
+    let mean = d.iter().sum::<f64>() / n;
+    let var = d.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / (n - 1.0);
+    let se = (var / n).sqrt();
+    let level = images[1].iter().map(|&v| v as f64).sum::<f64>() / n;
+    eprintln!(
+        "NEE+MIS minus BSDF-only: mean {mean:.5} (image mean {level:.4}), standard error {se:.5}"
+    );
+    assert!(
+        mean.abs() < 4.0 * se,
+        "NEE + MIS changes the image by {mean} (4 sigma = {})",
+        4.0 * se
+    );
+    // the comparison has teeth: 4 sigma is a small fraction of the image
+    assert!(
+        4.0 * se < 0.03 * level,
+        "too noisy to judge: se {se}, level {level}"
+    );
+}
