@@ -26,7 +26,7 @@ static void usage(FILE *f) {
             "  --model NAME     render every material with this model\n"
             "  --compare LIST   comma-separated models: one render per model, a labelled panel grid\n"
             "                   PREFIX_compare.png and a difference grid PREFIX_compare_diff.png\n"
-            "  --diff-scale S   difference image gain (default 4)\n"
+            "  --diff-scale S   difference image gain (default 1)\n"
             "  --alpha A        set the roughness (alpha_x = alpha_y) of every material\n"
             "  --nee on|off     next-event estimation (default: the scene's 'render nee')\n"
             "  --quiet          no progress bar\n"
@@ -144,7 +144,7 @@ static int write_pfm_checked(const char *prefix, const float *img, int w, int h)
 int main(int argc, char **argv) {
     const char *scene_path = NULL, *prefix_opt = NULL, *compare = NULL, *model_opt = NULL;
     long spp = 0, threads = 0, width = 0, height = 0, seed = -1;
-    double seconds = 0.0, diff_scale = 4.0, alpha = 0.0;
+    double seconds = 0.0, diff_scale = 1.0, alpha = 0.0;
     int nee = -1;
     int quiet = 0;
     for (int i = 1; i < argc; i++) {
@@ -369,7 +369,7 @@ int main(int argc, char **argv) {
             draw_text(diff, gw, gh, x0 + 4, y0 + 4, s.width >= 400 ? 2 : 1, text, rgb(8, 8, 2));
         }
         if (write_outputs(prefix, "_compare", grid, gw, gh, s.exposure, s.tonemap, 1) ||
-            write_outputs(prefix, "_compare_diff", diff, gw, gh, 1.0f, 0, 1))
+            write_outputs(prefix, "_compare_diff", diff, gw, gh, s.exposure, s.tonemap, 1))
             rc = 1;
     }
     free(grid), free(diff), free(panels);
