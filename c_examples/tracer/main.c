@@ -105,8 +105,8 @@ static void draw_labels(const scene *s, float *img, int w, int h, int x0, int y0
         expand_label(s, s->labels[i].text, text, sizeof text);
         int sc = (int)s->labels[i].scale;
         if (pw < 400 && sc > 1) sc = sc / 2 > 1 ? sc / 2 : 1; /* small panels: smaller text */
-        draw_text(img, w, h, x0 + (int)(s->labels[i].x * (float)pw), y0 + (int)(s->labels[i].y * (float)ph), sc,
-                  text, rgb(8, 8, 8));
+        float fx = fminf(fmaxf(s->labels[i].x, -1.0f), 2.0f), fy = fminf(fmaxf(s->labels[i].y, -1.0f), 2.0f);
+        draw_text(img, w, h, x0 + (int)(fx * (float)pw), y0 + (int)(fy * (float)ph), sc, text, rgb(8, 8, 8));
     }
 }
 

@@ -54,6 +54,7 @@ static float wrap01(float x) {
 }
 
 float texture_lookup(const texture *t, float u, float v) {
+    if (!isfinite(u) || !isfinite(v)) u = v = 0.0f; /* bad uvs from a file: no UB in the casts */
     int x = (int)(wrap01(u) * (float)t->w);
     int y = (int)(wrap01(1.0f - v) * (float)t->h);
     if (x >= t->w) x = t->w - 1;
