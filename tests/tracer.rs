@@ -226,6 +226,21 @@ fn tracer_runs_clean_under_asan_and_ubsan() {
         let out = run(&t.asan, &args);
         no_sanitizer_report(&out);
         assert!(out.status.success(), "{:?}\n{}", args, text(&out));
+        let outputs: &[&str] = if c.len() > 1 {
+            &[
+                "_single.pfm",
+                "_single.png",
+                "_compare.png",
+                "_compare_diff.png",
+            ]
+        } else {
+            &[".pfm", ".png"]
+        };
+        for suffix in outputs {
+            let f = format!("{prefix}{suffix}");
+            let len = std::fs::metadata(&f).map(|m| m.len()).unwrap_or(0);
+            assert!(len > 0, "{f} missing or empty\n{}", text(&out));
+        }
     }
 }
 
