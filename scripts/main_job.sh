@@ -1,8 +1,7 @@
 #!/usr/bin/env bash
-# The main job on a fresh Debian machine: installs the system packages, builds
-# the library and the Embree tracer, renders the default scene into out/ and
-# prints the output paths and timing (c_examples/run_main_job.sh does the work;
-# extra arguments go to the tracer).
+# The main job on a fresh Debian machine: installs the system packages,
+# builds libmsbsdf and the Embree example tracer, and renders the default
+# scene (c_examples/scenes/matpreview.scene) into out/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 # shellcheck source=scripts/deps.sh

@@ -6,6 +6,7 @@ use crate::facet::Facet;
 use crate::frame::is_valid_direction;
 use crate::multiple::compensation::{self, Compensated};
 use crate::multiple::heitz::Heitz;
+use crate::multiple::position_free::PositionFree;
 use crate::ndf::{Ndf, NdfKind};
 use crate::rng::Rng;
 use crate::single::{G2Form, Single};
@@ -142,6 +143,7 @@ macro_rules! dispatch {
     ($imp:expr, $m:ident => $body:expr) => {
         match $imp {
             ModelImpl::Single($m) => $body,
+            ModelImpl::PositionFree($m) => $body,
             ModelImpl::Compensated($m) => $body,
             ModelImpl::Heitz($m) => $body,
         }
@@ -150,6 +152,7 @@ macro_rules! dispatch {
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum ModelImpl {
+    PositionFree(PositionFree),
     Single(Single),
     Compensated(Compensated),
     Heitz(Heitz),
@@ -247,6 +250,14 @@ impl Material {
                 let ndf = Ndf::new(kind, d.alpha_x.max(MIN_ALPHA), d.alpha_y.max(MIN_ALPHA));
                 ModelImpl::Heitz(Heitz::new(ndf, facet, d.max_bounces))
             }
+            Model::PositionFree => {
+                let kind = ndf_kind.ok_or(Error::Unsupported)?;
+                if matches!(facet, Facet::Diffuse { .. }) {
+                    return Err(Error::Unsupported);
+                }
+                let ndf = Ndf::new(kind, d.alpha_x.max(MIN_ALPHA), d.alpha_y.max(MIN_ALPHA));
+                ModelImpl::PositionFree(PositionFree::new(ndf, facet, d.estimator, d.max_bounces))
+            }
             _ => return Err(Error::Unsupported),
         };
         Ok(Material { imp, desc: d })
@@ -262,6 +273,7 @@ impl Material {
         match self.imp {
             ModelImpl::Single(_) | ModelImpl::Compensated(_) => false,
             ModelImpl::Heitz(_) => true,
+            ModelImpl::PositionFree(_) => true,
         }
     }
 
