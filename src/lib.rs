@@ -43,6 +43,7 @@ pub mod math;
 pub mod ndf;
 pub mod rng;
 pub mod single;
+pub mod specfun;
 pub mod status;
 
 pub use bsdf::{SAMPLE_ABSORBED, SAMPLE_REFLECTION, SAMPLE_TRANSMISSION, Sample};

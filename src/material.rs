@@ -198,6 +198,7 @@ impl Material {
         let ndf_kind = match d.ndf {
             NdfId::Beckmann => Some(NdfKind::Beckmann),
             NdfId::Ggx => Some(NdfKind::Ggx),
+            NdfId::StudentT => Some(NdfKind::StudentT),
             _ => None,
         };
         let imp = match d.model {
@@ -206,7 +207,12 @@ impl Material {
                 if matches!(facet, Facet::Diffuse { .. }) {
                     return Err(Error::Unsupported);
                 }
-                let ndf = Ndf::new(kind, d.alpha_x.max(MIN_ALPHA), d.alpha_y.max(MIN_ALPHA));
+                let ndf = Ndf::with_shape(
+                    kind,
+                    d.alpha_x.max(MIN_ALPHA),
+                    d.alpha_y.max(MIN_ALPHA),
+                    d.shape,
+                );
                 ModelImpl::Single(Single::new(ndf, facet, G2Form::HeightCorrelated))
             }
             _ => return Err(Error::Unsupported),
