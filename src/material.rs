@@ -4,6 +4,7 @@
 use crate::bsdf::{Sample, ScatterModel};
 use crate::facet::Facet;
 use crate::frame::is_valid_direction;
+use crate::multiple::null_scattering::{self, NullNdf, NullNdfKind, NullScattering};
 use crate::ndf::{Ndf, NdfKind};
 use crate::rng::Rng;
 use crate::single::{G2Form, Single};
@@ -138,6 +139,7 @@ impl Default for MaterialDesc {
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum ModelImpl {
     Single(Single),
+    NullScattering(NullScattering),
 }
 
 /// A validated, immutable material. `Copy`, heap-free, `Send + Sync`: any
@@ -215,6 +217,25 @@ impl Material {
                 );
                 ModelImpl::Single(Single::new(ndf, facet, G2Form::HeightCorrelated))
             }
+            Model::NullScattering => {
+                // Below null_scattering::MIN_ALPHA the rejection rate makes
+                // the walk impractical (seed 001, section 3.3): refused.
+                if d.alpha_x.min(d.alpha_y) < null_scattering::MIN_ALPHA {
+                    return Err(Error::InvalidArgument);
+                }
+                let kind = match d.ndf {
+                    NdfId::Beckmann => NullNdfKind::Beckmann,
+                    NdfId::Ggx => NullNdfKind::Ggx,
+                    NdfId::StudentT => NullNdfKind::StudentT,
+                    NdfId::Vmf => NullNdfKind::Vmf,
+                    NdfId::Exponential => NullNdfKind::Exponential,
+                    NdfId::BesselK0 => NullNdfKind::BesselK0,
+                    NdfId::Phong => return Err(Error::Unsupported),
+                };
+                let ndf =
+                    NullNdf::new(kind, d.alpha_x, d.alpha_y, d.shape).ok_or(Error::Unsupported)?;
+                ModelImpl::NullScattering(NullScattering::new(ndf, facet, d.max_bounces))
+            }
             _ => return Err(Error::Unsupported),
         };
         Ok(Material { imp, desc: d })
@@ -229,6 +250,7 @@ impl Material {
     pub fn is_stochastic(&self) -> bool {
         match self.imp {
             ModelImpl::Single(_) => false,
+            ModelImpl::NullScattering(_) => true,
         }
     }
 
@@ -240,6 +262,7 @@ impl Material {
         };
         let v = match &self.imp {
             ModelImpl::Single(m) => m.eval(wi, wo, rng),
+            ModelImpl::NullScattering(m) => m.eval(wi, wo, rng),
         };
         finite_or_zero(v)
     }
@@ -255,6 +278,7 @@ impl Material {
         }
         let s = match &self.imp {
             ModelImpl::Single(m) => m.sample(wi, rng),
+            ModelImpl::NullScattering(m) => m.sample(wi, rng),
         };
         if !(s.weight.is_finite() && s.pdf.is_finite() && s.wo.is_finite())
             || s.weight.min_element() < 0.0
@@ -272,6 +296,7 @@ impl Material {
         };
         let p = match &self.imp {
             ModelImpl::Single(m) => m.pdf(wi, wo),
+            ModelImpl::NullScattering(m) => m.pdf(wi, wo),
         };
         if p.is_finite() && p > 0.0 { p } else { 0.0 }
     }

@@ -1,0 +1,3 @@
+//! Multiple-scattering models, one file per method.
+
+pub mod null_scattering;
