@@ -109,8 +109,8 @@ pub fn hyp2f1_half_b_3half(b: f64, z: f64) -> f64 {
 /// Modified Bessel function of the second kind `K_nu(x)`, real `nu`,
 /// `x > 0`. Series for `K_0`, `K_1` below 2; elsewhere the trapezoidal rule
 /// on `K_nu(x) = integral_0^inf exp(-x cosh t) cosh(nu t) dt` (step 1/8
-/// below x = 2, 1/4 above: the integrand is analytic in a strip, so the
-/// error is below 1e-16).
+/// below x = 2, `min(1/4, 0.7 / sqrt(x))` above: the integrand is analytic
+/// in a strip, so the discretisation error is below 1e-15).
 pub fn bessel_k(nu: f64, x: f64) -> f64 {
     if x <= 0.0 {
         return f64::INFINITY;
@@ -123,7 +123,12 @@ pub fn bessel_k(nu: f64, x: f64) -> f64 {
             bessel_k1_series(x)
         };
     }
-    let h = if x < 2.0 { 0.125 } else { 0.25 };
+    // Near t = 0 the integrand is ~exp(-x t^2 / 2): the step must resolve it.
+    let h = if x < 2.0 {
+        0.125
+    } else {
+        (0.7 / x.sqrt()).min(0.25)
+    };
     let mut sum = 0.5 * (-x).exp();
     let mut k = 1.0f64;
     loop {

@@ -162,7 +162,7 @@ impl NullNdf {
             NullNdfKind::Ggx => norm * (a.powi(4)).max(1.0),
             NullNdfKind::StudentT => {
                 let g = shape as f64;
-                if !(g >= 2.0) {
+                if g.is_nan() || g < 2.0 {
                     return None;
                 }
                 if g == 2.0 {
@@ -291,10 +291,8 @@ impl NullNdf {
         if self.kind == NullNdfKind::BesselK0 {
             return k0_sigma(self.ax as f64, v.z as f64);
         }
-        if self.ax != self.ay {
-            if let Some(n) = self.closed_ndf() {
-                return n.sigma(v) as f64;
-            }
+        if let (true, Some(n)) = (self.ax != self.ay, self.closed_ndf()) {
+            return n.sigma(v) as f64;
         }
         self.sigma_quadrature(v.z as f64)
     }
@@ -573,7 +571,7 @@ impl NullScattering {
             let eta = self.eta(side);
             let h = -(wi + eta * o);
             let len = h.length();
-            if !(len > 1e-6) {
+            if len.is_nan() || len <= 1e-6 {
                 return Vec3::ZERO;
             }
             let mut h = h / len;
@@ -636,7 +634,7 @@ impl NullScattering {
                 }
                 let rate = if null { rate_null } else { self.ndf.sigma(-w) };
                 let wz = w.z as f64;
-                if !(rate > 0.0) {
+                if rate.is_nan() || rate <= 0.0 {
                     if wz > 0.0 {
                         break (None, rate);
                     }

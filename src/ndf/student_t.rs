@@ -248,7 +248,9 @@ pub fn index_mean(g: f64, u: f64) -> f64 {
 }
 
 /// Seed 001 eq. (19), the paper's closed form of [`index_mean`] (kept to
-/// check the transcription; valid for `-1 < u < 1`).
+/// check the transcription; valid for `-1 < u < 1`). As printed it is twice
+/// the unnormalised moment; halved and divided by `sigma` it equals
+/// [`index_mean`] to 1e-9 (`tests/student_t.rs`).
 pub fn index_mean_eq19(g: f64, u: f64) -> f64 {
     let u2 = u * u;
     let z = u2 / ((u2 - 1.0) * (g - 1.0));
@@ -259,7 +261,8 @@ pub fn index_mean_eq19(g: f64, u: f64) -> f64 {
     } else {
         lambda_mu(g, -u / (1.0 - u2).sqrt()) * -u
     };
-    // eq. (19) is the unnormalised first moment; divide by sigma (eq. 13).
+    // eq. (19) as printed is twice the unnormalised first moment
+    // integral m f(m, u) dm: halve and divide by sigma (eq. 13).
     ((ln_gamma(g - 0.5) - ln_gamma(g)).exp() * num / (std::f64::consts::PI * (1.0 - u2)).sqrt()
         + (g - 1.0) * u)
         * 0.5
@@ -312,9 +315,15 @@ pub fn sample_visible_upwelling_approx(
         return sample_visible_counted(ax, ay, gamma, v, rng).0;
     }
     let g = gamma as f64;
-    let (a, b, c) = upwelling_gg_params(g, u);
-    let m = b * gamma_variate(a, rng).powf(1.0 / c);
+    let m = sample_index_upwelling_approx(g, u, rng);
     beckmann_component(ax, ay, g, m, v, rng)
+}
+
+/// The mixture index of the paper's up-welling approximation (eqs. 18-22)
+/// for a stretched cosine `-1 < u < 0`.
+pub fn sample_index_upwelling_approx(g: f64, u: f64, rng: &mut Rng) -> f64 {
+    let (a, b, c) = upwelling_gg_params(g, u);
+    b * gamma_variate(a, rng).powf(1.0 / c)
 }
 
 /// SplitMix64 finaliser.
