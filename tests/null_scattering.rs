@@ -308,3 +308,201 @@ fn white_furnace_dielectric_and_diffuse() {
         }
     }
 }
+
+/// With one bounce the walk is single scattering: eval equals SINGLE
+/// (height-correlated G2; for transmission B(1 + Lambda_i, 1 + Lambda_o))
+/// within 4 sigma of the mean of many estimates.
+#[test]
+fn order_one_equals_single() {
+    let mut rng = Rng::new(29, 6);
+    let gold = Facet::Conductor {
+        eta: Vec3::from(GOLD_ETA),
+        k: Vec3::from(GOLD_K),
+    };
+    let cases = [
+        (NullNdfKind::Ggx, NdfId::Ggx, 0.5f32, gold),
+        (NullNdfKind::Beckmann, NdfId::Beckmann, 0.8, gold),
+        (NullNdfKind::StudentT, NdfId::StudentT, 0.6, gold),
+        (
+            NullNdfKind::Ggx,
+            NdfId::Ggx,
+            0.7,
+            Facet::Dielectric { eta: 1.5 },
+        ),
+    ];
+    for (kind, id, alpha, facet) in cases {
+        let ndf = NullNdf::new(kind, alpha, alpha, 3.0).unwrap();
+        let model = NullScattering::new(ndf, facet, 1);
+        let mut desc = MaterialDesc {
+            model: Model::Single,
+            ndf: id,
+            shape: 3.0,
+            alpha_x: alpha,
+            alpha_y: alpha,
+            eta: Vec3::from(GOLD_ETA),
+            k: Vec3::from(GOLD_K),
+            ..MaterialDesc::default()
+        };
+        if let Facet::Dielectric { eta } = facet {
+            desc.facet = msbsdf::FacetKind::Dielectric;
+            desc.eta = Vec3::splat(eta);
+        }
+        let single = Material::new(&desc).unwrap();
+        for (ti, to, phi) in [
+            (20.0f32, 40.0f32, 2.5f32),
+            (60.0, 30.0, 3.1),
+            (75.0, 70.0, 1.0),
+            (40.0, 150.0, 3.0),
+        ] {
+            if to > 90.0 && !matches!(facet, Facet::Dielectric { .. }) {
+                continue;
+            }
+            let wi = dir_deg(ti as f64);
+            let (st, ct) = to.to_radians().sin_cos();
+            let wo = Vec3::new(st * phi.cos(), st * phi.sin(), ct);
+            let want = single.eval(wi, wo, &mut rng);
+            let est: Vec<Vec3> = (0..40_000).map(|_| model.eval(wi, wo, &mut rng)).collect();
+            for c in 0..3 {
+                let (m, e) = mean_and_error(est.iter().map(|v| v[c] as f64));
+                let w = want[c] as f64;
+                assert!(
+                    (m - w).abs() < 4.0 * e + 1e-4 * w,
+                    "{kind:?} {facet:?} {ti} {to}: channel {c} walk {m} +- {e} single {w}"
+                );
+            }
+        }
+    }
+}
+
+/// Seed 001, Figure 7: with gold facets, the full-sphere vMF NDF at
+/// roughness 4 is darker than Beckmann at 4 (light is trapped in the porous
+/// layer and absorbed bounce after bounce).
+#[test]
+fn gold_vmf_is_darker_than_beckmann_at_roughness_4() {
+    let gold = Facet::Conductor {
+        eta: Vec3::from(GOLD_ETA),
+        k: Vec3::from(GOLD_K),
+    };
+    let mut rng = Rng::new(31, 7);
+    for theta in [0.0, 45.0, 75.0] {
+        let wi = dir_deg(theta);
+        let mut alb = Vec::new();
+        for kind in [NullNdfKind::Vmf, NullNdfKind::Beckmann] {
+            let model = NullScattering::new(NullNdf::new(kind, 4.0, 4.0, 2.0).unwrap(), gold, 0);
+            alb.push(sample_albedo(&model, wi, 20_000, &mut rng));
+        }
+        let ((v, ve), (b, be)) = (alb[0], alb[1]);
+        println!("theta {theta}: vMF {v:.4} +- {ve:.4}, Beckmann {b:.4} +- {be:.4}");
+        assert!(
+            b - v > 4.0 * (ve * ve + be * be).sqrt(),
+            "theta {theta}: vMF {v} Beckmann {b}"
+        );
+    }
+}
+
+#[test]
+fn material_validation() {
+    let base = MaterialDesc {
+        model: Model::NullScattering,
+        ndf: NdfId::Vmf,
+        alpha_x: 1.0,
+        alpha_y: 1.0,
+        ..MaterialDesc::default()
+    };
+    let m = Material::new(&base).unwrap();
+    assert!(m.is_stochastic());
+    // Below the supported roughness (rejection rate, seed 001 section 3.3).
+    for a in [0.05f32, 0.099] {
+        let d = MaterialDesc {
+            alpha_x: a,
+            alpha_y: a,
+            ..base
+        };
+        assert_eq!(Material::new(&d), Err(Error::InvalidArgument));
+    }
+    // Anisotropic vMF, Student-T below 2 (unbounded at the horizon), Phong.
+    let d = MaterialDesc {
+        alpha_y: 0.5,
+        ..base
+    };
+    assert_eq!(Material::new(&d), Err(Error::Unsupported));
+    let d = MaterialDesc {
+        ndf: NdfId::StudentT,
+        shape: 1.8,
+        ..base
+    };
+    assert_eq!(Material::new(&d), Err(Error::Unsupported));
+    let d = MaterialDesc {
+        ndf: NdfId::Phong,
+        ..base
+    };
+    assert_eq!(Material::new(&d), Err(Error::Unsupported));
+    // Anisotropic GGX is supported (closed-form cross-section).
+    let d = MaterialDesc {
+        ndf: NdfId::Ggx,
+        alpha_y: 0.4,
+        ..base
+    };
+    assert!(Material::new(&d).is_ok());
+}
+
+/// Stability: grazing directions, extreme roughness, index near 1, every
+/// NDF and facet: finite, non-negative outputs.
+#[test]
+fn stability_sweep() {
+    let mut rng = Rng::new(37, 9);
+    let ndfs = [
+        NdfId::Beckmann,
+        NdfId::Ggx,
+        NdfId::StudentT,
+        NdfId::Vmf,
+        NdfId::Exponential,
+        NdfId::BesselK0,
+    ];
+    let facets = [
+        (msbsdf::FacetKind::Conductor, Vec3::from(GOLD_ETA)),
+        (msbsdf::FacetKind::Dielectric, Vec3::splat(1.0001)),
+        (msbsdf::FacetKind::Dielectric, Vec3::splat(2.5)),
+        (msbsdf::FacetKind::Diffuse, Vec3::ZERO),
+    ];
+    for ndf in ndfs {
+        for alpha in [0.1f32, 2.0, 10.0] {
+            for (facet, eta) in facets {
+                let m = Material::new(&MaterialDesc {
+                    model: Model::NullScattering,
+                    ndf,
+                    facet,
+                    eta: if facet == msbsdf::FacetKind::Conductor {
+                        eta
+                    } else {
+                        eta
+                    },
+                    k: Vec3::from(GOLD_K),
+                    alpha_x: alpha,
+                    alpha_y: alpha,
+                    shape: 2.5,
+                    ..MaterialDesc::default()
+                })
+                .unwrap();
+                for theta in [0.0, 89.99, 90.01, 179.0] {
+                    let wi = dir_deg(theta);
+                    for _ in 0..50 {
+                        let s = m.sample(wi, &mut rng);
+                        assert!(
+                            s.weight.is_finite() && s.weight.min_element() >= 0.0 && s.pdf >= 0.0
+                        );
+                        let wo = dir_deg(rng.next_f32() as f64 * 180.0);
+                        let f = m.eval(wi, wo, &mut rng);
+                        assert!(
+                            f.is_finite() && f.min_element() >= 0.0,
+                            "{ndf:?} {alpha} {facet:?} {theta}: {f}"
+                        );
+                        if s.flags & msbsdf::SAMPLE_ABSORBED == 0 {
+                            assert!(m.pdf(wi, s.wo) > 0.0);
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
