@@ -5,6 +5,7 @@ use crate::bsdf::{Sample, ScatterModel};
 use crate::facet::Facet;
 use crate::frame::is_valid_direction;
 use crate::multiple::null_scattering::{self, NullNdf, NullNdfKind, NullScattering};
+use crate::multiple::heitz::Heitz;
 use crate::ndf::{Ndf, NdfKind};
 use crate::rng::Rng;
 use crate::single::{G2Form, Single};
@@ -140,6 +141,7 @@ impl Default for MaterialDesc {
 enum ModelImpl {
     Single(Single),
     NullScattering(NullScattering),
+    Heitz(Heitz),
 }
 
 /// A validated, immutable material. `Copy`, heap-free, `Send + Sync`: any
@@ -236,6 +238,16 @@ impl Material {
                     NullNdf::new(kind, d.alpha_x, d.alpha_y, d.shape).ok_or(Error::Unsupported)?;
                 ModelImpl::NullScattering(NullScattering::new(ndf, facet, d.max_bounces))
             }
+            Model::HeitzRandomWalk => {
+                let kind = ndf_kind.ok_or(Error::Unsupported)?;
+                let ndf = Ndf::with_shape(
+                    kind,
+                    d.alpha_x.max(MIN_ALPHA),
+                    d.alpha_y.max(MIN_ALPHA),
+                    d.shape,
+                );
+                ModelImpl::Heitz(Heitz::new(ndf, facet, d.max_bounces))
+            }
             _ => return Err(Error::Unsupported),
         };
         Ok(Material { imp, desc: d })
@@ -251,6 +263,7 @@ impl Material {
         match self.imp {
             ModelImpl::Single(_) => false,
             ModelImpl::NullScattering(_) => true,
+            ModelImpl::Heitz(_) => true,
         }
     }
 
@@ -263,6 +276,7 @@ impl Material {
         let v = match &self.imp {
             ModelImpl::Single(m) => m.eval(wi, wo, rng),
             ModelImpl::NullScattering(m) => m.eval(wi, wo, rng),
+            ModelImpl::Heitz(m) => m.eval(wi, wo, rng),
         };
         finite_or_zero(v)
     }
@@ -279,6 +293,7 @@ impl Material {
         let s = match &self.imp {
             ModelImpl::Single(m) => m.sample(wi, rng),
             ModelImpl::NullScattering(m) => m.sample(wi, rng),
+            ModelImpl::Heitz(m) => m.sample(wi, rng),
         };
         if !(s.weight.is_finite() && s.pdf.is_finite() && s.wo.is_finite())
             || s.weight.min_element() < 0.0
@@ -297,6 +312,7 @@ impl Material {
         let p = match &self.imp {
             ModelImpl::Single(m) => m.pdf(wi, wo),
             ModelImpl::NullScattering(m) => m.pdf(wi, wo),
+            ModelImpl::Heitz(m) => m.pdf(wi, wo),
         };
         if p.is_finite() && p > 0.0 { p } else { 0.0 }
     }
