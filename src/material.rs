@@ -4,8 +4,8 @@
 use crate::bsdf::{Sample, ScatterModel};
 use crate::facet::Facet;
 use crate::frame::is_valid_direction;
-use crate::multiple::null_scattering::{self, NullNdf, NullNdfKind, NullScattering};
 use crate::multiple::heitz::Heitz;
+use crate::multiple::null_scattering::{self, NullNdf, NullNdfKind, NullScattering};
 use crate::ndf::{Ndf, NdfKind};
 use crate::rng::Rng;
 use crate::single::{G2Form, Single};

@@ -506,3 +506,93 @@ fn stability_sweep() {
         }
     }
 }
+
+/// Seed 001, section 3.1: "This procedure is equivalent to Smith's model in
+/// the case that the NDF is restricted to the upper hemisphere." Null
+/// scattering with Beckmann and GGX gives the albedo (through sample) and
+/// eval values of HEITZ_RANDOM_WALK within 4 combined sigma (both walks
+/// with 256 bounces).
+#[test]
+fn null_scattering_equals_heitz_random_walk() {
+    let mut rng = Rng::new(41, 2);
+    let cases = [
+        (NdfId::Ggx, 0.5f32, msbsdf::FacetKind::Conductor),
+        (NdfId::Ggx, 1.0, msbsdf::FacetKind::Conductor),
+        (NdfId::Beckmann, 0.7, msbsdf::FacetKind::Conductor),
+        (NdfId::Beckmann, 1.5, msbsdf::FacetKind::Conductor),
+        (NdfId::Ggx, 0.7, msbsdf::FacetKind::Dielectric),
+        (NdfId::Beckmann, 1.0, msbsdf::FacetKind::Diffuse),
+    ];
+    for (ndf, alpha, facet) in cases {
+        let desc = |model| MaterialDesc {
+            model,
+            ndf,
+            facet,
+            alpha_x: alpha,
+            alpha_y: alpha,
+            eta: if facet == msbsdf::FacetKind::Dielectric {
+                Vec3::splat(1.5)
+            } else {
+                Vec3::from(GOLD_ETA)
+            },
+            k: Vec3::from(GOLD_K),
+            albedo: Vec3::new(0.9, 0.6, 0.3),
+            max_bounces: 256,
+            ..MaterialDesc::default()
+        };
+        let null = Material::new(&desc(Model::NullScattering)).unwrap();
+        let heitz = Material::new(&desc(Model::HeitzRandomWalk)).unwrap();
+        for theta in [30.0, 75.0] {
+            let wi = dir_deg(theta);
+            // Albedo per side and channel through sample.
+            let n = 20_000;
+            let mut acc = [
+                [Vec::with_capacity(n), Vec::with_capacity(n)],
+                [Vec::new(), Vec::new()],
+            ];
+            for (k, m) in [&null, &heitz].into_iter().enumerate() {
+                for _ in 0..n {
+                    let s = m.sample(wi, &mut rng);
+                    let refl = s.flags & msbsdf::SAMPLE_REFLECTION != 0;
+                    let w = s.weight;
+                    acc[k][0].push(if refl { w } else { Vec3::ZERO });
+                    acc[k][1].push(if refl { Vec3::ZERO } else { w });
+                }
+            }
+            for side in 0..2 {
+                for c in 0..3 {
+                    let (a, ae) = mean_and_error(acc[0][side].iter().map(|v| v[c] as f64));
+                    let (b, be) = mean_and_error(acc[1][side].iter().map(|v| v[c] as f64));
+                    let tol = 4.0 * (ae * ae + be * be).sqrt() + 1e-6;
+                    assert!(
+                        (a - b).abs() < tol,
+                        "{ndf:?} {alpha} {facet:?} theta {theta} side {side} channel {c}: null {a} +- {ae}, heitz {b} +- {be}"
+                    );
+                }
+            }
+            // Eval at a few outgoing directions.
+            for (to, phi) in [(20.0f32, 3.0f32), (60.0, 1.0), (150.0, 2.0)] {
+                if to > 90.0 && facet != msbsdf::FacetKind::Dielectric {
+                    continue;
+                }
+                let (st, ct) = to.to_radians().sin_cos();
+                let wo = Vec3::new(st * phi.cos(), st * phi.sin(), ct);
+                let ne = 20_000;
+                let a: Vec<Vec3> = (0..ne).map(|_| null.eval(wi, wo, &mut rng)).collect();
+                let b: Vec<Vec3> = (0..ne).map(|_| heitz.eval(wi, wo, &mut rng)).collect();
+                for c in 0..3 {
+                    let (x, xe) = mean_and_error(a.iter().map(|v| v[c] as f64));
+                    let (y, ye) = mean_and_error(b.iter().map(|v| v[c] as f64));
+                    let tol = 4.0 * (xe * xe + ye * ye).sqrt() + 1e-6;
+                    println!(
+                        "{ndf:?} {alpha} {facet:?} {theta}->{to}: null {x:.5} +- {xe:.5} heitz {y:.5} +- {ye:.5}"
+                    );
+                    assert!(
+                        (x - y).abs() < tol,
+                        "{ndf:?} {alpha} {facet:?} eval {theta} -> {to} channel {c}: null {x} +- {xe}, heitz {y} +- {ye}"
+                    );
+                }
+            }
+        }
+    }
+}
