@@ -158,6 +158,13 @@ fn valid_rgb(v: Vec3, lo: f32) -> bool {
 
 impl Material {
     /// Validates `desc` and builds the material.
+    ///
+    /// [`Model::NullScattering`] refuses with [`Error::InvalidArgument`] a
+    /// roughness below [`null_scattering::MIN_ALPHA`] (0.2: the delta-tracking
+    /// rejection rate grows like `1 / alpha^2`, seed 001 section 3.3), and with
+    /// [`Error::Unsupported`] the Phong NDF, anisotropic vMF / exponential /
+    /// Bessel K0, and Student-T with shape below 2 (unbounded at the horizon,
+    /// so no constant majorant exists).
     pub fn new(desc: &MaterialDesc) -> Result<Material, Error> {
         let d = *desc;
         for a in [d.alpha_x, d.alpha_y] {

@@ -412,7 +412,7 @@ fn material_validation() {
     let m = Material::new(&base).unwrap();
     assert!(m.is_stochastic());
     // Below the supported roughness (rejection rate, seed 001 section 3.3).
-    for a in [0.05f32, 0.099] {
+    for a in [0.05f32, 0.199] {
         let d = MaterialDesc {
             alpha_x: a,
             alpha_y: a,
@@ -466,17 +466,13 @@ fn stability_sweep() {
         (msbsdf::FacetKind::Diffuse, Vec3::ZERO),
     ];
     for ndf in ndfs {
-        for alpha in [0.1f32, 2.0, 10.0] {
+        for alpha in [0.2f32, 2.0, 10.0] {
             for (facet, eta) in facets {
                 let m = Material::new(&MaterialDesc {
                     model: Model::NullScattering,
                     ndf,
                     facet,
-                    eta: if facet == msbsdf::FacetKind::Conductor {
-                        eta
-                    } else {
-                        eta
-                    },
+                    eta,
                     k: Vec3::from(GOLD_K),
                     alpha_x: alpha,
                     alpha_y: alpha,
@@ -559,10 +555,11 @@ fn null_scattering_equals_heitz_random_walk() {
                     acc[k][1].push(if refl { Vec3::ZERO } else { w });
                 }
             }
-            for side in 0..2 {
+            let [null_sides, heitz_sides] = &acc;
+            for (side, (ns, hs)) in null_sides.iter().zip(heitz_sides).enumerate() {
                 for c in 0..3 {
-                    let (a, ae) = mean_and_error(acc[0][side].iter().map(|v| v[c] as f64));
-                    let (b, be) = mean_and_error(acc[1][side].iter().map(|v| v[c] as f64));
+                    let (a, ae) = mean_and_error(ns.iter().map(|v| v[c] as f64));
+                    let (b, be) = mean_and_error(hs.iter().map(|v| v[c] as f64));
                     let tol = 4.0 * (ae * ae + be * be).sqrt() + 1e-6;
                     assert!(
                         (a - b).abs() < tol,

@@ -35,13 +35,30 @@
 //!
 //! **Up-welling views** (`u < 0`, seed 001 section 2.6): `T_A + T_C <= 0`,
 //! so `f <= T_B`, and sampling `T_B` and accepting with
-//! `f / T_B = 1 - sqrt(pi) |a| erfcx(|a|)` is *exact* (our addition; about
-//! 2 to 4 gamma variates per sample for `gamma <= 4`, growing like `gamma`
-//! near the lower normal). [`sample_visible`] uses it. The paper's
-//! generalised-gamma approximation (eqs. 18-22, with the exact first moment
-//! of eq. 19) is [`sample_visible_upwelling_approx`]; its error is measured
-//! in `tests/student_t.rs` (total-variation distance to the exact visible
-//! density of about 0.02 at `u = -0.2` and `-0.6` for `gamma` 2 to 4).
+//! `f / T_B = 1 - sqrt(pi) |a| erfcx(|a|)` is *exact* (our addition).
+//! [`sample_visible`] uses it. The paper's generalised-gamma approximation
+//! (eqs. 18-22, with the exact first moment, eq. 19) is
+//! [`sample_visible_upwelling_approx`]. Measured (`tests/student_t.rs`,
+//! 2e5 samples, alpha 0.5): Kolmogorov-Smirnov distance between its mixture
+//! index and the exact one 0.009 (gamma 2, u = -0.2), 0.015 (gamma 2,
+//! u = -0.6), at most 0.005 for gamma 3 and 4 (the noise level); on the
+//! normals the chi-square detects it for gamma 2 (p = 1e-26 at u = -0.2)
+//! but not for gamma 3 and 4. It is also slower here (1140 ns against
+//! 680 ns), since eq. (19) needs incomplete beta functions per sample.
+//!
+//! ## Measured (`cargo run --release --example student_t_stats`)
+//! - Gamma variates per sample (paper: about 1.2): down-welling 1.00-1.19
+//!   (1.05-1.06 averaged over cosine-weighted views); exact up-welling 1.07
+//!   to 1.6 for gamma <= 2, 1.3 to 3.6 for gamma 3, up to 10 for gamma 10
+//!   seen from straight below (the acceptance falls like `1 / gamma`).
+//! - Cost per visible normal at alpha 0.5 (thread CPU time): GGX 26 ns,
+//!   Beckmann 475-585 ns, Student-T 680-870 ns (dominated by the Beckmann
+//!   stage and the incomplete beta function of the lobe probabilities).
+//! - Shape 60 against Beckmann: `G1 = 1 / (1 + Lambda)` within 0.63% over
+//!   the hemisphere for alpha 0.1 to 4; `D` within 1% only while
+//!   `tan^2(theta_m) / alpha^2 <= 2.5` (up to 80 degrees only for alpha >= 4;
+//!   at 80 degrees and alpha 1 the ratio is 426, the Gaussian tail falling
+//!   below the power law).
 //!
 //! [`Ndf::sample_visible`](super::Ndf::sample_visible) takes two uniforms;
 //! the superposition needs an unbounded number, so the two uniforms seed a
