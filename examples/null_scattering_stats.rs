@@ -60,7 +60,7 @@ fn main() {
                 let phi = 2.0 * std::f32::consts::PI * rng.next_f32();
                 let s = (1.0 - z * z).sqrt();
                 let wo = Vec3::new(s * phi.cos(), s * phi.sin(), z);
-                esum += model.eval_with_stats(wi, wo, &mut rng, &mut st2).x as f64
+                esum += model.eval_reciprocal(wi, wo, &mut rng, &mut st2).x as f64
                     * 2.0
                     * std::f64::consts::PI;
             }

@@ -518,6 +518,9 @@ fn null_scattering_equals_heitz_random_walk() {
         (NdfId::Beckmann, 1.5, msbsdf::FacetKind::Conductor),
         (NdfId::Ggx, 0.7, msbsdf::FacetKind::Dielectric),
         (NdfId::Beckmann, 1.0, msbsdf::FacetKind::Diffuse),
+        // Student-T (shape 3): the Heitz walk then uses the exact
+        // gamma-superposition sampler, up-welling views included.
+        (NdfId::StudentT, 0.8, msbsdf::FacetKind::Conductor),
     ];
     for (ndf, alpha, facet) in cases {
         let desc = |model| MaterialDesc {
@@ -533,6 +536,7 @@ fn null_scattering_equals_heitz_random_walk() {
             },
             k: Vec3::from(GOLD_K),
             albedo: Vec3::new(0.9, 0.6, 0.3),
+            shape: 3.0,
             max_bounces: 256,
             ..MaterialDesc::default()
         };
@@ -590,6 +594,83 @@ fn null_scattering_equals_heitz_random_walk() {
                     );
                 }
             }
+        }
+    }
+}
+
+/// For the NDFs without a height-field reference (vMF, exponential), eval
+/// integrated over bins of the outgoing cosine matches the weighted
+/// histogram of sample, bin by bin within 4.5 combined sigma (about 7e-6
+/// two-sided per bin: the family of 24 comparisons stays below 1e-3).
+#[test]
+fn eval_matches_sample_by_bins_for_full_sphere_ndfs() {
+    let gold = Facet::Conductor {
+        eta: Vec3::from(GOLD_ETA),
+        k: Vec3::from(GOLD_K),
+    };
+    let glass = Facet::Dielectric { eta: 1.5 };
+    let mut rng = Rng::new(43, 8);
+    const BINS: usize = 6;
+    for (kind, alpha, facet) in [
+        (NullNdfKind::Vmf, 1.0f32, gold),
+        (NullNdfKind::Vmf, 4.0, gold),
+        (NullNdfKind::Exponential, 0.7, gold),
+        (NullNdfKind::Vmf, 1.0, glass),
+    ] {
+        let model = NullScattering::new(NullNdf::new(kind, alpha, alpha, 2.0).unwrap(), facet, 0);
+        let wi = dir_deg(40.0);
+        // Dielectrics: reflection bins only. Transmission eval estimates are
+        // heavy-tailed (the refraction Jacobian's pole at ci + eta co = 0),
+        // so per-bin errors from 3e4 estimates are not trustworthy there (a
+        // direct check found 0.0063 +- 0.0003 by uniform integration where
+        // this proposal gave 0.0034 +- 0.0004, sample 0.0069); the
+        // transmitted total is checked in the furnace test.
+        let sides = 1;
+        // bin of a direction: side * BINS + floor(|cos| * BINS)
+        let bin = |wo: Vec3| {
+            let side = usize::from(wo.z < 0.0);
+            side * BINS + ((wo.z.abs() * BINS as f32) as usize).min(BINS - 1)
+        };
+        let n = 30_000;
+        let mut smp = vec![Vec::new(); 2 * BINS];
+        for _ in 0..n {
+            let s = model.sample(wi, &mut rng);
+            let w = (s.weight.x + s.weight.y + s.weight.z) as f64 / 3.0;
+            let b = if s.flags & msbsdf::SAMPLE_ABSORBED != 0 {
+                usize::MAX
+            } else {
+                bin(s.wo)
+            };
+            for (k, v) in smp.iter_mut().enumerate() {
+                v.push(if k == b { w } else { 0.0 });
+            }
+        }
+        let prop = Proposal::new(facet, alpha);
+        let ne = 30_000;
+        let mut ev = vec![Vec::new(); 2 * BINS];
+        for _ in 0..ne {
+            let (b, v) = match prop.sample(wi, &mut rng) {
+                Some((wo, p)) => {
+                    let f = model.eval(wi, wo, &mut rng);
+                    (bin(wo), (f.x + f.y + f.z) as f64 / 3.0 / p)
+                }
+                None => (usize::MAX, 0.0),
+            };
+            for (k, e) in ev.iter_mut().enumerate() {
+                e.push(if k == b { v } else { 0.0 });
+            }
+        }
+        for k in 0..sides * BINS {
+            let (a, ae) = mean_and_error(smp[k].iter().copied());
+            let (b, be) = mean_and_error(ev[k].iter().copied());
+            let c = (ae * ae + be * be).sqrt();
+            println!(
+                "{kind:?} {alpha} {facet:?} bin {k}: sample {a:.4} +- {ae:.4} eval {b:.4} +- {be:.4}"
+            );
+            assert!(
+                (a - b).abs() < 4.5 * c + 1e-5,
+                "{kind:?} {alpha} {facet:?} bin {k}: sample {a} +- {ae}, eval {b} +- {be}"
+            );
         }
     }
 }

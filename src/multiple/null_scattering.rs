@@ -33,7 +33,12 @@
 //! (the probability that this tentative collision is real, has the normal
 //! `h` and sends the path to `wo`), so the cross-section of the current
 //! direction is never needed. Lambertian facets add `albedo (o.m) / pi` at
-//! real collisions with the sampled normal. The extinction towards `wo`
+//! real collisions with the sampled normal. `eval` averages this estimate
+//! with the one of the reverse walk (from `wo` towards `wi`, scaled by the
+//! generalised reciprocity), as Heitz et al. 2016 do: a grazing `wo` is
+//! reached from one side only by rare collisions near the top, and the
+//! one-sided estimate is then heavy-tailed (measured: grazing transmission
+//! under-estimated by half with 3e4 estimates). The extinction towards `wo`
 //! uses `sigma(-wo)`, computed once per call by integrating the Dirac-NDF
 //! cross-section (seed 001, eqs. 25-33) against `D(u)` with Gauss-Legendre
 //! quadrature: pieces split at the kinks `u' = +-sqrt(1 - u^2)` of
@@ -787,7 +792,9 @@ impl NullScattering {
         Sample::new(wi, wo, end.weight, pdf)
     }
 
-    /// One eval estimate with its statistics (for measurements).
+    /// One eval estimate from the walk started at `wi` alone, with its
+    /// statistics (for measurements; [`ScatterModel::eval`] averages it with
+    /// the reverse walk).
     pub fn eval_with_stats(
         &self,
         wi: Vec3,
@@ -818,10 +825,36 @@ impl NullScattering {
     }
 }
 
+impl NullScattering {
+    /// The reciprocal eval estimate: the mean of the walk from `wi` with
+    /// next-event estimation towards `wo` and the walk from `wo` towards
+    /// `wi`, the latter scaled by the generalised reciprocity
+    /// `f(wi, wo) / eta_o^2 = f(wo, wi) / eta_i^2`. One direction alone is
+    /// unbiased too ([`NullScattering::eval_with_stats`]) but heavy-tailed
+    /// for grazing `wo` (a grazing exit needs a collision near the top), which
+    /// the reverse walk samples directly (as Heitz et al. 2016 average).
+    pub fn eval_reciprocal(
+        &self,
+        wi: Vec3,
+        wo: Vec3,
+        rng: &mut Rng,
+        stats: &mut WalkStats,
+    ) -> Vec3 {
+        let a = self.eval_with_stats(wi, wo, rng, stats);
+        let b = self.eval_with_stats(wo, wi, rng, stats);
+        let mut scale = wo.z.abs() / wi.z.abs();
+        if let (Facet::Dielectric { eta }, true) = (self.facet, wi.z * wo.z < 0.0) {
+            let r = if wi.z > 0.0 { eta } else { 1.0 / eta }; // eta_o / eta_i
+            scale *= r * r;
+        }
+        0.5 * (a + b * scale)
+    }
+}
+
 impl ScatterModel for NullScattering {
     fn eval(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3 {
         let mut st = WalkStats::default();
-        self.eval_with_stats(wi, wo, rng, &mut st)
+        self.eval_reciprocal(wi, wo, rng, &mut st)
     }
 
     fn sample(&self, wi: Vec3, rng: &mut Rng) -> Sample {
