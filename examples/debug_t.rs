@@ -1,22 +1,37 @@
 use glam::Vec3;
-use msbsdf::{FacetKind, Material, MaterialDesc, Model, NdfId, Rng};
+use msbsdf::multiple::null_scattering::{NullNdf, NullNdfKind};
+use msbsdf::ndf::{Ndf, NdfKind};
+fn cpu_ns() -> u128 {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: valid pointer.
+    unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+    ts.tv_sec as u128 * 1_000_000_000 + ts.tv_nsec as u128
+}
 fn main() {
-    let mut rng = Rng::new(1, 2);
-    let m = Material::new(&MaterialDesc {
-        model: Model::Single,
-        ndf: NdfId::Ggx,
-        facet: FacetKind::Dielectric,
-        eta: Vec3::splat(1.5),
-        alpha_x: 0.7,
-        alpha_y: 0.7,
-        ..MaterialDesc::default()
-    })
-    .unwrap();
-    let wi = Vec3::new(0.6427876, 0.0, 0.7660444);
-    let wo = Vec3::new(-0.3, 0.1, -0.9).normalize();
-    let a = m.eval(wi, wo, &mut rng).x; // f(wi,wo)|wo.z|
-    let b = m.eval(wo, wi, &mut rng).x; // f(wo,wi)|wi.z|
-    let fa = a / wo.z.abs();
-    let fb = b / wi.z.abs();
-    println!("f(wi,wo) {fa} f(wo,wi) {fb} ratio {}", fa / fb);
+    for kind in [NullNdfKind::Ggx, NullNdfKind::Vmf, NullNdfKind::Exponential] {
+        let n = NullNdf::new(kind, 0.5, 0.5, 2.0).unwrap();
+        let t0 = cpu_ns();
+        let mut acc = 0.0;
+        for i in 0..20000 {
+            acc += n.sigma_quadrature(-0.9 + 1.8 * (i as f64 / 20000.0));
+        }
+        println!(
+            "{kind:?} quadrature sigma: {:.0} ns ({acc:.3})",
+            (cpu_ns() - t0) as f64 / 20000.0
+        );
+    }
+    let g = Ndf::new(NdfKind::Ggx, 0.5, 0.5);
+    let t0 = cpu_ns();
+    let mut acc = 0.0;
+    for i in 0..200000 {
+        let u = -0.9 + 1.8 * (i as f32 / 200000.0);
+        acc += g.sigma(Vec3::new((1.0 - u * u).sqrt(), 0.0, u));
+    }
+    println!(
+        "GGX closed sigma: {:.0} ns ({acc:.3})",
+        (cpu_ns() - t0) as f64 / 200000.0
+    );
 }
