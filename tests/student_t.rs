@@ -146,6 +146,50 @@ fn lambda_matches_quadrature_reference() {
 }
 
 #[test]
+fn slope_distributions_are_consistent() {
+    // eq. (5) integrates to 1 and is the marginal of eq. (4); eq. (3) is
+    // eq. (4) over cos^4.
+    for g in [1.6f64, 2.0, 5.0] {
+        for alpha in [0.3f64, 1.0] {
+            // p = alpha tan(t) on (-pi/2, pi/2).
+            let n = 20_000;
+            let mut total = 0.0;
+            for i in 0..n {
+                let t = -std::f64::consts::FRAC_PI_2
+                    + std::f64::consts::PI * (i as f64 + 0.5) / n as f64;
+                let p = alpha * t.tan();
+                total += student_t::slope_p2(alpha, g, p) * alpha / t.cos().powi(2);
+            }
+            total *= std::f64::consts::PI / n as f64;
+            assert!(
+                (total - 1.0).abs() < 1e-6,
+                "gamma {g} alpha {alpha}: {total}"
+            );
+            for p in [0.0, 0.4, 2.0] {
+                let mut m = 0.0;
+                for i in 0..n {
+                    let t = -std::f64::consts::FRAC_PI_2
+                        + std::f64::consts::PI * (i as f64 + 0.5) / n as f64;
+                    let q = alpha * t.tan();
+                    m += student_t::slope_p22(alpha, alpha, g, p, q) * alpha / t.cos().powi(2);
+                }
+                m *= std::f64::consts::PI / n as f64;
+                let want = student_t::slope_p2(alpha, g, p);
+                assert!(
+                    (m / want - 1.0).abs() < 1e-6,
+                    "gamma {g} alpha {alpha} p {p}: {m} vs {want}"
+                );
+            }
+            let mv = Vec3::new(0.3, -0.2, 0.9).normalize();
+            let (p, q) = (-(mv.x / mv.z) as f64, -(mv.y / mv.z) as f64);
+            let want = student_t::slope_p22(alpha, alpha, g, p, q) / (mv.z as f64).powi(4);
+            let d = student_t::d(alpha as f32, alpha as f32, g as f32, mv) as f64;
+            assert!((d / want - 1.0).abs() < 1e-5, "{d} vs {want}");
+        }
+    }
+}
+
+#[test]
 fn eq6_cross_section_equals_the_lambda_form() {
     // seed 001 eq. (6) with 2F1, against (1 + Lambda(u)) u on the full sphere.
     for g in [1.6f32, 2.0, 3.0, 10.0] {

@@ -178,7 +178,7 @@ impl NullNdf {
     /// (anisotropic vMF / exponential / K0, Student-T shape below 2).
     pub fn new(kind: NullNdfKind, ax: f32, ay: f32, shape: f32) -> Option<NullNdf> {
         let iso = ax == ay;
-        let (a, amin) = (ax.max(ay) as f64, ax.min(ay) as f64);
+        let a = ax.max(ay) as f64;
         let norm = 1.0 / (PI * ax as f64 * ay as f64);
         let mut c = 0.0;
         let d_max = match kind {
@@ -235,7 +235,6 @@ impl NullNdf {
                 f64::INFINITY
             }
         };
-        let _ = amin;
         Some(NullNdf {
             kind,
             ax,
@@ -690,7 +689,7 @@ impl NullScattering {
         let diffuse = matches!(self.facet, Facet::Diffuse { .. });
         for _bounce in 0..self.max_bounces {
             // Find the next real collision (or escape).
-            let (m, rate) = loop {
+            let m = loop {
                 events += 1;
                 if events > MAX_EVENTS {
                     return WalkEnd {
@@ -703,7 +702,7 @@ impl NullScattering {
                 let wz = w.z as f64;
                 if rate.is_nan() || rate <= 0.0 {
                     if wz > 0.0 {
-                        break (None, rate);
+                        break None;
                     }
                     return WalkEnd {
                         dir: Vec3::ZERO,
@@ -714,14 +713,14 @@ impl NullScattering {
                 let dist = -(1.0 - rng.next_f64()).ln() / rate;
                 t -= wz * dist;
                 if t < 0.0 {
-                    break (None, rate);
+                    break None;
                 }
                 stats.tentative += 1;
                 if let (Some(tg), false) = (target, diffuse) {
                     *acc += weight * self.nee_analytic(tg, side, t, w, rate);
                 }
                 if !null {
-                    break (Some(k0_sample_visible(self.ndf.ax, -w, rng)), rate);
+                    break Some(k0_sample_visible(self.ndf.ax, -w, rng));
                 }
                 // Candidate normal: uniform disk orthogonal to w, onto the sphere.
                 let wd = w.as_dvec3().normalize();
@@ -732,7 +731,7 @@ impl NullScattering {
                     - wd * (1.0 - r * r).max(0.0).sqrt())
                 .as_vec3();
                 if rng.next_f64() * self.ndf.d_max < self.ndf.d(m) {
-                    break (Some(m), rate);
+                    break Some(m);
                 }
             };
             let Some(m) = m else {
@@ -743,7 +742,6 @@ impl NullScattering {
                     escaped: true,
                 };
             };
-            let _ = rate;
             stats.real += 1;
             let wi_l = -w;
             let ci = wi_l.dot(m);

@@ -89,6 +89,22 @@ pub fn d(ax: f32, ay: f32, gamma: f32, m: Vec3) -> f32 {
     v as f32
 }
 
+/// Slope distribution `P22(p, q)` (seed 001, eq. 4), anisotropic by
+/// stretching: `(g-1)^g / (pi a_x a_y) (g - 1 + (p/a_x)^2 + (q/a_y)^2)^-g`.
+/// `D(m) = P22(-m.x/m.z, -m.y/m.z) / m.z^4`.
+pub fn slope_p22(ax: f64, ay: f64, g: f64, p: f64, q: f64) -> f64 {
+    let r2 = (p / ax).powi(2) + (q / ay).powi(2);
+    (g * (g - 1.0).ln() - g * (g - 1.0 + r2).ln()).exp() / (std::f64::consts::PI * ax * ay)
+}
+
+/// Marginal slope distribution `P2(p)` of roughness `alpha` (seed 001,
+/// eq. 5): `(g-1)^g alpha^(2g-2) Gamma(g - 1/2) (alpha^2 (g-1) + p^2)^(1/2-g)
+/// / (sqrt(pi) Gamma(g))`.
+pub fn slope_p2(alpha: f64, g: f64, p: f64) -> f64 {
+    let a2 = alpha * alpha;
+    (ln_c(g) + (2.0 * g - 2.0) * alpha.ln() + (0.5 - g) * (a2 * (g - 1.0) + p * p).ln()).exp()
+}
+
 /// `ln C` of the slope marginal (seed 001 eq. 5 at roughness 1).
 #[inline]
 fn ln_c(g: f64) -> f64 {
