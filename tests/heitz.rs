@@ -10,7 +10,7 @@ use common::*;
 use glam::Vec3;
 use msbsdf::bsdf::ScatterModel;
 use msbsdf::facet::Facet;
-use msbsdf::multiple::heitz::{Heitz, default_max_bounces};
+use msbsdf::multiple::heitz::{Heitz, cosine_weight, default_max_bounces};
 use msbsdf::ndf::{Ndf, NdfKind};
 use msbsdf::single::{G2Form, Single};
 use msbsdf::{Material, MaterialDesc, Model, NdfId, Rng, SAMPLE_REFLECTION, SAMPLE_TRANSMISSION};
@@ -206,20 +206,14 @@ fn draw_from_pdf(
     }
 }
 
-/// The mixture weight `q` the model documents.
-fn q_of(alpha: f32, facet: &Facet) -> f32 {
-    match facet {
-        Facet::Diffuse { .. } => 1.0,
-        _ => (0.3 * alpha).clamp(0.02, 0.5),
-    }
-}
-
 /// Integral of `eval` over the sphere (importance-sampled with the model's
 /// own pdf) against the sample-weight albedo. Placing the hit height of an
-/// upward ray at the top of the height range loses ~15% here at alpha 1
-/// while `sample` still passes. Tolerance: 4 sigma of the combined error,
-/// and the combined sigma must be below 1% (asserted) so a 15% loss cannot
-/// hide.
+/// upward ray at the top of the height range (the bug the notes describe)
+/// was measured here: GGX alpha 1 mirror eval integral 0.924 +- 0.0035 at
+/// theta 0 and 1.038 +- 0.0028 at 60 degrees (22 and 14 sigma) while the
+/// mirror `sample` furnace still gives exactly 1; at alpha 0.5 the error is
+/// about 1% (3-4 sigma). Tolerance: 4 sigma of the combined error, and the
+/// combined sigma must be below 1% (asserted).
 #[test]
 fn furnace_heitz_eval_integrates_to_the_sample_albedo() {
     let cases = [
@@ -245,7 +239,7 @@ fn furnace_heitz_eval_integrates_to_the_sample_albedo() {
         let dielectric = matches!(facet, Facet::Dielectric { .. });
         let single_facet = if dielectric { facet } else { MIRROR };
         let single = Single::new(ndf, single_facet, G2Form::HeightCorrelated);
-        let q = q_of(a, &facet);
+        let q = cosine_weight(a, &facet);
         for th in [0.0, 60.0] {
             seed += 1;
             let mut wi = dir(th, 0.3);
@@ -319,6 +313,7 @@ fn random_pair(rng: &mut Rng, max_deg: f64, transmit: bool) -> (Vec3, Vec3) {
 fn heitz_order_one_equals_single_height_correlated() {
     let mut rng = Rng::new(77, 5);
     let mut checked = 0;
+    let mut worst = 0.0f32;
     for kind in [NdfKind::Ggx, NdfKind::Beckmann] {
         for (ax, ay) in [(0.3f32, 0.3f32), (1.0, 1.0), (0.2, 0.8)] {
             let ndf = Ndf::new(kind, ax, ay);
@@ -339,6 +334,7 @@ fn heitz_order_one_equals_single_height_correlated() {
                     let (mean, se) = eval_mean(&h, wi, wo, 4_000, &mut rng);
                     for c in 0..3 {
                         let tol = 4.0 * se[c] + 1e-4 * expect[c] + 1e-6;
+                        worst = worst.max((mean[c] - expect[c]).abs() / tol);
                         assert!(
                             (mean[c] - expect[c]).abs() < tol,
                             "{kind:?} ({ax},{ay}) {facet:?} wi {wi} wo {wo}: walk {} +- {}, single {}",
@@ -354,13 +350,17 @@ fn heitz_order_one_equals_single_height_correlated() {
             }
         }
     }
+    println!(
+        "order one vs SINGLE: {checked} nonzero pairs, worst deviation {worst:.2} x tolerance"
+    );
     assert!(checked > 80, "only {checked} pairs had a nonzero value");
 }
 
 /// Reciprocity of the walk itself: the unidirectional estimate from `wi`
 /// of `f(wi, wo)` equals the one from `wo` of `f(wo, wi)` (reflection), and
 /// `f(wi, wo) / eta_o^2 = f(wo, wi) / eta_i^2` for transmission; within 4
-/// combined standard errors, full multiple scattering.
+/// combined standard errors, full multiple scattering. The same for the
+/// symmetrised `eval(wi, wo)` against `eval(wo, wi)`.
 #[test]
 fn heitz_walk_is_reciprocal() {
     let mut rng = Rng::new(91, 3);
@@ -402,9 +402,19 @@ fn heitz_walk_is_reciprocal() {
                     (lhs - rhs).abs() < 4.0 * sigma + 1e-6,
                     "{kind:?} {facet:?} wi {wi} wo {wo}: f(wi,wo) {lhs} vs {rhs} (sigma {sigma})"
                 );
-                // The symmetrised eval is reciprocal by construction.
-                let a = h.eval(wi, wo, &mut rng);
-                assert!(a.is_finite());
+                // The symmetrised eval, through the same relation.
+                let ev = |a: Vec3, b: Vec3, rng: &mut Rng| {
+                    let (m, se) = eval_mean(&h, a, b, 5_000, rng);
+                    ((m.y / b.z.abs()) as f64, (se.y / b.z.abs()) as f64)
+                };
+                let (e_io, s_io) = ev(wi, wo, &mut rng);
+                let (e_oi, s_oi) = ev(wo, wi, &mut rng);
+                let sigma = (s_io * s_io + (s_oi * ratio).powi(2)).sqrt();
+                assert!(
+                    (e_io - e_oi * ratio).abs() < 4.0 * sigma + 1e-6,
+                    "{kind:?} {facet:?} wi {wi} wo {wo}: eval {e_io} vs {} (sigma {sigma})",
+                    e_oi * ratio
+                );
             }
         }
     }
@@ -479,10 +489,11 @@ fn heitz_sample_matches_eval_chi2() {
         let (mut o1, mut o2) = (vec![0.0f64; nb], vec![0.0f64; nb]);
         for _ in 0..ns {
             let s = h.sample(wi, &mut rng);
-            if s.weight.x > 0.0 {
+            // Blue channel: gold's Fresnel varies most there (0.26 to 1).
+            if s.weight.z > 0.0 {
                 assert!(s.pdf > 0.0, "pdf 0 where sample goes: {:?}", s);
                 let b = to_bin(s.wo);
-                let w = s.weight.x as f64;
+                let w = s.weight.z as f64;
                 o1[b] += w;
                 o2[b] += w * w;
             }
@@ -505,7 +516,7 @@ fn heitz_sample_matches_eval_chi2() {
                 if wo.z == 0.0 {
                     continue;
                 }
-                let v = h.eval(wi, wo, &mut rng).x as f64 * area;
+                let v = h.eval(wi, wo, &mut rng).z as f64 * area;
                 s1 += v;
                 s2 += v * v;
             }
@@ -563,7 +574,7 @@ fn heitz_stability_sweep() {
         msbsdf::FacetKind::Dielectric,
         msbsdf::FacetKind::Diffuse,
     ];
-    for i in 0..3000 {
+    for i in 0..20000 {
         let ndf = if i % 2 == 0 {
             NdfId::Ggx
         } else {
