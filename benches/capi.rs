@@ -89,8 +89,8 @@ fn main() {
         .map(|_| {
             // SAFETY: rng is a valid local.
             let mut u = || unsafe { msbsdf_rng_next_float(&mut rng) };
-            let (a, b) = (u() * 6.28, u() * 0.95);
-            let (c, d) = (u() * 6.28, u() * 2.0 - 1.0);
+            let (a, b) = (u() * std::f32::consts::TAU, u() * 0.95);
+            let (c, d) = (u() * std::f32::consts::TAU, u() * 2.0 - 1.0);
             let wi = msbsdf_vec3 {
                 x: b.sqrt() * a.cos(),
                 y: b.sqrt() * a.sin(),

@@ -76,6 +76,8 @@ fn orient(wi: Vec3, wo: Vec3, eta: f32) -> (Vec3, Vec3, f32, bool) {
 /// be a refraction through an upward facet.
 #[inline]
 fn refraction_half(wi: Vec3, wo: Vec3, eta: f32) -> Option<(Vec3, f32, f32, f32)> {
+    // In f64: wi.h + eta wo.h cancels near grazing refraction.
+    let (wi, wo, eta) = (wi.as_dvec3(), wo.as_dvec3(), eta as f64);
     let h = -(wi + eta * wo);
     let len2 = h.length_squared();
     if len2 < 1e-12 || !len2.is_finite() {
@@ -97,7 +99,28 @@ fn refraction_half(wi: Vec3, wo: Vec3, eta: f32) -> Option<(Vec3, f32, f32, f32)
     }
     // Jacobian |d omega_h / d omega_o| = eta^2 |wo.h| / (wi.h + eta wo.h)^2.
     let jacobian = eta * eta * (-co) / denom2;
-    Some((h, ci, co, jacobian))
+    Some((h.as_vec3(), ci as f32, co as f32, jacobian as f32))
+}
+
+/// Fresnel reflectance of a refraction pair (`ci` on the incident side with
+/// relative index `eta`, `co` on the other), computed from the optically
+/// thinner side, where its slope is finite: the same value from both
+/// directions, so transmission stays reciprocal near the critical angle.
+#[inline]
+fn fresnel_transmission_pair(ci: f32, co: f32, eta: f32) -> f32 {
+    if eta >= 1.0 {
+        fresnel::dielectric(ci, eta)
+    } else {
+        fresnel::dielectric(co.abs(), 1.0 / eta)
+    }
+}
+
+/// `wi.h` (= `wo.h` for a reflection) computed symmetrically in `wi` and
+/// `wo`, so that a Fresnel factor near total internal reflection, where its
+/// slope is infinite, does not amplify f32 rounding into a reciprocity error.
+#[inline]
+fn sym_cos(wi: Vec3, wo: Vec3, h: Vec3) -> f32 {
+    0.5 * (wi.dot(h) + wo.dot(h))
 }
 
 impl Single {
@@ -142,14 +165,16 @@ impl ScatterModel for Single {
                 let (wi, wo, eta, _) = orient(wi, wo, eta);
                 if wo.z > 0.0 {
                     match self.reflection(wi, wo) {
-                        Some((h, v)) => Vec3::splat(fresnel::dielectric(wi.dot(h), eta) * v),
+                        Some((h, v)) => {
+                            Vec3::splat(fresnel::dielectric(sym_cos(wi, wo, h), eta) * v)
+                        }
                         None => Vec3::ZERO,
                     }
                 } else {
-                    let Some((h, ci, _co, jac)) = refraction_half(wi, wo, eta) else {
+                    let Some((h, ci, co, jac)) = refraction_half(wi, wo, eta) else {
                         return Vec3::ZERO;
                     };
-                    let f = fresnel::dielectric(ci, eta);
+                    let f = fresnel_transmission_pair(ci, co, eta);
                     let v =
                         (1.0 - f) * self.ndf.d(h) * self.g2_transmission(wi, wo) * ci * jac / wi.z;
                     Vec3::splat(v)
@@ -243,15 +268,15 @@ impl ScatterModel for Single {
                 return 0.0;
             }
             let f = if dielectric {
-                fresnel::dielectric(ci, eta)
+                fresnel::dielectric(sym_cos(wi, wo, h), eta)
             } else {
                 1.0
             };
             f * self.ndf.d_visible(wi, h) / (4.0 * ci)
         } else if dielectric {
             match refraction_half(wi, wo, eta) {
-                Some((h, ci, _, jac)) => {
-                    (1.0 - fresnel::dielectric(ci, eta)) * self.ndf.d_visible(wi, h) * jac
+                Some((h, ci, co, jac)) => {
+                    (1.0 - fresnel_transmission_pair(ci, co, eta)) * self.ndf.d_visible(wi, h) * jac
                 }
                 None => 0.0,
             }
