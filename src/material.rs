@@ -7,6 +7,7 @@ use crate::frame::is_valid_direction;
 use crate::multiple::compensation::{self, Compensated};
 use crate::multiple::heitz::Heitz;
 use crate::multiple::null_scattering::{self, NullNdf, NullNdfKind, NullScattering};
+use crate::multiple::position_free::PositionFree;
 use crate::ndf::{Ndf, NdfKind};
 use crate::rng::Rng;
 use crate::single::{G2Form, Single};
@@ -143,6 +144,7 @@ macro_rules! dispatch {
     ($imp:expr, $m:ident => $body:expr) => {
         match $imp {
             ModelImpl::Single($m) => $body,
+            ModelImpl::PositionFree($m) => $body,
             ModelImpl::Compensated($m) => $body,
             ModelImpl::Heitz($m) => $body,
             ModelImpl::NullScattering($m) => $body,
@@ -152,6 +154,7 @@ macro_rules! dispatch {
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum ModelImpl {
+    PositionFree(PositionFree),
     Single(Single),
     NullScattering(NullScattering),
     Compensated(Compensated),
@@ -290,6 +293,19 @@ impl Material {
                 );
                 ModelImpl::Heitz(Heitz::new(ndf, facet, d.max_bounces))
             }
+            Model::PositionFree => {
+                let kind = ndf_kind.ok_or(Error::Unsupported)?;
+                if matches!(facet, Facet::Diffuse { .. }) {
+                    return Err(Error::Unsupported);
+                }
+                let ndf = Ndf::with_shape(
+                    kind,
+                    d.alpha_x.max(MIN_ALPHA),
+                    d.alpha_y.max(MIN_ALPHA),
+                    d.shape,
+                );
+                ModelImpl::PositionFree(PositionFree::new(ndf, facet, d.estimator, d.max_bounces))
+            }
             _ => return Err(Error::Unsupported),
         };
         Ok(Material { imp, desc: d })
@@ -306,6 +322,7 @@ impl Material {
             ModelImpl::Single(_) | ModelImpl::Compensated(_) => false,
             ModelImpl::NullScattering(_) => true,
             ModelImpl::Heitz(_) => true,
+            ModelImpl::PositionFree(_) => true,
         }
     }
 
