@@ -624,3 +624,36 @@ fn single_model_with_student_t_shape_2_equals_ggx() {
         .is_err()
     );
 }
+
+/// The walk models take the shape: HEITZ_RANDOM_WALK over Student-T (its
+/// up-welling visible normals through the exact sampler) conserves energy
+/// with F = 1 facets, and so does POSITION_FREE (no path is lost to a
+/// failed visible-normal sample).
+#[test]
+fn walk_models_accept_student_t() {
+    let mut rng = Rng::new(4, 4);
+    for (model, tol) in [
+        (Model::HeitzRandomWalk, 0.005),
+        (Model::PositionFree, 0.005),
+    ] {
+        let m = Material::new(&MaterialDesc {
+            model,
+            ndf: NdfId::StudentT,
+            shape: 3.0,
+            alpha_x: 0.8,
+            alpha_y: 0.8,
+            ..MaterialDesc::default()
+        })
+        .unwrap();
+        for theta in [10.0, 70.0] {
+            let wi = dir_deg(theta);
+            let (a, e) =
+                mean_and_error((0..20_000).map(|_| m.sample(wi, &mut rng).weight.x as f64));
+            println!("{model:?} Student-T 3, alpha 0.8, theta {theta}: albedo {a:.4} +- {e:.4}");
+            assert!(
+                a.is_finite() && (a - 1.0).abs() < tol + 4.0 * e,
+                "{model:?} theta {theta}: {a}"
+            );
+        }
+    }
+}
