@@ -57,10 +57,11 @@ fn quadrature_cross_section_equals_closed_forms() {
     for (kind, nk) in [
         (NullNdfKind::Ggx, NdfKind::Ggx),
         (NullNdfKind::Beckmann, NdfKind::Beckmann),
+        (NullNdfKind::StudentT, NdfKind::StudentT),
     ] {
         for alpha in [0.1f32, 0.4, 1.0, 4.0] {
-            let ndf = NullNdf::new(kind, alpha, alpha, 2.0).unwrap();
-            let closed = Ndf::new(nk, alpha, alpha);
+            let ndf = NullNdf::new(kind, alpha, alpha, 3.0).unwrap();
+            let closed = Ndf::with_shape(nk, alpha, alpha, 3.0);
             let mut worst = 0.0f64;
             for i in 0..=60 {
                 let u = -0.999 + 1.998 * i as f64 / 60.0;
