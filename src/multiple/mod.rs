@@ -6,4 +6,5 @@ pub mod compensation;
 pub mod compensation_tables;
 pub mod heitz;
 pub mod invariance;
+pub mod null_scattering;
 pub mod position_free;
