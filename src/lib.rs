@@ -40,6 +40,7 @@ pub mod frame;
 pub mod fresnel;
 pub mod material;
 pub mod math;
+pub mod multiple;
 pub mod ndf;
 pub mod rng;
 pub mod single;

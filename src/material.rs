@@ -4,6 +4,7 @@
 use crate::bsdf::{Sample, ScatterModel};
 use crate::facet::Facet;
 use crate::frame::is_valid_direction;
+use crate::multiple::vgroove::{VGroove, dist::Family};
 use crate::ndf::{Ndf, NdfKind};
 use crate::rng::Rng;
 use crate::single::{G2Form, Single};
@@ -138,6 +139,8 @@ impl Default for MaterialDesc {
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum ModelImpl {
     Single(Single),
+    VGroove(VGroove),
+    VGrooveNonsymmetric(VGroove),
 }
 
 /// A validated, immutable material. `Copy`, heap-free, `Send + Sync`: any
@@ -209,6 +212,39 @@ impl Material {
                 let ndf = Ndf::new(kind, d.alpha_x.max(MIN_ALPHA), d.alpha_y.max(MIN_ALPHA));
                 ModelImpl::Single(Single::new(ndf, facet, G2Form::HeightCorrelated))
             }
+            Model::VGroove | Model::VGrooveNonsymmetric => {
+                // seed 002: conductor facets; Beckmann, GGX and Phong NDFs.
+                let Facet::Conductor { eta, k } = facet else {
+                    return Err(Error::Unsupported);
+                };
+                let family = match d.ndf {
+                    NdfId::Beckmann => Family::Beckmann,
+                    NdfId::Ggx => Family::Ggx,
+                    NdfId::Phong => {
+                        // Phong exponent 2 / alpha^2 - 2 must be >= 0.
+                        if d.alpha_x > 1.0 || d.alpha_y > 1.0 {
+                            return Err(Error::InvalidArgument);
+                        }
+                        Family::Phong
+                    }
+                    _ => return Err(Error::Unsupported),
+                };
+                let symmetric = d.model == Model::VGroove;
+                let m = VGroove::new(
+                    family,
+                    d.alpha_x.max(MIN_ALPHA),
+                    d.alpha_y.max(MIN_ALPHA),
+                    eta,
+                    k,
+                    d.max_bounces,
+                    symmetric,
+                );
+                if symmetric {
+                    ModelImpl::VGroove(m)
+                } else {
+                    ModelImpl::VGrooveNonsymmetric(m)
+                }
+            }
             _ => return Err(Error::Unsupported),
         };
         Ok(Material { imp, desc: d })
@@ -223,6 +259,7 @@ impl Material {
     pub fn is_stochastic(&self) -> bool {
         match self.imp {
             ModelImpl::Single(_) => false,
+            ModelImpl::VGroove(_) | ModelImpl::VGrooveNonsymmetric(_) => false,
         }
     }
 
@@ -234,6 +271,7 @@ impl Material {
         };
         let v = match &self.imp {
             ModelImpl::Single(m) => m.eval(wi, wo, rng),
+            ModelImpl::VGroove(m) | ModelImpl::VGrooveNonsymmetric(m) => m.eval(wi, wo, rng),
         };
         finite_or_zero(v)
     }
@@ -249,6 +287,7 @@ impl Material {
         }
         let s = match &self.imp {
             ModelImpl::Single(m) => m.sample(wi, rng),
+            ModelImpl::VGroove(m) | ModelImpl::VGrooveNonsymmetric(m) => m.sample(wi, rng),
         };
         if !(s.weight.is_finite() && s.pdf.is_finite() && s.wo.is_finite())
             || s.weight.min_element() < 0.0
@@ -266,6 +305,7 @@ impl Material {
         };
         let p = match &self.imp {
             ModelImpl::Single(m) => m.pdf(wi, wo),
+            ModelImpl::VGroove(m) | ModelImpl::VGrooveNonsymmetric(m) => m.pdf(wi, wo),
         };
         if p.is_finite() && p > 0.0 { p } else { 0.0 }
     }

@@ -1,0 +1,3 @@
+//! Multiple-scattering models, one module per method.
+
+pub mod vgroove;
