@@ -377,7 +377,7 @@ impl VGroove {
             let m_hi = ((2.0 * kf * hi - base) / (2.0 * PI)).floor() as i64;
             for m in m_lo..=m_hi {
                 let a = (base + 2.0 * PI * m as f64) / (2.0 * kf);
-                if !(a > 0.0 && a < FRAC_PI_2) {
+                if !(a > 0.0 && a < FRAC_PI_2) || !symmetric_count_possible(ti, a, kf) {
                     continue;
                 }
                 let Some(hit) = Hit::new(ti, a, a) else {
@@ -521,6 +521,29 @@ struct Ctx {
     inv_sin_h: f64,
     sigma: Option<f64>,
     want: Want,
+}
+
+/// Exact test (up to rounding; no trigonometry) that `k` reflections happen
+/// for some lit ray of the symmetric groove `a` lit from `ti`: the count
+/// `floor((psi_a - asin f) / theta_v) + 1` over `f` in `(f_lo, f_a)`, with
+/// `asin f_a = min(psi_a, pi - psi_a)` and `asin f_lo = max(0, pi - psi_b)`
+/// (seed 002, eq. 4 and Appendix B).
+#[inline]
+fn symmetric_count_possible(ti: f64, a: f64, kf: f64) -> bool {
+    let psi_a = a - ti + FRAC_PI_2;
+    let tv = PI - 2.0 * a;
+    if !(psi_a > 0.0 && psi_a < PI && tv > 0.0) {
+        return false;
+    }
+    let psi_b = psi_a + tv;
+    let hi_ang = psi_a.min(PI - psi_a);
+    let lo_ang = (PI - psi_b).max(0.0);
+    if lo_ang >= hi_ang + 1e-12 {
+        return false; // the other wall shadows the whole facet
+    }
+    let x_lo = (psi_a - hi_ang) / tv;
+    let x_hi = (psi_a - lo_ang) / tv;
+    kf - 1.0 <= x_hi + 1e-9 && kf >= x_lo - 1e-9
 }
 
 /// The `theta_r` interval of a line `a = a0 + a1 b` inside `a, b` in
