@@ -56,8 +56,8 @@ fn main() {
                 black_box(acc);
                 let te = t.elapsed().as_nanos() as f64 / reps as f64;
                 let t = Instant::now();
-                for j in 0..reps {
-                    acc += m.sample(wi[j], &mut rng).weight;
+                for w in &wi[..reps] {
+                    acc += m.sample(*w, &mut rng).weight;
                 }
                 black_box(acc);
                 let ts = t.elapsed().as_nanos() as f64 / reps as f64;

@@ -14,6 +14,9 @@
 //! With this mapping Table 2 is reproduced exactly (see
 //! [`max_bounces_at_percentile`]).
 
+// `!(x > 0.0)` is used on purpose: it is also true for NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use crate::ndf::{Ndf, NdfKind};
 use glam::{DVec3, Vec3};
 use std::f64::consts::{FRAC_PI_2, PI};

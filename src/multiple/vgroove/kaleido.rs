@@ -41,6 +41,9 @@
 //! an end of the range, so `T_m = min(t_0, t_1, t_{m-1}, t_m)`: `O(1)` per
 //! `k`.
 
+// `!(x > 0.0)` is used on purpose: it is also true for NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use std::f64::consts::{FRAC_PI_2, PI};
 
 /// Rays hitting one wall of one groove first, for one in-plane incident angle.
@@ -108,7 +111,11 @@ impl Hit {
         if psi <= 0.0 {
             return 0.0;
         }
-        let l = if j % 2 == 0 { self.la } else { self.lb };
+        let l = if j.is_multiple_of(2) {
+            self.la
+        } else {
+            self.lb
+        };
         l * psi.sin()
     }
 

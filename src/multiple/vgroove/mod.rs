@@ -91,6 +91,9 @@
 //! `k` Fresnel evaluations per solution; the nonsymmetric eval multiplies the
 //! solution count by the quadrature nodes.
 
+// `!(x > 0.0)` is used on purpose: it is also true for NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod dist;
 pub mod kaleido;
 
@@ -377,7 +380,7 @@ impl VGroove {
             let m_hi = ((2.0 * kf * hi - base) / (2.0 * PI)).floor() as i64;
             for m in m_lo..=m_hi {
                 let a = (base + 2.0 * PI * m as f64) / (2.0 * kf);
-                if !(a > 0.0 && a < FRAC_PI_2) || !symmetric_count_possible(ti, a, kf) {
+                if !(a > 0.0 && a < FRAC_PI_2 && symmetric_count_possible(ti, a, kf)) {
                     continue;
                 }
                 let Some(hit) = Hit::new(ti, a, a) else {
@@ -432,7 +435,7 @@ impl VGroove {
                     for (x, w) in GL8_X.iter().zip(GL8_W.iter()) {
                         for b in [mid - half * x, mid + half * x] {
                             let a = a0 + a1 * b;
-                            if !(a >= 0.0 && a < FRAC_PI_2) {
+                            if !(0.0..FRAC_PI_2).contains(&a) {
                                 continue;
                             }
                             let Some(hit) = Hit::new(ti, a, b) else {
