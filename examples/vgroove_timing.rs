@@ -18,6 +18,8 @@ fn dirs(n: usize, seed: u64) -> Vec<Vec3> {
 }
 
 fn main() {
+    // Optional filter: a substring of the printed material name.
+    let filter = std::env::args().nth(1).unwrap_or_default();
     let n = 200_000;
     let wi = dirs(n, 1);
     let wo = dirs(n, 2);
@@ -41,6 +43,10 @@ fn main() {
                     k: Vec3::new(3.983, 2.385, 1.603),
                     ..MaterialDesc::default()
                 };
+                let name = format!("{model:?} {ndf:?} a={alpha}");
+                if model != Model::Single && !name.contains(&filter) {
+                    continue;
+                }
                 let m = Material::new(&desc).unwrap();
                 let reps = if model == Model::VGrooveNonsymmetric {
                     n / 20

@@ -127,11 +127,7 @@ impl GrooveNdf {
     /// [`GrooveNdf::sigma`].
     #[inline]
     pub fn first_pdf(&self, i: DVec3, s: DVec3, sigma: Option<f64>) -> f64 {
-        match sigma {
-            Some(sg) if sg > 0.0 => i.dot(s).max(0.0) * self.d(s) / sg,
-            Some(_) => 0.0,
-            None => self.d(s) * s.z.max(0.0),
-        }
+        first_pdf_from(i.dot(s), s.z, self.d(s), sigma)
     }
 
     /// Samples the facet hit first: visible normals (Heitz and d'Eon 2014)
@@ -227,6 +223,16 @@ impl GrooveNdf {
                 (w * eta.tan()).atan()
             }
         }
+    }
+}
+
+/// [`GrooveNdf::first_pdf`] from `i.s`, `s.z` and `D(s)`.
+#[inline]
+pub fn first_pdf_from(is: f64, sz: f64, d: f64, sigma: Option<f64>) -> f64 {
+    match sigma {
+        Some(sg) if sg > 0.0 => is.max(0.0) * d / sg,
+        Some(_) => 0.0,
+        None => d * sz.max(0.0),
     }
 }
 

@@ -99,10 +99,9 @@ pub mod kaleido;
 
 use crate::bsdf::{Sample, ScatterModel};
 use crate::frame::flip_z;
-use crate::fresnel;
 use crate::rng::Rng;
 use dist::{Family, GrooveNdf};
-use glam::{DVec3, Vec3};
+use glam::{DVec3, Vec3, Vec3A};
 use kaleido::Hit;
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -132,8 +131,7 @@ const GL8_W: [f64; 4] = [
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct VGroove {
     ndf: GrooveNdf,
-    eta: Vec3,
-    k: Vec3,
+    conductor: Conductor,
     /// `eta = 0, k = 1`: every reflection has F = 1 (skips Fresnel).
     mirror: bool,
     n_max: u32,
@@ -174,8 +172,7 @@ impl VGroove {
         }
         VGroove {
             ndf,
-            eta,
-            k,
+            conductor: Conductor::new(eta, k),
             mirror: eta == Vec3::ZERO && k == Vec3::ONE,
             n_max,
             symmetric,
@@ -218,14 +215,14 @@ impl VGroove {
         if self.mirror {
             return DVec3::ONE;
         }
-        let mut prod = Vec3::ONE;
+        let mut prod = Vec3A::ONE;
         // sin(psi_a - j theta_v) by the Chebyshev recurrence.
         let two_c = 2.0 * hit.theta_v.cos();
         let mut s_prev = hit.sin_psi(0);
         let mut s_cur = hit.sin_psi(1);
-        prod *= fresnel::conductor((rho * s_prev) as f32, self.eta, self.k);
+        prod *= self.conductor.reflectance((rho * s_prev) as f32);
         for _ in 1..k {
-            prod *= fresnel::conductor((rho * s_cur) as f32, self.eta, self.k);
+            prod *= self.conductor.reflectance((rho * s_cur) as f32);
             let next = two_c * s_cur - s_prev;
             s_prev = s_cur;
             s_cur = next;
@@ -341,12 +338,13 @@ impl VGroove {
         } else {
             sa * ctx.inv_sin_h / jac_k
         } / (4.0 * ctx.oh);
+        let is = ctx.i.dot(s);
+        let d = self.ndf.d(s);
         let mut f = DVec3::ZERO;
         let mut p = 0.0;
         if ctx.want.f {
-            let is = ctx.i.dot(s);
             // seed 002, eq. (14) / (23) times |o.n|.
-            let v = is * self.ndf.d(s) * g * jac * partner / ctx.i.z;
+            let v = is * d * g * jac * partner / ctx.i.z;
             if v > 0.0 {
                 f = self.fresnel_product(hit, k, ctx.rho) * v;
             }
@@ -354,41 +352,62 @@ impl VGroove {
         if ctx.want.pdf {
             let lit = hit.lit();
             if lit > 0.0 {
-                p = self.ndf.first_pdf(ctx.i, s, ctx.sigma) * (g / lit) * jac * partner;
+                p = dist::first_pdf_from(is, s.z, d, ctx.sigma) * (g / lit) * jac * partner;
             }
         }
         (f, p)
     }
 
-    /// Symmetric grooves: the two facet solutions of eq. (5) per count.
+    /// Symmetric grooves: the facet solutions of eq. (5) per count.
+    ///
+    /// Writing the first facet as `a = pi/2 - delta`, the solutions of eq.
+    /// (5) are `2 k delta = X_j = pi j - base` with `j = k - 2m` of the
+    /// parity of `k` (`base = theta_i + theta_o` for odd `k`,
+    /// `theta_i - theta_o - pi` for even `k`), and `k` reflections are
+    /// possible (eq. 4) only for `L_k <= X_j <= U_k`,
+    /// `L_k = (pi/2 - theta_i) 2k / (2k + 1)` increasing and
+    /// `U_k = (pi - theta_i) 2k / (2k - 1)` decreasing in `k`. So a handful
+    /// of `j` serve every `k`, and each `j` serves a prefix of the counts:
+    /// the loop needs no division per count.
     fn sum_symmetric(&self, ctx: &Ctx) -> (DVec3, f64) {
         let (k0, k1) = self.k_range(ctx.want);
         let (ti, to) = (ctx.ti, ctx.to);
+        let lim_lo = FRAC_PI_2 - ti;
+        let lim_hi = PI - ti;
         let mut f = DVec3::ZERO;
         let mut p = 0.0;
-        for k in k0..=k1 {
-            let kf = k as f64;
-            let base = if k % 2 == 1 { ti + to } else { ti - to - PI };
-            // Window where k reflections are possible (eq. 4 with the first
-            // facet's count ranging over floor((psi_a - asin f) / theta_v) + 1).
-            let lo = (((kf - 1.0) * PI - FRAC_PI_2 + ti) / (2.0 * kf - 1.0)).max(0.0) - 1e-9;
-            let hi = ((kf * PI + ti) / (2.0 * kf + 1.0)).min(FRAC_PI_2) + 1e-9;
-            if lo > hi {
-                continue;
-            }
-            let m_lo = ((2.0 * kf * lo - base) / (2.0 * PI)).ceil() as i64;
-            let m_hi = ((2.0 * kf * hi - base) / (2.0 * PI)).floor() as i64;
-            for m in m_lo..=m_hi {
-                let a = (base + 2.0 * PI * m as f64) / (2.0 * kf);
-                if !(a > 0.0 && a < FRAC_PI_2 && symmetric_count_possible(ti, a, kf)) {
+        for odd in [true, false] {
+            let base = if odd { ti + to } else { ti - to - PI };
+            // Over all k, X lies in [L_1, U_1] (odd) or [L_2, U_2] (even),
+            // inside [lim_lo / 2, 2 lim_hi].
+            let j_lo = ((base + 0.5 * lim_lo) / PI).ceil_i64();
+            let j_hi = ((base + 2.0 * lim_hi) / PI).floor_i64();
+            for j in j_lo..=j_hi {
+                if (j.rem_euclid(2) == 1) != odd {
                     continue;
                 }
-                let Some(hit) = Hit::new(ti, a, a) else {
+                let x = PI * j as f64 - base;
+                if !(x > 0.0) {
                     continue;
-                };
-                let (df, dp) = self.contribution(ctx, &hit, a, k, kf, 1.0);
-                f += df;
-                p += dp;
+                }
+                let mut k = if (k0 % 2 == 1) == odd { k0 } else { k0 + 1 };
+                while k <= k1 {
+                    let kf = k as f64;
+                    let tk = 2.0 * kf;
+                    let eps = 1e-9 * tk;
+                    if x * (tk + 1.0) < lim_lo * tk - eps || x * (tk - 1.0) > lim_hi * tk + eps {
+                        break; // L_k only grows and U_k only shrinks with k
+                    }
+                    let a = FRAC_PI_2 - x / tk;
+                    if a > 0.0 && a < FRAC_PI_2 && symmetric_count_possible(ti, a, kf) {
+                        if let Some(hit) = Hit::new(ti, a, a) {
+                            let (df, dp) = self.contribution(ctx, &hit, a, k, kf, 1.0);
+                            f += df;
+                            p += dp;
+                        }
+                    }
+                    k += 2;
+                }
             }
         }
         (f, p)
@@ -421,8 +440,8 @@ impl VGroove {
             } else {
                 ((PI - PI / (kf - 1.0)).max(0.0), PI)
             };
-            let m_lo = ((den * (lo - 1e-9) - base) / (2.0 * PI)).ceil() as i64;
-            let m_hi = ((den * (hi + 1e-9) - base) / (2.0 * PI)).floor() as i64;
+            let m_lo = ((den * (lo - 1e-9) - base) / (2.0 * PI)).ceil_i64();
+            let m_hi = ((den * (hi + 1e-9) - base) / (2.0 * PI)).floor_i64();
             let jac_k = kaleido::dtheta_h(k, false);
             for m in m_lo..=m_hi {
                 let a0 = (base + 2.0 * PI * m as f64) / den;
@@ -513,6 +532,73 @@ impl VGroove {
     }
 }
 
+/// Exact unpolarised reflectance of a conductor with complex index
+/// `eta + i k` (incident medium of index 1) for the three channels at once:
+/// the same function as [`crate::fresnel::conductor`] in the real form
+/// (`a^2 + b^2 = |n^2 - sin^2|`, `a = Re sqrt(n^2 - sin^2)`, then `R_s` and
+/// `R_p = R_s (cos^2 (a^2 + b^2) - 2 a cos sin^2 + sin^4) / (... + ...)`),
+/// evaluated in SIMD lanes because eval applies it once per reflection
+/// (seed 002, eq. 11). Tested against `fresnel::conductor` below.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Conductor {
+    /// `eta^2 - k^2`.
+    e2mk2: Vec3A,
+    /// `4 eta^2 k^2`.
+    four_e2k2: Vec3A,
+}
+
+impl Conductor {
+    fn new(eta: Vec3, k: Vec3) -> Self {
+        let (e, k) = (Vec3A::from(eta), Vec3A::from(k));
+        Conductor {
+            e2mk2: e * e - k * k,
+            four_e2k2: 4.0 * e * e * k * k,
+        }
+    }
+
+    #[inline]
+    fn reflectance(&self, cos_i: f32) -> Vec3A {
+        let c = cos_i.clamp(0.0, 1.0);
+        let c2 = c * c;
+        let s2 = 1.0 - c2;
+        let t0 = self.e2mk2 - Vec3A::splat(s2);
+        let q = t0 * t0 + self.four_e2k2;
+        let a2b2 = Vec3A::new(q.x.sqrt(), q.y.sqrt(), q.z.sqrt());
+        let t1 = a2b2 + Vec3A::splat(c2);
+        let h = (0.5 * (a2b2 + t0)).max(Vec3A::ZERO);
+        let a = Vec3A::new(h.x.sqrt(), h.y.sqrt(), h.z.sqrt());
+        let t2 = (2.0 * c) * a;
+        let rs = (t1 - t2) / (t1 + t2);
+        let t3 = c2 * a2b2 + Vec3A::splat(s2 * s2);
+        let t4 = t2 * s2;
+        let rp = rs * (t3 - t4) / (t3 + t4);
+        let f = 0.5 * (rs + rp);
+        // 0/0 only for an index-matched facet at grazing incidence, where F -> 1.
+        let f = Vec3A::select(f.cmpeq(f), f, Vec3A::ONE);
+        f.clamp(Vec3A::ZERO, Vec3A::ONE)
+    }
+}
+
+/// `ceil` and `floor` to `i64` without a libm call (the baseline x86-64
+/// target has no rounding instruction); arguments are small.
+trait RoundI64 {
+    fn ceil_i64(self) -> i64;
+    fn floor_i64(self) -> i64;
+}
+
+impl RoundI64 for f64 {
+    #[inline]
+    fn floor_i64(self) -> i64 {
+        let t = self as i64; // truncates towards zero
+        if (t as f64) > self { t - 1 } else { t }
+    }
+    #[inline]
+    fn ceil_i64(self) -> i64 {
+        let t = self as i64;
+        if (t as f64) < self { t + 1 } else { t }
+    }
+}
+
 /// Per-orientation evaluation context.
 struct Ctx {
     i: DVec3,
@@ -544,9 +630,9 @@ fn symmetric_count_possible(ti: f64, a: f64, kf: f64) -> bool {
     if lo_ang >= hi_ang + 1e-12 {
         return false; // the other wall shadows the whole facet
     }
-    let x_lo = (psi_a - hi_ang) / tv;
-    let x_hi = (psi_a - lo_ang) / tv;
-    kf - 1.0 <= x_hi + 1e-9 && kf >= x_lo - 1e-9
+    // k - 1 <= (psi_a - lo_ang) / tv and k >= (psi_a - hi_ang) / tv.
+    let eps = 1e-9 * kf;
+    (kf - 1.0) * tv <= psi_a - lo_ang + eps && kf * tv >= psi_a - hi_ang - eps
 }
 
 /// The `theta_r` interval of a line `a = a0 + a1 b` inside `a, b` in
@@ -597,5 +683,35 @@ impl ScatterModel for VGroove {
             only_k: 0,
         };
         self.eval_pdf(wi, wo, want).1
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn simd_conductor_equals_fresnel_conductor() {
+        let metals = [
+            (
+                Vec3::new(0.143, 0.374, 1.442),
+                Vec3::new(3.983, 2.385, 1.603),
+            ),
+            (Vec3::new(1.5, 0.2, 3.0), Vec3::new(0.0, 5.0, 0.1)),
+            (Vec3::ZERO, Vec3::ONE),
+            (Vec3::splat(1.0), Vec3::splat(0.001)),
+        ];
+        for (eta, k) in metals {
+            let c = Conductor::new(eta, k);
+            for j in 0..=1000 {
+                let cos = j as f32 / 1000.0;
+                let a = Vec3::from(c.reflectance(cos));
+                let b = crate::fresnel::conductor(cos, eta, k);
+                assert!(
+                    (a - b).abs().max_element() < 2e-5,
+                    "{eta} {k} cos {cos}: {a} vs {b}"
+                );
+            }
+        }
     }
 }
