@@ -183,6 +183,23 @@ impl GrooveNdf {
     /// `Z(e) = sqrt(pi) Gamma((e + 1) / 2) / (4 Gamma((e + 4) / 2))`.
     #[inline]
     pub fn partner_pdf(&self, theta: f64, shape: f64) -> f64 {
+        self.partner_pdf_normed(theta, shape, self.partner_norm(shape))
+    }
+
+    /// The normalising factor [`GrooveNdf::partner_pdf_normed`] needs (one
+    /// per groove plane): `1 / Z(e)` for Phong, unused otherwise.
+    #[inline]
+    pub fn partner_norm(&self, shape: f64) -> f64 {
+        match self.family {
+            Family::Phong => 1.0 / phong_z(shape),
+            _ => 1.0,
+        }
+    }
+
+    /// [`GrooveNdf::partner_pdf`] with the factor of
+    /// [`GrooveNdf::partner_norm`] precomputed.
+    #[inline]
+    pub fn partner_pdf_normed(&self, theta: f64, shape: f64, norm: f64) -> f64 {
         if !(0.0..FRAC_PI_2).contains(&theta) {
             return 0.0;
         }
@@ -200,7 +217,7 @@ impl GrooveNdf {
             }
             Family::Phong => {
                 let s = theta.sin();
-                c.powf(shape) * s * s / phong_z(shape)
+                c.powf(shape) * s * s * norm
             }
         }
     }

@@ -62,6 +62,12 @@ pub struct Hit {
     pub f_a: f64,
     /// Offset below which rays hit the other wall first.
     pub f_lo: f64,
+    /// `sin psi_a`.
+    pub sin_psi_a: f64,
+    /// `sin psi_1 = sin(psi_a - theta_v)`.
+    pub sin_psi1: f64,
+    /// `cos theta_v`.
+    pub cos_tv: f64,
 }
 
 impl Hit {
@@ -70,6 +76,27 @@ impl Hit {
     /// groove is degenerate.
     #[inline]
     pub fn new(ti: f64, a: f64, b: f64) -> Option<Hit> {
+        let (sti, cti) = ti.sin_cos();
+        let (sa, ca) = a.sin_cos();
+        let (sb, cb) = b.sin_cos();
+        Hit::with_trig(ti, sti, cti, a, sa, ca, b, sb, cb)
+    }
+
+    /// [`Hit::new`] from the sines and cosines of `ti`, `a` and `b` (no
+    /// trigonometric call: every other angle is a sum of these).
+    #[inline]
+    #[allow(clippy::too_many_arguments)]
+    pub fn with_trig(
+        ti: f64,
+        sti: f64,
+        cti: f64,
+        a: f64,
+        sa: f64,
+        ca: f64,
+        b: f64,
+        sb: f64,
+        cb: f64,
+    ) -> Option<Hit> {
         let psi_a = a - ti + FRAC_PI_2;
         if !(psi_a > 0.0 && psi_a < PI && a >= 0.0 && b >= 0.0) {
             return None;
@@ -78,7 +105,6 @@ impl Hit {
         if !(theta_v > 0.0) {
             return None;
         }
-        let (sa, sb) = (a.sin(), b.sin());
         let m = sa.max(sb);
         // Peaks at equal height: L_a sin a = L_b sin b (a flat groove has one
         // wall of length 1 and a vanishing other wall).
@@ -87,13 +113,20 @@ impl Hit {
         } else {
             (1.0, 0.0)
         };
-        let f_a = la * psi_a.sin();
+        // sin psi_a = cos(a - ti)
+        let sin_psi_a = ca * cti + sa * sti;
+        let f_a = la * sin_psi_a;
+        // psi_b = psi_a + theta_v = 3 pi/2 - ti - b
         let psi_b = psi_a + theta_v;
         let f_lo = if psi_b < PI {
-            (lb * psi_b.sin()).max(0.0)
+            (-lb * (cti * cb - sti * sb)).max(0.0)
         } else {
             0.0
         };
+        // psi_1 = psi_a - theta_v = 2a + b - ti - pi/2: sin = -cos(2a + b - ti)
+        let (c2a, s2a) = (ca * ca - sa * sa, 2.0 * sa * ca);
+        let (c2ab, s2ab) = (c2a * cb - s2a * sb, s2a * cb + c2a * sb);
+        let sin_psi1 = -(c2ab * cti + s2ab * sti);
         Some(Hit {
             psi_a,
             theta_v,
@@ -101,6 +134,9 @@ impl Hit {
             lb,
             f_a,
             f_lo,
+            sin_psi_a,
+            sin_psi1,
+            cos_tv: -(ca * cb - sa * sb),
         })
     }
 
@@ -219,7 +255,11 @@ impl Hit {
     /// direction.
     #[inline]
     pub fn sin_psi(&self, j: u32) -> f64 {
-        (self.psi_a - j as f64 * self.theta_v).sin()
+        match j {
+            0 => self.sin_psi_a,
+            1 => self.sin_psi1,
+            _ => (self.psi_a - j as f64 * self.theta_v).sin(),
+        }
     }
 }
 

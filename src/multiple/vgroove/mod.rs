@@ -217,7 +217,7 @@ impl VGroove {
         }
         let mut prod = Vec3A::ONE;
         // sin(psi_a - j theta_v) by the Chebyshev recurrence.
-        let two_c = 2.0 * hit.theta_v.cos();
+        let two_c = 2.0 * hit.cos_tv;
         let mut s_prev = hit.sin_psi(0);
         let mut s_cur = hit.sin_psi(1);
         prod *= self.conductor.reflectance((rho * s_prev) as f32);
@@ -272,6 +272,8 @@ impl VGroove {
             let ctx = Ctx {
                 i,
                 ex,
+                sti: ie / rho,
+                cti: i.z / rho,
                 ti,
                 to,
                 rho,
@@ -320,7 +322,7 @@ impl VGroove {
         &self,
         ctx: &Ctx,
         hit: &Hit,
-        a: f64,
+        (sa, ca): (f64, f64),
         k: u32,
         jac_k: f64,
         partner: f64,
@@ -329,7 +331,6 @@ impl VGroove {
         if !(g > 0.0) {
             return (DVec3::ZERO, 0.0);
         }
-        let (sa, ca) = a.sin_cos();
         let s = ctx.ex * sa + DVec3::new(0.0, 0.0, ca);
         // seed 002, eq. (13)/(30): |ds/do| = sin(theta_s) / (c_k sin(theta_h)) / (4 cos(theta_d));
         // for k = 1, s = h and the ratio is exactly 1 (eq. 25).
@@ -399,12 +400,16 @@ impl VGroove {
                         break; // L_k only grows and U_k only shrinks with k
                     }
                     let a = FRAC_PI_2 - x / tk;
-                    if a > 0.0 && a < FRAC_PI_2 && symmetric_count_possible(ti, a, kf) {
-                        if let Some(hit) = Hit::new(ti, a, a) {
-                            let (df, dp) = self.contribution(ctx, &hit, a, k, kf, 1.0);
-                            f += df;
-                            p += dp;
-                        }
+                    if a > 0.0
+                        && a < FRAC_PI_2
+                        && symmetric_count_possible(ti, a, kf)
+                        && let (sa, ca) = a.sin_cos()
+                        && let Some(hit) =
+                            Hit::with_trig(ti, ctx.sti, ctx.cti, a, sa, ca, a, sa, ca)
+                    {
+                        let (df, dp) = self.contribution(ctx, &hit, (sa, ca), k, kf, 1.0);
+                        f += df;
+                        p += dp;
                     }
                     k += 2;
                 }
@@ -418,6 +423,7 @@ impl VGroove {
         let (k0, k1) = self.k_range(ctx.want);
         let (ti, to) = (ctx.ti, ctx.to);
         let shape = self.ndf.plane_shape(ctx.ex.x, ctx.ex.y);
+        let norm = self.ndf.partner_norm(shape);
         let mut f = DVec3::ZERO;
         let mut p = 0.0;
         for k in k0..=k1 {
@@ -457,14 +463,21 @@ impl VGroove {
                             if !(0.0..FRAC_PI_2).contains(&a) {
                                 continue;
                             }
-                            let Some(hit) = Hit::new(ti, a, b) else {
+                            let (sa, ca) = a.sin_cos();
+                            let (sb, cb) = b.sin_cos();
+                            let Some(hit) =
+                                Hit::with_trig(ti, ctx.sti, ctx.cti, a, sa, ca, b, sb, cb)
+                            else {
                                 continue;
                             };
-                            let pb = self.ndf.partner_pdf(b, shape) * w * half;
+                            if !(hit.g(k) > 0.0) {
+                                continue;
+                            }
+                            let pb = self.ndf.partner_pdf_normed(b, shape, norm) * w * half;
                             if !(pb > 0.0) {
                                 continue;
                             }
-                            let (df, dp) = self.contribution(ctx, &hit, a, k, jac_k, pb);
+                            let (df, dp) = self.contribution(ctx, &hit, (sa, ca), k, jac_k, pb);
                             f += df;
                             p += dp;
                         }
@@ -603,6 +616,9 @@ impl RoundI64 for f64 {
 struct Ctx {
     i: DVec3,
     ex: DVec3,
+    /// `sin` and `cos` of `ti`.
+    sti: f64,
+    cti: f64,
     ti: f64,
     to: f64,
     rho: f64,
