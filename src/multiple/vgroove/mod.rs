@@ -316,18 +316,22 @@ impl VGroove {
         }
     }
 
-    /// Adds one solution's contribution.
+    /// One solution's contribution: the first facet at angle `a` (given by
+    /// its sine and cosine) lit by `hit`, `k` reflections with fraction `g`,
+    /// `jac_k = d theta_h / d a`, `partner` the `P(theta_r) d theta_r`
+    /// quadrature weight (1 for symmetric grooves).
     #[inline]
+    #[allow(clippy::too_many_arguments)]
     fn contribution(
         &self,
         ctx: &Ctx,
         hit: &Hit,
         (sa, ca): (f64, f64),
         k: u32,
+        g: f64,
         jac_k: f64,
         partner: f64,
     ) -> (DVec3, f64) {
-        let g = hit.g(k);
         if !(g > 0.0) {
             return (DVec3::ZERO, 0.0);
         }
@@ -407,7 +411,7 @@ impl VGroove {
                         && let Some(hit) =
                             Hit::with_trig(ti, ctx.sti, ctx.cti, a, sa, ca, a, sa, ca)
                     {
-                        let (df, dp) = self.contribution(ctx, &hit, (sa, ca), k, kf, 1.0);
+                        let (df, dp) = self.contribution(ctx, &hit, (sa, ca), k, hit.g(k), kf, 1.0);
                         f += df;
                         p += dp;
                     }
@@ -470,14 +474,15 @@ impl VGroove {
                             else {
                                 continue;
                             };
-                            if !(hit.g(k) > 0.0) {
+                            let g = hit.g(k);
+                            if !(g > 0.0) {
                                 continue;
                             }
                             let pb = self.ndf.partner_pdf_normed(b, shape, norm) * w * half;
                             if !(pb > 0.0) {
                                 continue;
                             }
-                            let (df, dp) = self.contribution(ctx, &hit, (sa, ca), k, jac_k, pb);
+                            let (df, dp) = self.contribution(ctx, &hit, (sa, ca), k, g, jac_k, pb);
                             f += df;
                             p += dp;
                         }
