@@ -377,7 +377,8 @@ fn furnace_vgroove_symmetric() {
 }
 
 /// The same for nonsymmetric grooves (coarser grid: eval integrates over
-/// theta_r). Measured within 0.1%.
+/// theta_r by 16-node quadrature). Measured within 0.13% (Beckmann/Phong
+/// 0.5 at 80 degrees: 1.0013, quadrature error of eval and of the grid).
 #[test]
 fn furnace_vgroove_nonsymmetric() {
     let mut cfg = Vec::new();

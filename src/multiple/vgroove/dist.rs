@@ -11,8 +11,9 @@
 //! `D(s) = sqrt((e_x + 2)(e_y + 2)) / (2 pi) cos^(e_x cos^2 phi + e_y sin^2 phi) theta`,
 //! whose normalisation is exact because
 //! `integral_0^{2 pi} dphi / (A cos^2 phi + B sin^2 phi) = 2 pi / sqrt(A B)`.
-//! With this mapping Table 2 is reproduced exactly (see
-//! [`max_bounces_at_percentile`]).
+//! The paper does not print its mapping; this one reproduces all nine Phong
+//! entries of Table 2 exactly (see [`max_bounces_at_percentile`]), and it
+//! makes Phong alpha 1 (e = 0, `D = 1 / pi`) identical to GGX alpha 1.
 
 // `!(x > 0.0)` is used on purpose: it is also true for NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
