@@ -21,7 +21,8 @@
 use crate::ndf::{Ndf, NdfKind};
 use glam::{DVec3, Vec3};
 use std::f64::consts::{FRAC_PI_2, PI};
-use std::sync::OnceLock;
+use std::sync::Once;
+use std::sync::atomic::{AtomicU32, Ordering};
 
 const FRAC_1_SQRT_PI: f64 = 0.564_189_583_547_756_3;
 
@@ -228,11 +229,11 @@ impl GrooveNdf {
     pub fn sample_partner(&self, shape: f64, u: f32) -> f64 {
         match self.family {
             Family::Beckmann => {
-                let eta = lookup(&tables().beckmann, u as f64);
+                let eta = lookup(BECKMANN.get(fill_beckmann), u as f64);
                 (shape * eta.tan()).atan()
             }
             Family::Ggx => {
-                let eta = lookup(&tables().ggx, u as f64);
+                let eta = lookup(GGX.get(fill_ggx), u as f64);
                 (shape * eta.tan()).atan()
             }
             Family::Phong => {
@@ -266,56 +267,77 @@ fn phong_z(e: f64) -> f64 {
 const TABLE_N: usize = 1024;
 /// Phong columns (w = sqrt(2 / (e + 2)) in `[0, 1]`).
 const PHONG_W: usize = 64;
+const STRIDE: usize = TABLE_N + 1;
 
-/// Inverse CDFs of `P(theta_r)` in the variable `eta = atan(tan theta / scale)`.
-struct Tables {
-    beckmann: Vec<f64>,
-    ggx: Vec<f64>,
-    /// `(PHONG_W + 1)` columns of `TABLE_N + 1` entries.
-    phong: Vec<f64>,
+/// An inverse-CDF table filled once, in place, on first use: a `Once` and
+/// `f32` bit patterns in atomics. No heap and no large stack temporaries,
+/// so building it inside `msbsdf_material_init` allocates nothing; after
+/// the first call, reading is an acquire load of the `Once` state plus
+/// relaxed loads (no lock).
+struct Table<const N: usize> {
+    once: Once,
+    data: [AtomicU32; N],
 }
 
-/// Built once, thread-safely, on first use (never in the hot path after that).
-fn tables() -> &'static Tables {
-    static T: OnceLock<Tables> = OnceLock::new();
-    T.get_or_init(|| {
-        // Beckmann in eta = atan t: CDF(t) = erf(t) - 2 t exp(-t^2) / sqrt(pi).
-        let beck = |eta: f64| {
-            let t = eta.tan();
-            if !t.is_finite() || t > 30.0 {
-                return 1.0;
-            }
-            crate::math::erf(t) - 2.0 * FRAC_1_SQRT_PI * t * (-t * t).exp()
-        };
-        // GGX in eta: density (4 / pi) sin^2 eta, CDF (2 eta - sin 2 eta) / pi.
-        let ggx = |eta: f64| (2.0 * eta - (2.0 * eta).sin()) / PI;
-        let beckmann = invert(beck);
-        let ggx = invert(ggx);
-        let mut phong = Vec::with_capacity((PHONG_W + 1) * (TABLE_N + 1));
-        for c in 0..=PHONG_W {
-            let w = c as f64 / PHONG_W as f64;
-            if c == 0 {
-                // e -> infinity: Phong tends to Beckmann with alpha = w.
-                phong.extend_from_slice(&beckmann);
-            } else {
-                phong.extend(phong_column(w));
-            }
+impl<const N: usize> Table<N> {
+    const fn new() -> Self {
+        Table {
+            once: Once::new(),
+            data: [const { AtomicU32::new(0) }; N],
         }
-        Tables {
-            beckmann,
-            ggx,
-            phong,
-        }
-    })
+    }
+
+    #[inline]
+    fn get(&self, fill: fn(&[AtomicU32])) -> &[AtomicU32] {
+        self.once.call_once(|| fill(&self.data));
+        &self.data
+    }
+}
+
+/// Inverse CDFs of `P(theta_r)` in the variable `eta = atan(tan theta / scale)`.
+static BECKMANN: Table<STRIDE> = Table::new();
+static GGX: Table<STRIDE> = Table::new();
+/// `PHONG_W + 1` columns of `STRIDE` entries; column 0 is the Beckmann limit.
+static PHONG: Table<{ (PHONG_W + 1) * STRIDE }> = Table::new();
+
+/// Beckmann in `eta = atan t`: `CDF(t) = erf(t) - 2 t exp(-t^2) / sqrt(pi)`.
+fn beckmann_cdf(eta: f64) -> f64 {
+    let t = eta.tan();
+    if !t.is_finite() || t > 30.0 {
+        return 1.0;
+    }
+    crate::math::erf(t) - 2.0 * FRAC_1_SQRT_PI * t * (-t * t).exp()
+}
+
+/// GGX in `eta`: density `(4 / pi) sin^2 eta`, CDF `(2 eta - sin 2 eta) / pi`.
+fn ggx_cdf(eta: f64) -> f64 {
+    (2.0 * eta - (2.0 * eta).sin()) / PI
+}
+
+fn fill_beckmann(out: &[AtomicU32]) {
+    invert(beckmann_cdf, out);
+}
+
+fn fill_ggx(out: &[AtomicU32]) {
+    invert(ggx_cdf, out);
+}
+
+fn fill_phong(out: &[AtomicU32]) {
+    invert(beckmann_cdf, &out[..STRIDE]);
+    for c in 1..=PHONG_W {
+        phong_column(
+            c as f64 / PHONG_W as f64,
+            &out[c * STRIDE..(c + 1) * STRIDE],
+        );
+    }
 }
 
 /// Inverse of a CDF on `[0, pi/2]` at `u_j = j / TABLE_N`, by bisection.
-fn invert(cdf: impl Fn(f64) -> f64) -> Vec<f64> {
-    let mut out = Vec::with_capacity(TABLE_N + 1);
-    for j in 0..=TABLE_N {
+fn invert(cdf: fn(f64) -> f64, out: &[AtomicU32]) {
+    for (j, slot) in out.iter().enumerate() {
         let u = j as f64 / TABLE_N as f64;
         let (mut lo, mut hi) = (0.0f64, FRAC_PI_2);
-        for _ in 0..64 {
+        for _ in 0..60 {
             let mid = 0.5 * (lo + hi);
             if cdf(mid) < u {
                 lo = mid;
@@ -323,17 +345,17 @@ fn invert(cdf: impl Fn(f64) -> f64) -> Vec<f64> {
                 hi = mid;
             }
         }
-        out.push(0.5 * (lo + hi));
+        slot.store(((0.5 * (lo + hi)) as f32).to_bits(), Ordering::Relaxed);
     }
-    out
 }
 
 /// Phong column: density in `eta = atan(tan theta / w)` of
 /// `cos^e theta sin^2 theta dtheta`, `e = 2 / w^2 - 2`, integrated by the
-/// trapezoid rule on a fine grid and inverted by linear interpolation.
-fn phong_column(w: f64) -> Vec<f64> {
+/// trapezoid rule on a fine grid (twice: once for the total, once emitting
+/// the inverse at each `u_j` by linear interpolation).
+fn phong_column(w: f64, out: &[AtomicU32]) {
     let e = 2.0 / (w * w) - 2.0;
-    const M: usize = 1 << 15;
+    const M: usize = 1 << 14;
     let dens = |eta: f64| {
         // theta = atan(w tan eta), dtheta/deta = w / (cos^2 eta + w^2 sin^2 eta)
         let (se, ce) = eta.sin_cos();
@@ -344,59 +366,83 @@ fn phong_column(w: f64) -> Vec<f64> {
         if v.is_finite() { v } else { 0.0 }
     };
     let h = FRAC_PI_2 / M as f64;
-    let mut cdf = Vec::with_capacity(M + 1);
-    cdf.push(0.0);
-    let mut acc = 0.0;
-    let mut prev = dens(0.0);
-    for j in 1..=M {
-        let cur = dens(j as f64 * h);
-        acc += 0.5 * (prev + cur) * h;
-        cdf.push(acc);
-        prev = cur;
-    }
-    let total = acc;
-    let mut out = Vec::with_capacity(TABLE_N + 1);
-    let mut idx = 0usize;
-    for j in 0..=TABLE_N {
-        let u = j as f64 / TABLE_N as f64 * total;
-        while idx < M && cdf[idx + 1] < u {
-            idx += 1;
+    let integrate = |mut emit: Option<(&[AtomicU32], f64)>| {
+        let mut acc = 0.0;
+        let mut prev = dens(0.0);
+        let mut next_j = 0usize;
+        if let Some((out, _)) = emit.as_mut() {
+            out[0].store(0.0f32.to_bits(), Ordering::Relaxed);
+            next_j = 1;
         }
-        let (c0, c1) = (cdf[idx], cdf[(idx + 1).min(M)]);
-        let f = if c1 > c0 {
-            ((u - c0) / (c1 - c0)).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        out.push((idx as f64 + f) * h);
-    }
-    out
+        for step in 1..=M {
+            let cur = dens(step as f64 * h);
+            let inc = 0.5 * (prev + cur) * h;
+            if let Some((out, total)) = emit {
+                while next_j < STRIDE && acc + inc >= next_j as f64 / TABLE_N as f64 * total {
+                    let target = next_j as f64 / TABLE_N as f64 * total;
+                    let f = if inc > 0.0 {
+                        ((target - acc) / inc).clamp(0.0, 1.0)
+                    } else {
+                        0.0
+                    };
+                    let eta = ((step - 1) as f64 + f) * h;
+                    out[next_j].store((eta as f32).to_bits(), Ordering::Relaxed);
+                    next_j += 1;
+                }
+            }
+            acc += inc;
+            prev = cur;
+        }
+        if let Some((out, _)) = emit {
+            for slot in &out[next_j..] {
+                slot.store((FRAC_PI_2 as f32).to_bits(), Ordering::Relaxed);
+            }
+        }
+        acc
+    };
+    let total = integrate(None);
+    integrate(Some((out, total)));
 }
 
 #[inline]
-fn lookup(t: &[f64], u: f64) -> f64 {
+fn load(t: &[AtomicU32], j: usize) -> f64 {
+    f32::from_bits(t[j].load(Ordering::Relaxed)) as f64
+}
+
+#[inline]
+fn lookup(t: &[AtomicU32], u: f64) -> f64 {
     let x = u.clamp(0.0, 1.0) * TABLE_N as f64;
     let j = (x as usize).min(TABLE_N - 1);
     let f = x - j as f64;
-    t[j] + f * (t[j + 1] - t[j])
+    let (a, b) = (load(t, j), load(t, j + 1));
+    a + f * (b - a)
 }
 
 #[inline]
 fn lookup_phong(w: f64, u: f64) -> f64 {
-    let t = &tables().phong;
+    let t = PHONG.get(fill_phong);
     let x = w.clamp(0.0, 1.0) * PHONG_W as f64;
     let c = (x as usize).min(PHONG_W - 1);
     let f = x - c as f64;
-    let stride = TABLE_N + 1;
-    let a = lookup(&t[c * stride..(c + 1) * stride], u);
-    let b = lookup(&t[(c + 1) * stride..(c + 2) * stride], u);
+    let a = lookup(&t[c * STRIDE..(c + 1) * STRIDE], u);
+    let b = lookup(&t[(c + 1) * STRIDE..(c + 2) * STRIDE], u);
     a + f * (b - a)
 }
 
-/// Forces the partner tables to be built (call once before timing-sensitive
-/// work; material creation does it for the nonsymmetric model).
-pub fn warm_tables() {
-    let _ = tables();
+/// Builds the partner table of `family` (the nonsymmetric model calls it at
+/// material creation, so sampling never builds a table).
+pub fn warm_tables(family: Family) {
+    match family {
+        Family::Beckmann => {
+            BECKMANN.get(fill_beckmann);
+        }
+        Family::Ggx => {
+            GGX.get(fill_ggx);
+        }
+        Family::Phong => {
+            PHONG.get(fill_phong);
+        }
+    }
 }
 
 /// The quantile `theta_p` of the facet angle under the projected-area
@@ -423,5 +469,47 @@ pub fn max_bounces_at_percentile(family: Family, alpha: f64, p: f64) -> u32 {
         (n as u32).max(1)
     } else {
         u32::MAX
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `integral_0^theta P(t | shape) dt` by Simpson's rule.
+    fn cdf(n: &GrooveNdf, theta: f64, shape: f64) -> f64 {
+        let m = 4000;
+        let h = theta / m as f64;
+        let mut s = n.partner_pdf(0.0, shape) + n.partner_pdf(theta.min(FRAC_PI_2 - 1e-12), shape);
+        for j in 1..m {
+            let w = if j % 2 == 1 { 4.0 } else { 2.0 };
+            s += w * n.partner_pdf(j as f64 * h, shape);
+        }
+        s * h / 3.0
+    }
+
+    /// The tabulated inverse CDFs invert the analytic `P(theta_r)` (eq. 20):
+    /// the density is normalised and `CDF(sample(u)) = u`.
+    #[test]
+    fn partner_tables_invert_the_analytic_density() {
+        let cases = [
+            (Family::Beckmann, vec![0.05, 0.5, 1.0, 3.0]),
+            (Family::Ggx, vec![0.05, 0.5, 1.0, 3.0]),
+            // Phong: the exponent is the shape.
+            (Family::Phong, vec![0.0, 0.7, 3.0, 20.0, 400.0]),
+        ];
+        for (fam, shapes) in cases {
+            let n = GrooveNdf::new(fam, 0.5, 0.5);
+            for shape in shapes {
+                let total = cdf(&n, FRAC_PI_2, shape);
+                assert!((total - 1.0).abs() < 1e-4, "{fam:?} {shape}: {total}");
+                for j in 1..20 {
+                    let u = j as f64 / 20.0;
+                    let t = n.sample_partner(shape, u as f32);
+                    let c = cdf(&n, t, shape);
+                    assert!((c - u).abs() < 3e-4, "{fam:?} shape {shape} u {u}: cdf {c}");
+                }
+            }
+        }
     }
 }
