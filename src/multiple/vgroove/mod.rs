@@ -77,18 +77,30 @@
 //!
 //! # Discontinuities (seed 002, Fig. 14)
 //!
-//! Inherited from the V-groove geometry; each `k`-resolved term jumps where
-//! a zone boundary of `G_k` or a facet-visibility condition switches:
+//! Seed 002 attributes the bands of Fig. 14 to the V-groove shadowing and
+//! masking. With `G_k` computed exactly from the zone offsets (module
+//! [`kaleido`]), every term is a continuous function of `(i, o)`: offsets
+//! are continuous, `clamp` and `min` are continuous, a zone shrinks to zero
+//! width before it disappears, and a facet's contribution `|i.s| G_k` goes to
+//! zero as it turns away. What remains are slope discontinuities (kinks),
+//! which render as the sharp-edged bands of Fig. 14, and one singularity:
 //!
-//! | where | cause | which terms |
-//! |---|---|---|
-//! | `G1(i) = G1(o)` crossing (`min` in eq. 3) | shadowing vs masking switch | derivative kink, `k = 1` |
-//! | first facet at `|theta_s - theta_i| = pi/2` | facet turns away from `i` (`H` in eq. 2) | all `k` |
-//! | `f_b = 0` (`psi_b = pi`): `theta_i = theta_s - (pi/2 - theta_s)` | the other wall stops shadowing | all `k` |
-//! | `psi_a = m theta_v` (eq. 4 floor) | a new count appears (`k` to `k + 1`) | `k`, `k + 1` |
-//! | `theta_h = 0` (mirror direction) | `1 / sin theta_h` singularity | `k >= 2` |
-//! | `k = N` | truncation (dropped energy < 0.1%) | `k > N` |
+//! | where (first facet `s`, in the groove plane) | what switches | kind | terms |
+//! |---|---|---|---|
+//! | `G1(i, h) = G1(o, h)` (eq. 3) | shadowing-limited to masking-limited | kink | `k = 1` |
+//! | `T_m = f_lo` or `T_m = f_a` (eq. 6, 9: zone boundaries `f_k`) | a reflection count appears or vanishes (eq. 4 floor) | kink | `k`, `k + 1` |
+//! | `psi_b = pi`, i.e. `theta_i = 2 theta_s - pi/2` (symmetric) | the other wall starts shadowing (`f_b = 0`) | kink | all `k` |
+//! | `psi_j = 0` (virtual wall `j` through the groove bottom) | threshold `t_j` reaches 0 | kink | `k > j` |
+//! | `|theta_s - theta_i| = pi/2` | facet turns away from the light | kink (value -> 0) | all `k` |
+//! | `theta_h = 0` (mirror direction) | `1 / sin(theta_h)` of eq. (14) | integrable singularity, floored | `k >= 2` |
+//! | `k = N` | truncation | missing energy (< 0.1%), no jump | `k > N` |
 //!
+//! Measured (`tests/vgroove.rs`, GGX alpha 0.5, theta_i = 40 degrees,
+//! theta_o scanned off the mirror plane, `k = 1..4`, both models): the
+//! largest relative change between neighbouring samples falls 4x when the
+//! step is 4x finer (e.g. symmetric `k = 2`: 5.6% -> 1.4% at theta_o = -70
+//! degrees), i.e. steep kinks, no jump.
+
 //! # Cost
 //!
 //! The symmetric eval tests each count `k <= N` with a few multiplications
