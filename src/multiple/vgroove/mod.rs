@@ -29,8 +29,9 @@
 //! `G_k` is the fraction of the first facet's projected width whose light
 //! leaves after exactly `k` reflections ([`kaleido::Hit::g`]); Fresnel is
 //! applied per reflection with the exact conductor reflectance at each
-//! reflection's own cosine (eq. 11; `crate::fresnel::conductor`, complex IOR
-//! per RGB channel). `k = 1` is Cook-Torrance with the V-groove `G`
+//! reflection's own cosine (eq. 11): the function of
+//! `crate::fresnel::conductor` (complex IOR per RGB channel), evaluated for
+//! the three channels at once (tested equal to it). `k = 1` is Cook-Torrance with the V-groove `G`
 //! (eq. 25).
 //!
 //! With F = 1 the model conserves energy exactly when no count is dropped:
@@ -54,14 +55,14 @@
 //! alpha ~5 would need more than `MAX_BOUNCES` = 256 and then drops more.
 //! A nonzero `max_bounces` in the description overrides `N`. Table 2's own
 //! 99% column (`N` = 16 for GGX alpha 1) would drop about 1% of the energy.
-
+//!
 //! # Sampling (seed 002, sec. 6)
 //!
 //! The first facet is drawn from the visible normals (Beckmann, GGX; the
-//! paper allows it) or from `D(s) s.z` (Phong), the partner angle (nonsymmetric)
-//! from the tabulated inverse CDF of `P(theta_r | phi)` (built once, in
-//! place, without heap, behind a `std::sync::Once`), and `k` with probability `G_k / lit`; a count above `N`
-//! drops the sample (flag `ABSORBED`). `pdf` sums the same choices over all
+//! paper allows it) or from `D(s) s.z` (Phong), the partner angle
+//! (nonsymmetric) from the tabulated inverse CDF of `P(theta_r | phi)`
+//! (built once, in place, without heap, behind a `std::sync::Once`), and
+//! `k` with probability `G_k / lit`; a count above `N` drops the sample (flag `ABSORBED`). `pdf` sums the same choices over all
 //! `(k, facet)` solutions reaching `o`, so it is the exact density of
 //! `sample` for the symmetric model and a quadrature of it for the
 //! nonsymmetric one. The weight is `eval / pdf`.
@@ -89,7 +90,7 @@
 //! |---|---|---|---|
 //! | `G1(i, h) = G1(o, h)` (eq. 3) | shadowing-limited to masking-limited | kink | `k = 1` |
 //! | `T_m = f_lo` or `T_m = f_a` (eq. 6, 9: zone boundaries `f_k`) | a reflection count appears or vanishes (eq. 4 floor) | kink | `k`, `k + 1` |
-//! | `psi_b = pi`, i.e. `theta_i = 2 theta_s - pi/2` (symmetric) | the other wall starts shadowing (`f_b = 0`) | kink | all `k` |
+//! | `psi_b = pi`, i.e. `theta_i = pi/2 - theta_r` (`theta_s` when symmetric) | the other wall starts shadowing (`f_b = 0`) | kink | all `k` |
 //! | `psi_j = 0` (virtual wall `j` through the groove bottom) | threshold `t_j` reaches 0 | kink | `k > j` |
 //! | `|theta_s - theta_i| = pi/2` | facet turns away from the light | kink (value -> 0) | all `k` |
 //! | `theta_h = 0` (mirror direction) | `1 / sin(theta_h)` of eq. (14) | integrable singularity, floored | `k >= 2` |
@@ -100,7 +101,7 @@
 //! largest relative change between neighbouring samples falls 4x when the
 //! step is 4x finer (e.g. symmetric `k = 2`: 5.6% -> 1.4% at theta_o = -70
 //! degrees), i.e. steep kinks, no jump.
-
+//!
 //! # Cost
 //!
 //! The symmetric eval tests each count `k <= N` with a few multiplications
@@ -108,13 +109,24 @@
 //! counts) and pays trigonometry, `D` and `k` Fresnel evaluations (SIMD over
 //! RGB) only for the solutions that exist: `O(N)` per call. The
 //! nonsymmetric eval multiplies the solutions by 16 quadrature nodes.
-//! Measured with `examples/vgroove_timing.rs` (release, random directions,
-//! gold, same material as SINGLE; the machine was shared, load ~12 on 2
-//! cores, so only the ratios mean much): symmetric eval / SINGLE eval
-//! 1.5x-2.4x for Beckmann (alpha 0.2-1), 4.8x-8x for GGX (N = 11-50);
-//! sample 1.5x-16x; nonsymmetric eval 30x-400x. The paper's 15-20% is the
-//! overhead on a whole path-traced frame, not per BSDF call; the 1.25x goal
-//! per eval is not met for GGX, whose heavy tail needs large `N`.
+//! Measured with `examples/vgroove_timing.rs` (release, random direction
+//! pairs, gold, the same material as SINGLE, minimum of 5 trials; the
+//! machine was shared, load 10-14 on 2 cores, so the absolute numbers are
+//! inflated and the ratios vary by about 2x between runs):
+//!
+//! | NDF, alpha | eval / SINGLE eval | sample / SINGLE sample | nonsymmetric eval / SINGLE |
+//! |---|---|---|---|
+//! | Beckmann 0.2-1 (N 2-5) | 1.1x-3.7x | 1.1x-2.3x | 18x-60x |
+//! | GGX 0.2 (N 11) | 1.6x-6x | 7x | 95x-200x |
+//! | GGX 0.5 (N 25) | 5x-8x | 12x-17x | 220x-330x |
+//! | GGX 1 (N 50) | 9x-12x | 14x-22x | 280x-470x |
+//!
+//! Phong costs like Beckmann at alpha <= 0.5 and like GGX at alpha 1
+//! (identical distributions). The paper's 15-20% is the overhead on a whole
+//! path-traced frame, not per BSDF call; the 1.25x goal per eval is met
+//! only for smooth Beckmann: GGX's heavy tail needs a large `N` for the
+//! 0.1% energy criterion, and each existing solution costs trigonometry,
+//! `D` and `k` Fresnel evaluations.
 
 // `!(x > 0.0)` is used on purpose: it is also true for NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
