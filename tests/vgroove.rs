@@ -321,7 +321,13 @@ fn vgroove_k1_equals_cook_torrance_with_vgroove_g() {
 /// (theta_h, phi_h). The `1 / sin(theta_h)` singularity of eq. (14) cancels
 /// against `dh = sin(theta_h) dtheta dphi`.
 fn albedo_quadrature(m: &impl ScatterModel, theta_i: f64, n: usize) -> f64 {
-    let wi = dir_deg(theta_i);
+    // Off the x-z plane so that anisotropic roughness matters.
+    let t = theta_i.to_radians();
+    let wi = Vec3::new(
+        (t.sin() * 0.8) as f32,
+        (t.sin() * 0.6) as f32,
+        t.cos() as f32,
+    );
     let i = wi.as_dvec3();
     let mut rng = Rng::new(1, 1);
     let mut sum = 0.0;
@@ -346,12 +352,12 @@ fn albedo_quadrature(m: &impl ScatterModel, theta_i: f64, n: usize) -> f64 {
     sum
 }
 
-fn furnace(symmetric: bool, configs: &[(Family, f32, f64)], n: usize, tol: f64) {
-    let (max, _, worst) = par_errors(configs, |(fam, alpha, theta)| {
-        let m = VGroove::new(fam, alpha, alpha, Vec3::ZERO, Vec3::ONE, 0, symmetric);
+fn furnace(symmetric: bool, configs: &[(Family, f32, f32, f64)], n: usize, tol: f64) {
+    let (max, _, worst) = par_errors(configs, |(fam, ax, ay, theta)| {
+        let m = VGroove::new(fam, ax, ay, Vec3::ZERO, Vec3::ONE, 0, symmetric);
         let a = albedo_quadrature(&m, theta, n);
         println!(
-            "furnace sym={symmetric} {fam:?} alpha {alpha} theta_i {theta}: albedo {a:.5} (N {})",
+            "furnace sym={symmetric} {fam:?} alpha ({ax},{ay}) theta_i {theta}: albedo {a:.5} (N {})",
             m.max_bounces()
         );
         (a - 1.0).abs()
@@ -369,8 +375,11 @@ fn furnace_vgroove_symmetric() {
     for fam in [Family::Beckmann, Family::Ggx, Family::Phong] {
         for alpha in [0.3f32, 0.6, 1.0] {
             for theta in [0.0, 40.0, 80.0] {
-                cfg.push((fam, alpha, theta));
+                cfg.push((fam, alpha, alpha, theta));
             }
+        }
+        for theta in [0.0, 60.0] {
+            cfg.push((fam, 0.2, 0.8, theta)); // anisotropic
         }
     }
     furnace(true, &cfg, 160, 5e-3);
@@ -385,9 +394,10 @@ fn furnace_vgroove_nonsymmetric() {
     for fam in [Family::Beckmann, Family::Ggx, Family::Phong] {
         for alpha in [0.5f32, 1.0] {
             for theta in [0.0, 80.0] {
-                cfg.push((fam, alpha, theta));
+                cfg.push((fam, alpha, alpha, theta));
             }
         }
+        cfg.push((fam, 0.3, 0.7, 60.0)); // anisotropic
     }
     furnace(false, &cfg, 48, 5e-3);
 }
