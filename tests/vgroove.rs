@@ -635,7 +635,11 @@ fn vgroove_stability_sweep() {
     let mut peak = 0.0f32;
     for model in [Model::VGroove, Model::VGrooveNonsymmetric] {
         for ndf in [NdfId::Beckmann, NdfId::Ggx, NdfId::Phong] {
-            let max_alpha = if ndf == NdfId::Phong { 1.0 } else { 2.0 };
+            let max_alpha = if ndf == NdfId::Phong {
+                1.0
+            } else {
+                msbsdf::material::MAX_ALPHA
+            };
             for alpha in [1e-3f32, 0.05, 0.5, max_alpha] {
                 let m = vgroove_material(model, ndf, alpha, alpha * 0.7, 0);
                 let n_dirs = if model == Model::VGroove { 60 } else { 8 };
