@@ -261,14 +261,26 @@ fn from_rgb(v: Vec3) -> msbsdf_rgb {
     }
 }
 
-/// Checks a direction from C.
+/// Checks a direction from C: finite and not all zero. A vector whose
+/// squared length leaves the normal f32 range (all components below about
+/// 1e-19, or one above about 1e19) is divided by its largest component first,
+/// so that normalising it later neither divides by zero (it used to be
+/// refused) nor collapses to the zero vector (it used to give f = 0 with
+/// status OK). Other vectors pass unchanged, bit for bit.
 #[inline]
 fn direction(v: msbsdf_vec3) -> Result<Vec3, Error> {
     let v = to_vec3(v);
-    if crate::frame::is_valid_direction(v) && v.normalize().is_finite() {
+    if !v.is_finite() {
+        return Err(Error::InvalidDirection);
+    }
+    let largest = v.abs().max_element();
+    if largest == 0.0 {
+        return Err(Error::InvalidDirection);
+    }
+    if v.length_squared().is_normal() {
         Ok(v)
     } else {
-        Err(Error::InvalidDirection)
+        Ok(v / largest)
     }
 }
 
@@ -740,6 +752,38 @@ mod tests {
         let s = guard(|| panic!("boom"));
         std::panic::set_hook(prev);
         assert_eq!(s, MSBSDF_STATUS_PANIC);
+    }
+
+    #[test]
+    fn direction_accepts_every_finite_nonzero_scale() {
+        let unit = Vec3::new(0.3, -0.2, 0.9).normalize();
+        for scale in [1e-40_f32, 1e-30, 1e-20, 1e-3, 1.0, 1e3, 1e20, 1e30, 3e38] {
+            let c = msbsdf_vec3 {
+                x: 0.3 * scale,
+                y: -0.2 * scale,
+                z: 0.9 * scale,
+            };
+            let d = direction(c).expect("finite nonzero direction refused");
+            // Subnormal inputs keep fewer significant bits.
+            let tol = if scale < 1e-37 { 1e-3 } else { 1e-6 };
+            assert!(
+                (d.normalize() - unit).abs().max_element() < tol,
+                "scale {scale}: {d:?}"
+            );
+        }
+        let ordinary = msbsdf_vec3 {
+            x: 0.3,
+            y: -0.2,
+            z: 0.9,
+        };
+        assert_eq!(direction(ordinary), Ok(Vec3::new(0.3, -0.2, 0.9)));
+        for bad in [
+            Vec3::ZERO,
+            Vec3::new(f32::NAN, 0.0, 1.0),
+            Vec3::new(0.0, 0.0, f32::INFINITY),
+        ] {
+            assert_eq!(direction(from_vec3(bad)), Err(Error::InvalidDirection));
+        }
     }
 
     #[test]

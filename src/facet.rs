@@ -33,7 +33,7 @@ impl Facet {
     #[inline]
     pub fn conductor_fresnel(&self, cos_i: f32) -> Vec3 {
         match *self {
-            Facet::Conductor { eta, k } => fresnel::conductor(cos_i, eta, k),
+            Facet::Conductor { eta, k } => fresnel::conductor_rgb(cos_i, eta, k),
             _ => Vec3::ONE,
         }
     }

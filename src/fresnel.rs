@@ -85,6 +85,38 @@ pub fn conductor(cos_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
     )
 }
 
+/// [`conductor`] for all three channels at once by the real-valued closed
+/// form of the unpolarised conductor reflectance (Born and Wolf, Sec. 14.4;
+/// `a^2 + b^2 = sqrt((eta^2 - k^2 - sin^2)^2 + 4 eta^2 k^2)`), evaluated with
+/// vector operations: the same values as [`conductor`] (to ~1e-6) at a
+/// fraction of the cost of three complex evaluations. Used in the hot loop of
+/// the random walks.
+#[inline]
+pub fn conductor_rgb(cos_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
+    let c = cos_i.clamp(0.0, 1.0);
+    let c2 = c * c;
+    let s2 = 1.0 - c2;
+    let eta2 = eta * eta;
+    let k2 = k * k;
+    let t0 = eta2 - k2 - Vec3::splat(s2);
+    let ab2 = (t0 * t0 + 4.0 * eta2 * k2).max(Vec3::ZERO);
+    let ab2 = Vec3::new(ab2.x.sqrt(), ab2.y.sqrt(), ab2.z.sqrt());
+    let t1 = ab2 + Vec3::splat(c2);
+    let a = (0.5 * (ab2 + t0)).max(Vec3::ZERO);
+    let a = Vec3::new(a.x.sqrt(), a.y.sqrt(), a.z.sqrt());
+    let t2 = 2.0 * c * a;
+    let rs = (t1 - t2) / (t1 + t2);
+    let t3 = c2 * ab2 + Vec3::splat(s2 * s2);
+    let t4 = t2 * s2;
+    let rp = rs * (t3 - t4) / (t3 + t4);
+    let f = 0.5 * (rs + rp);
+    if f.is_finite() {
+        f.clamp(Vec3::ZERO, Vec3::ONE)
+    } else {
+        conductor(c, eta, k)
+    }
+}
+
 /// Unpolarised reflectance of a dielectric interface, `eta` = n_transmitted /
 /// n_incident, for `cos_i >= 0` measured on the incident side. Returns 1 under
 /// total internal reflection.
@@ -139,6 +171,31 @@ mod tests {
         let c = (1.0f32 - (1.0 / 1.5f32).powi(2)).sqrt();
         assert_eq!(dielectric(c - 1e-3, 1.0 / 1.5), 1.0);
         assert!(dielectric(c + 1e-3, 1.0 / 1.5) < 1.0);
+    }
+
+    #[test]
+    fn conductor_rgb_matches_complex_form() {
+        let etas = [
+            Vec3::new(0.143, 0.374, 1.442),
+            Vec3::new(0.0, 1.5, 0.2),
+            Vec3::new(0.27, 0.68, 1.3),
+        ];
+        let ks = [
+            Vec3::new(3.983, 2.385, 1.603),
+            Vec3::new(1.0, 0.0, 3.0),
+            Vec3::new(3.6, 2.6, 2.3),
+        ];
+        for (eta, k) in etas.into_iter().zip(ks) {
+            for i in 0..=200 {
+                let c = i as f32 / 200.0;
+                let a = conductor_rgb(c, eta, k);
+                let b = conductor(c, eta, k);
+                assert!(
+                    (a - b).abs().max_element() < 2e-5,
+                    "cos {c} eta {eta} k {k}: {a} vs {b}"
+                );
+            }
+        }
     }
 
     #[test]

@@ -4,6 +4,8 @@
 use crate::bsdf::{Sample, ScatterModel};
 use crate::facet::Facet;
 use crate::frame::is_valid_direction;
+use crate::multiple::compensation::{self, Compensated};
+use crate::multiple::heitz::Heitz;
 use crate::multiple::vgroove::{VGroove, dist::Family};
 use crate::ndf::{Ndf, NdfKind};
 use crate::rng::Rng;
@@ -136,9 +138,23 @@ impl Default for MaterialDesc {
     }
 }
 
+/// `match` over every model (static dispatch: no `dyn`, no heap).
+macro_rules! dispatch {
+    ($imp:expr, $m:ident => $body:expr) => {
+        match $imp {
+            ModelImpl::Single($m) => $body,
+            ModelImpl::Compensated($m) => $body,
+            ModelImpl::Heitz($m) => $body,
+            ModelImpl::VGroove($m) | ModelImpl::VGrooveNonsymmetric($m) => $body,
+        }
+    };
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum ModelImpl {
     Single(Single),
+    Compensated(Compensated),
+    Heitz(Heitz),
     VGroove(VGroove),
     VGrooveNonsymmetric(VGroove),
 }
@@ -212,6 +228,29 @@ impl Material {
                 let ndf = Ndf::new(kind, d.alpha_x.max(MIN_ALPHA), d.alpha_y.max(MIN_ALPHA));
                 ModelImpl::Single(Single::new(ndf, facet, G2Form::HeightCorrelated))
             }
+            Model::EnergyCompensated => {
+                let kind = ndf_kind.ok_or(Error::Unsupported)?;
+                match facet {
+                    Facet::Diffuse { .. } => return Err(Error::Unsupported),
+                    Facet::Dielectric { eta }
+                        if !(1.0 / compensation::MAX_ETA..=compensation::MAX_ETA)
+                            .contains(&eta) =>
+                    {
+                        return Err(Error::InvalidArgument);
+                    }
+                    _ => {}
+                }
+                if d.alpha_x > compensation::MAX_ALPHA || d.alpha_y > compensation::MAX_ALPHA {
+                    return Err(Error::InvalidArgument);
+                }
+                let ndf = Ndf::new(kind, d.alpha_x.max(MIN_ALPHA), d.alpha_y.max(MIN_ALPHA));
+                ModelImpl::Compensated(Compensated::new(ndf, facet))
+            }
+            Model::HeitzRandomWalk => {
+                let kind = ndf_kind.ok_or(Error::Unsupported)?;
+                let ndf = Ndf::new(kind, d.alpha_x.max(MIN_ALPHA), d.alpha_y.max(MIN_ALPHA));
+                ModelImpl::Heitz(Heitz::new(ndf, facet, d.max_bounces))
+            }
             Model::VGroove | Model::VGrooveNonsymmetric => {
                 // seed 002: conductor facets; Beckmann, GGX and Phong NDFs.
                 let Facet::Conductor { eta, k } = facet else {
@@ -258,7 +297,8 @@ impl Material {
     /// True when eval is a Monte Carlo estimate (it then needs an [`Rng`]).
     pub fn is_stochastic(&self) -> bool {
         match self.imp {
-            ModelImpl::Single(_) => false,
+            ModelImpl::Single(_) | ModelImpl::Compensated(_) => false,
+            ModelImpl::Heitz(_) => true,
             ModelImpl::VGroove(_) | ModelImpl::VGrooveNonsymmetric(_) => false,
         }
     }
@@ -269,10 +309,7 @@ impl Material {
         let Some((wi, wo)) = prepare(wi, wo) else {
             return Vec3::ZERO;
         };
-        let v = match &self.imp {
-            ModelImpl::Single(m) => m.eval(wi, wo, rng),
-            ModelImpl::VGroove(m) | ModelImpl::VGrooveNonsymmetric(m) => m.eval(wi, wo, rng),
-        };
+        let v = dispatch!(&self.imp, m => m.eval(wi, wo, rng));
         finite_or_zero(v)
     }
 
@@ -285,10 +322,7 @@ impl Material {
         if wi.z == 0.0 {
             return Sample::ABSORBED;
         }
-        let s = match &self.imp {
-            ModelImpl::Single(m) => m.sample(wi, rng),
-            ModelImpl::VGroove(m) | ModelImpl::VGrooveNonsymmetric(m) => m.sample(wi, rng),
-        };
+        let s = dispatch!(&self.imp, m => m.sample(wi, rng));
         if !(s.weight.is_finite() && s.pdf.is_finite() && s.wo.is_finite())
             || s.weight.min_element() < 0.0
         {
@@ -303,10 +337,7 @@ impl Material {
         let Some((wi, wo)) = prepare(wi, wo) else {
             return 0.0;
         };
-        let p = match &self.imp {
-            ModelImpl::Single(m) => m.pdf(wi, wo),
-            ModelImpl::VGroove(m) | ModelImpl::VGrooveNonsymmetric(m) => m.pdf(wi, wo),
-        };
+        let p = dispatch!(&self.imp, m => m.pdf(wi, wo));
         if p.is_finite() && p > 0.0 { p } else { 0.0 }
     }
 }

@@ -11,6 +11,30 @@
 //! Dielectrics with `wi` below see the inverse relative index. Transmission is
 //! the flux-conserving form: `f(wi, wo) / eta_o^2 = f(wo, wi) / eta_i^2`, no
 //! radiance scaling by `1 / eta^2`.
+//!
+//! ## Energy lost by single scattering
+//!
+//! Directional albedo with perfectly reflecting facets (F = 1), measured by
+//! `tests/single.rs` (deterministic quadrature of `eval`, equal to the mean
+//! of 10^6 sample weights within 3 sigma and 1e-3):
+//!
+//! | NDF | alpha | 0 deg | 30 | 60 | 80 | 89 |
+//! |---|---|---|---|---|---|---|
+//! | Beckmann | 0.05 | 1.0000 | 1.0000 | 1.0000 | 0.9935 | 0.9443 |
+//! | Beckmann | 0.3 | 0.9997 | 0.9914 | 0.9233 | 0.9163 | 0.9875 |
+//! | Beckmann | 1.0 | 0.4616 | 0.5480 | 0.7666 | 0.9193 | 0.9916 |
+//! | Beckmann | (0.1, 0.6) | 0.9472 | 0.9464 | 0.9388 | 0.8656 | 0.9534 |
+//! | GGX | 0.05 | 0.9973 | 0.9968 | 0.9927 | 0.9533 | 0.9359 |
+//! | GGX | 0.3 | 0.8774 | 0.8639 | 0.8217 | 0.8482 | 0.9700 |
+//! | GGX | 1.0 | 0.3068 | 0.3352 | 0.4507 | 0.6682 | 0.9291 |
+//! | GGX | (0.1, 0.6) | 0.7548 | 0.7535 | 0.7435 | 0.7036 | 0.8657 |
+//!
+//! Up to 60 degrees the loss grows with roughness (GGX alpha 1 keeps 31% at
+//! normal incidence: half of its visible normals are tilted past 45 degrees
+//! and reflect below the horizon). At grazing incidence it does not: the
+//! height-correlated `G2 / G1 = (1 + Lambda_i) / (1 + Lambda_i + Lambda_o)`
+//! tends to 1 as `Lambda_i` grows, and front-facing facets reflect grazing
+//! light upwards, so a rough surface keeps more energy than a smooth one.
 
 use crate::bsdf::{Sample, ScatterModel};
 use crate::facet::Facet;
@@ -52,6 +76,8 @@ fn orient(wi: Vec3, wo: Vec3, eta: f32) -> (Vec3, Vec3, f32, bool) {
 /// be a refraction through an upward facet.
 #[inline]
 fn refraction_half(wi: Vec3, wo: Vec3, eta: f32) -> Option<(Vec3, f32, f32, f32)> {
+    // In f64: wi.h + eta wo.h cancels near grazing refraction.
+    let (wi, wo, eta) = (wi.as_dvec3(), wo.as_dvec3(), eta as f64);
     let h = -(wi + eta * wo);
     let len2 = h.length_squared();
     if len2 < 1e-12 || !len2.is_finite() {
@@ -73,7 +99,28 @@ fn refraction_half(wi: Vec3, wo: Vec3, eta: f32) -> Option<(Vec3, f32, f32, f32)
     }
     // Jacobian |d omega_h / d omega_o| = eta^2 |wo.h| / (wi.h + eta wo.h)^2.
     let jacobian = eta * eta * (-co) / denom2;
-    Some((h, ci, co, jacobian))
+    Some((h.as_vec3(), ci as f32, co as f32, jacobian as f32))
+}
+
+/// Fresnel reflectance of a refraction pair (`ci` on the incident side with
+/// relative index `eta`, `co` on the other), computed from the optically
+/// thinner side, where its slope is finite: the same value from both
+/// directions, so transmission stays reciprocal near the critical angle.
+#[inline]
+fn fresnel_transmission_pair(ci: f32, co: f32, eta: f32) -> f32 {
+    if eta >= 1.0 {
+        fresnel::dielectric(ci, eta)
+    } else {
+        fresnel::dielectric(co.abs(), 1.0 / eta)
+    }
+}
+
+/// `wi.h` (= `wo.h` for a reflection) computed symmetrically in `wi` and
+/// `wo`, so that a Fresnel factor near total internal reflection, where its
+/// slope is infinite, does not amplify f32 rounding into a reciprocity error.
+#[inline]
+fn sym_cos(wi: Vec3, wo: Vec3, h: Vec3) -> f32 {
+    0.5 * (wi.dot(h) + wo.dot(h))
 }
 
 impl Single {
@@ -118,14 +165,16 @@ impl ScatterModel for Single {
                 let (wi, wo, eta, _) = orient(wi, wo, eta);
                 if wo.z > 0.0 {
                     match self.reflection(wi, wo) {
-                        Some((h, v)) => Vec3::splat(fresnel::dielectric(wi.dot(h), eta) * v),
+                        Some((h, v)) => {
+                            Vec3::splat(fresnel::dielectric(sym_cos(wi, wo, h), eta) * v)
+                        }
                         None => Vec3::ZERO,
                     }
                 } else {
-                    let Some((h, ci, _co, jac)) = refraction_half(wi, wo, eta) else {
+                    let Some((h, ci, co, jac)) = refraction_half(wi, wo, eta) else {
                         return Vec3::ZERO;
                     };
-                    let f = fresnel::dielectric(ci, eta);
+                    let f = fresnel_transmission_pair(ci, co, eta);
                     let v =
                         (1.0 - f) * self.ndf.d(h) * self.g2_transmission(wi, wo) * ci * jac / wi.z;
                     Vec3::splat(v)
@@ -219,15 +268,15 @@ impl ScatterModel for Single {
                 return 0.0;
             }
             let f = if dielectric {
-                fresnel::dielectric(ci, eta)
+                fresnel::dielectric(sym_cos(wi, wo, h), eta)
             } else {
                 1.0
             };
             f * self.ndf.d_visible(wi, h) / (4.0 * ci)
         } else if dielectric {
             match refraction_half(wi, wo, eta) {
-                Some((h, ci, _, jac)) => {
-                    (1.0 - fresnel::dielectric(ci, eta)) * self.ndf.d_visible(wi, h) * jac
+                Some((h, ci, co, jac)) => {
+                    (1.0 - fresnel_transmission_pair(ci, co, eta)) * self.ndf.d_visible(wi, h) * jac
                 }
                 None => 0.0,
             }

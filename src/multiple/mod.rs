@@ -1,3 +1,7 @@
-//! Multiple-scattering models, one module per method.
+//! Multiple-scattering models, one file per method.
 
+pub mod compensation;
+#[doc(hidden)]
+pub mod compensation_tables;
+pub mod heitz;
 pub mod vgroove;

@@ -4,6 +4,7 @@
 #![allow(dead_code)]
 
 use glam::{DVec3, Vec3};
+use msbsdf::Rng;
 use std::f64::consts::PI;
 
 /// Gold, copper and aluminium complex IOR (RGB at ~650, 550, 450 nm).
@@ -59,6 +60,136 @@ pub fn tail_unwarp(ax: f64, ay: f64, h: DVec3) -> (f64, f64) {
     let (u, v) = ggx_unwarp(ax, ay, h);
     let s = 1.0 - (1.0 - u).powf(0.25);
     (s.clamp(0.0, 1.0 - 1e-15), v)
+}
+
+/// Outgoing direction for normal `h` (reflection or refraction with relative
+/// index `eta`) and `d omega_o / d omega_h`.
+pub fn outgoing(wi: Vec3, h: Vec3, eta: f32, transmit: bool) -> Option<(Vec3, f64)> {
+    let ci = wi.dot(h);
+    if ci <= 0.0 {
+        return None;
+    }
+    if !transmit {
+        let wo = msbsdf::frame::reflect(wi, h);
+        (wo.z > 0.0).then_some((wo, 4.0 * ci as f64))
+    } else {
+        let wo = msbsdf::frame::refract(wi, h, eta)?;
+        if wo.z >= 0.0 {
+            return None;
+        }
+        let co = wo.dot(h) as f64;
+        let denom = ci as f64 + eta as f64 * co;
+        Some((wo, denom * denom / ((eta * eta) as f64 * co.abs())))
+    }
+}
+
+/// Square coordinates of the normal that maps wi to wo, and which lobe.
+pub fn normal_of(wi: Vec3, wo: Vec3, eta: f32) -> Option<(DVec3, bool)> {
+    if wo.z > 0.0 {
+        Some(((wi + wo).normalize().as_dvec3(), false))
+    } else {
+        let mut h = -(wi + eta * wo).normalize();
+        if h.z < 0.0 {
+            h = -h;
+        }
+        h.is_finite().then_some((h.as_dvec3(), true))
+    }
+}
+
+/// Chi-square test of `sample` against `pdf` for `wi` (upper hemisphere):
+/// samples are binned by the microfacet normal that maps `wi` to them (the
+/// half vector, or the generalised one for refraction with relative index
+/// `transmission_eta`), in `tail_warp` coordinates of roughness (ax, ay), so
+/// narrow lobes spread over many cells. Also asserts, per sample, that
+/// `pdf() > 0`, that `sample`'s pdf equals `pdf()` and its weight `eval / pdf`
+/// (deterministic models), and that the pdf integrates to at most 1.
+pub fn chi2_sample_vs_pdf(
+    m: &msbsdf::Material,
+    wi: Vec3,
+    ax: f32,
+    ay: f32,
+    transmission_eta: Option<f32>,
+    n: usize,
+    seed: u64,
+) -> Chi2 {
+    let eta = transmission_eta.unwrap_or(1.0);
+    let dielectric = transmission_eta.is_some();
+    let (ns, nv) = (20usize, 40usize);
+    let mut rng = Rng::new(seed, 9);
+    let cells = ns * nv;
+    let mut observed = vec![0.0; 2 * cells];
+    let mut eval_rng = Rng::new(0, 0);
+    for _ in 0..n {
+        let s = m.sample(wi, &mut rng);
+        if s.flags == msbsdf::SAMPLE_ABSORBED {
+            continue;
+        }
+        // The pdf sample reports is the one pdf() gives, and
+        // weight = eval / pdf.
+        let p = m.pdf(wi, s.wo);
+        assert!(p > 0.0, "sample went where pdf is 0: {:?}", s);
+        // sample() uses the sampled normal, pdf() the half vector
+        // recomputed from wo in f32: near the refraction peak
+        // (wi.h + eta wo.h)^2 cancels, so allow 5e-3.
+        assert!((s.pdf - p).abs() <= 5e-3 * p, "pdf {} vs {p}", s.pdf);
+        let f = m.eval(wi, s.wo, &mut eval_rng);
+        assert!(
+            (f.x / p - s.weight.x).abs() <= 5e-3 * s.weight.x.max(1e-3),
+            "weight {} vs eval/pdf {}",
+            s.weight.x,
+            f.x / p
+        );
+        let (h, tr) = normal_of(wi, s.wo, eta).expect("normal");
+        let (u, v) = tail_unwarp(ax as f64, ay as f64, h);
+        let c =
+            ((u * ns as f64) as usize).min(ns - 1) * nv + ((v * nv as f64) as usize).min(nv - 1);
+        observed[c + if tr { cells } else { 0 }] += 1.0;
+    }
+    let mut expected = vec![0.0; 2 * cells];
+    let sub0 = 6;
+    let mut total = 0.0;
+    for lobe in 0..2 {
+        if lobe == 1 && !dielectric {
+            continue;
+        }
+        for i in 0..ns {
+            for j in 0..nv {
+                // Cells cut by the horizon (wo.z = 0, where the pdf
+                // jumps to 0; it may cut a sliver missed by every
+                // point) or where the pdf varies steeply (the onset of
+                // total internal reflection) get a 4x finer quadrature.
+                let (mut acc, mut sub) = (0.0, sub0);
+                for pass in 0..2 {
+                    acc = 0.0;
+                    let mut valid = 0usize;
+                    let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
+                    for a in 0..sub {
+                        for b in 0..sub {
+                            let s = (i as f64 + (a as f64 + 0.5) / sub as f64) / ns as f64;
+                            let v = (j as f64 + (b as f64 + 0.5) / sub as f64) / nv as f64;
+                            let (h, ph) = tail_warp(ax as f64, ay as f64, s, v);
+                            if let Some((wo, jac)) = outgoing(wi, h.as_vec3(), eta, lobe == 1) {
+                                let x = m.pdf(wi, wo) as f64 * jac / ph;
+                                acc += x;
+                                valid += 1;
+                                (lo, hi) = (lo.min(x), hi.max(x));
+                            }
+                        }
+                    }
+                    if pass == 0 && (valid < sub * sub || hi > 1.5 * lo) {
+                        sub *= 4;
+                    } else {
+                        break;
+                    }
+                }
+                let e = acc / (sub * sub * cells) as f64;
+                total += e;
+                expected[lobe * cells + i * nv + j] = e * n as f64;
+            }
+        }
+    }
+    assert!(total <= 1.0 + 2e-3, "pdf integrates to {total} > 1");
+    chi2_test(&observed, &expected, 5.0)
 }
 
 /// Upper regularised incomplete gamma Q(a, x).

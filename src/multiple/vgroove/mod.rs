@@ -29,9 +29,9 @@
 //! `G_k` is the fraction of the first facet's projected width whose light
 //! leaves after exactly `k` reflections ([`kaleido::Hit::g`]); Fresnel is
 //! applied per reflection with the exact conductor reflectance at each
-//! reflection's own cosine (eq. 11): the function of
-//! `crate::fresnel::conductor` (complex IOR per RGB channel), evaluated for
-//! the three channels at once (tested equal to it). `k = 1` is Cook-Torrance with the V-groove `G`
+//! reflection's own cosine (eq. 11): `crate::fresnel::conductor_rgb`, the
+//! closed form of `crate::fresnel::conductor` (complex IOR per RGB channel)
+//! for the three channels at once. `k = 1` is Cook-Torrance with the V-groove `G`
 //! (eq. 25).
 //!
 //! With F = 1 the model conserves energy exactly when no count is dropped:
@@ -136,9 +136,10 @@ pub mod kaleido;
 
 use crate::bsdf::{Sample, ScatterModel};
 use crate::frame::flip_z;
+use crate::fresnel;
 use crate::rng::Rng;
 use dist::{Family, GrooveNdf};
-use glam::{DVec3, Vec3, Vec3A};
+use glam::{DVec3, Vec3};
 use kaleido::Hit;
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -168,7 +169,8 @@ const GL8_W: [f64; 4] = [
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct VGroove {
     ndf: GrooveNdf,
-    conductor: Conductor,
+    eta: Vec3,
+    k: Vec3,
     /// `eta = 0, k = 1`: every reflection has F = 1 (skips Fresnel).
     mirror: bool,
     n_max: u32,
@@ -209,7 +211,8 @@ impl VGroove {
         }
         VGroove {
             ndf,
-            conductor: Conductor::new(eta, k),
+            eta,
+            k,
             mirror: eta == Vec3::ZERO && k == Vec3::ONE,
             n_max,
             symmetric,
@@ -252,14 +255,14 @@ impl VGroove {
         if self.mirror {
             return DVec3::ONE;
         }
-        let mut prod = Vec3A::ONE;
+        let mut prod = Vec3::ONE;
         // sin(psi_a - j theta_v) by the Chebyshev recurrence.
         let two_c = 2.0 * hit.cos_tv;
         let mut s_prev = hit.sin_psi(0);
         let mut s_cur = hit.sin_psi(1);
-        prod *= self.conductor.reflectance((rho * s_prev) as f32);
+        prod *= fresnel::conductor_rgb((rho * s_prev) as f32, self.eta, self.k);
         for _ in 1..k {
-            prod *= self.conductor.reflectance((rho * s_cur) as f32);
+            prod *= fresnel::conductor_rgb((rho * s_cur) as f32, self.eta, self.k);
             let next = two_c * s_cur - s_prev;
             s_prev = s_cur;
             s_cur = next;
@@ -587,53 +590,6 @@ impl VGroove {
     }
 }
 
-/// Exact unpolarised reflectance of a conductor with complex index
-/// `eta + i k` (incident medium of index 1) for the three channels at once:
-/// the same function as [`crate::fresnel::conductor`] in the real form
-/// (`a^2 + b^2 = |n^2 - sin^2|`, `a = Re sqrt(n^2 - sin^2)`, then `R_s` and
-/// `R_p = R_s (cos^2 (a^2 + b^2) - 2 a cos sin^2 + sin^4) / (... + ...)`),
-/// evaluated in SIMD lanes because eval applies it once per reflection
-/// (seed 002, eq. 11). Tested against `fresnel::conductor` below.
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Conductor {
-    /// `eta^2 - k^2`.
-    e2mk2: Vec3A,
-    /// `4 eta^2 k^2`.
-    four_e2k2: Vec3A,
-}
-
-impl Conductor {
-    fn new(eta: Vec3, k: Vec3) -> Self {
-        let (e, k) = (Vec3A::from(eta), Vec3A::from(k));
-        Conductor {
-            e2mk2: e * e - k * k,
-            four_e2k2: 4.0 * e * e * k * k,
-        }
-    }
-
-    #[inline]
-    fn reflectance(&self, cos_i: f32) -> Vec3A {
-        let c = cos_i.clamp(0.0, 1.0);
-        let c2 = c * c;
-        let s2 = 1.0 - c2;
-        let t0 = self.e2mk2 - Vec3A::splat(s2);
-        let q = t0 * t0 + self.four_e2k2;
-        let a2b2 = Vec3A::new(q.x.sqrt(), q.y.sqrt(), q.z.sqrt());
-        let t1 = a2b2 + Vec3A::splat(c2);
-        let h = (0.5 * (a2b2 + t0)).max(Vec3A::ZERO);
-        let a = Vec3A::new(h.x.sqrt(), h.y.sqrt(), h.z.sqrt());
-        let t2 = (2.0 * c) * a;
-        let rs = (t1 - t2) / (t1 + t2);
-        let t3 = c2 * a2b2 + Vec3A::splat(s2 * s2);
-        let t4 = t2 * s2;
-        let rp = rs * (t3 - t4) / (t3 + t4);
-        let f = 0.5 * (rs + rp);
-        // 0/0 only for an index-matched facet at grazing incidence, where F -> 1.
-        let f = Vec3A::select(f.cmpeq(f), f, Vec3A::ONE);
-        f.clamp(Vec3A::ZERO, Vec3A::ONE)
-    }
-}
-
 /// `ceil` and `floor` to `i64` without a libm call (the baseline x86-64
 /// target has no rounding instruction); arguments are small.
 trait RoundI64 {
@@ -741,35 +697,5 @@ impl ScatterModel for VGroove {
             only_k: 0,
         };
         self.eval_pdf(wi, wo, want).1
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn simd_conductor_equals_fresnel_conductor() {
-        let metals = [
-            (
-                Vec3::new(0.143, 0.374, 1.442),
-                Vec3::new(3.983, 2.385, 1.603),
-            ),
-            (Vec3::new(1.5, 0.2, 3.0), Vec3::new(0.0, 5.0, 0.1)),
-            (Vec3::ZERO, Vec3::ONE),
-            (Vec3::splat(1.0), Vec3::splat(0.001)),
-        ];
-        for (eta, k) in metals {
-            let c = Conductor::new(eta, k);
-            for j in 0..=1000 {
-                let cos = j as f32 / 1000.0;
-                let a = Vec3::from(c.reflectance(cos));
-                let b = crate::fresnel::conductor(cos, eta, k);
-                assert!(
-                    (a - b).abs().max_element() < 2e-5,
-                    "{eta} {k} cos {cos}: {a} vs {b}"
-                );
-            }
-        }
     }
 }

@@ -1,0 +1,565 @@
+//! C conformance of the core C ABI (DESIGN.md section 2).
+//!
+//! Compiles the C programs of `tests/c` with the system `cc` (C99,
+//! `-Wall -Wextra -pedantic -Werror`) against the committed
+//! `include/msbsdf.h` and the shared object (and, for some, the static
+//! library) that `cargo test` built for this profile, runs them and asserts
+//! that each exits 0 and prints `<program>: ALL <n> CHECKS PASSED`. A C
+//! program reports every failed rule on its own `FAIL file:line:` line, shown
+//! in the panic message. Also checks the exported symbols against
+//! `abi/symbols.txt`, the SONAME, that the header compiles alone as C99 and
+//! C++11, and that `c_examples/minimal.c` builds and runs.
+//!
+//! Where the library comes from: `cargo test` builds the crate's `cdylib` and
+//! `staticlib` next to the test executables (`target/<profile>/deps/`; it
+//! does not copy them up to `target/<profile>/` as `cargo build` does). When
+//! neither place has them, the test runs `cargo build` for the same profile.
+//! The shared object carries the SONAME `libmsbsdf.so.0`, so programs linked
+//! against it look for that name at run time: the test copies the library to
+//! `$CARGO_TARGET_TMPDIR/c_conformance-<profile>/lib/` next to a `libmsbsdf.so.0` link
+//! and links with an RPATH to that directory.
+
+use msbsdf::capi::{
+    msbsdf_material_desc, msbsdf_material_size, msbsdf_rgb, msbsdf_rng, msbsdf_sample_result,
+    msbsdf_vec3,
+};
+use std::io::Read;
+use std::mem::{align_of, offset_of, size_of};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::sync::OnceLock;
+use std::time::{Duration, Instant};
+
+/// Warnings every C and C++ translation unit must compile cleanly with.
+const WARNINGS: [&str; 4] = ["-Wall", "-Wextra", "-pedantic", "-Werror"];
+/// Libraries a program linked against the Rust staticlib needs on Linux
+/// (`rustc --print native-static-libs`).
+const STATIC_NATIVE_LIBS: [&str; 7] = [
+    "-lgcc_s",
+    "-lutil",
+    "-lrt",
+    "-lpthread",
+    "-lm",
+    "-ldl",
+    "-lc",
+];
+/// Wall-clock limit for one C program (they take well under a second).
+const RUN_TIMEOUT: Duration = Duration::from_secs(120);
+
+fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// `$CARGO_TARGET_TMPDIR/c_conformance-<profile>` (the tmp dir is shared by
+/// all profiles; a debug and a release run must not overwrite each other).
+fn work_dir() -> PathBuf {
+    let (_, profile) = artifact_dirs();
+    let name = profile
+        .file_name()
+        .and_then(|n| n.to_str())
+        .unwrap_or("profile");
+    PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("c_conformance-{name}"))
+}
+
+/// The libraries under test.
+struct Lib {
+    /// Directory with `libmsbsdf.so` and the `libmsbsdf.so.0` SONAME link.
+    dir: PathBuf,
+    /// The shared object as cargo built it.
+    built_so: PathBuf,
+    /// The static library as cargo built it.
+    built_a: PathBuf,
+}
+
+fn lib() -> &'static Lib {
+    static LIB: OnceLock<Lib> = OnceLock::new();
+    LIB.get_or_init(setup_lib)
+}
+
+/// `target/<profile>/deps` and `target/<profile>`, from this executable.
+fn artifact_dirs() -> (PathBuf, PathBuf) {
+    let exe = std::env::current_exe().expect("current_exe");
+    let deps = exe
+        .parent()
+        .expect("test executable has a directory")
+        .to_path_buf();
+    let profile = deps.parent().expect("deps has a parent").to_path_buf();
+    (deps, profile)
+}
+
+fn find_artifact(name: &str) -> Option<PathBuf> {
+    let (deps, profile) = artifact_dirs();
+    [deps.join(name), profile.join(name)]
+        .into_iter()
+        .find(|p| p.is_file())
+}
+
+/// Builds the library with `cargo build` for the profile of this test.
+fn cargo_build() {
+    let (_, profile) = artifact_dirs();
+    let target_dir = profile.parent().expect("target dir");
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let mut cmd = Command::new(cargo);
+    cmd.arg("build")
+        .arg("--lib")
+        .arg("--manifest-path")
+        .arg(repo().join("Cargo.toml"))
+        .arg("--target-dir")
+        .arg(target_dir);
+    match profile.file_name().and_then(|n| n.to_str()) {
+        Some("debug") => {}
+        Some("release") => {
+            cmd.arg("--release");
+        }
+        Some(other) => {
+            cmd.args(["--profile", other]);
+        }
+        None => panic!("cannot tell the cargo profile from {}", profile.display()),
+    }
+    let out = cmd.output().expect("run cargo build");
+    assert!(
+        out.status.success(),
+        "cargo build failed:\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+fn setup_lib() -> Lib {
+    if find_artifact("libmsbsdf.so").is_none() || find_artifact("libmsbsdf.a").is_none() {
+        cargo_build();
+    }
+    let built_so = find_artifact("libmsbsdf.so").expect("libmsbsdf.so after cargo build");
+    let built_a = find_artifact("libmsbsdf.a").expect("libmsbsdf.a after cargo build");
+    let dir = work_dir().join("lib");
+    std::fs::create_dir_all(&dir).expect("create lib dir");
+    // Copy (not link) so a concurrent cargo build cannot change the file
+    // under a running test; rename makes the copy atomic.
+    let tmp = dir.join(format!("libmsbsdf.so.tmp{}", std::process::id()));
+    std::fs::copy(&built_so, &tmp).expect("copy libmsbsdf.so");
+    std::fs::rename(&tmp, dir.join("libmsbsdf.so")).expect("rename libmsbsdf.so");
+    let soname_link = dir.join("libmsbsdf.so.0");
+    let _ = std::fs::remove_file(&soname_link);
+    std::os::unix::fs::symlink("libmsbsdf.so", &soname_link).expect("symlink libmsbsdf.so.0");
+    Lib {
+        dir,
+        built_so,
+        built_a,
+    }
+}
+
+/// How a program is linked.
+#[derive(Clone, Copy, PartialEq)]
+enum Link {
+    /// Against `libmsbsdf.so` (through its SONAME link), with an RPATH.
+    Shared,
+    /// Against `libmsbsdf.a`.
+    Static,
+}
+
+/// Runs a command, panicking with its output when it fails.
+fn run_ok(cmd: &mut Command, what: &str) -> String {
+    let out = cmd
+        .output()
+        .unwrap_or_else(|e| panic!("{what}: cannot run {cmd:?}: {e}"));
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(out.status.success(), "{what} failed ({cmd:?}):\n{text}");
+    text
+}
+
+/// Compiles `sources` (paths under `tests/c`) into `work_dir()/<name>`.
+fn compile(name: &str, sources: &[&str], extra: &[String], link: Link) -> PathBuf {
+    let lib = lib();
+    let dir = work_dir();
+    std::fs::create_dir_all(&dir).expect("create work dir");
+    let exe = dir.join(name);
+    let mut cmd = Command::new("cc");
+    cmd.args(["-std=c99", "-O2"])
+        .args(WARNINGS)
+        .arg("-I")
+        .arg(repo().join("include"))
+        .arg("-I")
+        .arg(repo().join("tests/c"))
+        .args(extra);
+    for s in sources {
+        cmd.arg(repo().join("tests/c").join(s));
+    }
+    cmd.arg("-o").arg(&exe);
+    match link {
+        Link::Shared => {
+            cmd.arg(format!("-L{}", lib.dir.display()))
+                .arg("-lmsbsdf")
+                // RPATH (searched before LD_LIBRARY_PATH, which cargo sets).
+                .arg(format!("-Wl,-rpath,{}", lib.dir.display()))
+                .arg("-Wl,--disable-new-dtags")
+                .arg("-lm");
+        }
+        Link::Static => {
+            cmd.arg(&lib.built_a).args(STATIC_NATIVE_LIBS);
+        }
+    }
+    run_ok(&mut cmd, &format!("compiling {name}"));
+    exe
+}
+
+/// Runs `exe` with a time limit; returns (exit success, stdout + stderr).
+fn run_program(exe: &Path) -> (bool, String) {
+    let mut child = Command::new(exe)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap_or_else(|e| panic!("cannot run {}: {e}", exe.display()));
+    let mut pipes = (
+        child.stdout.take().expect("stdout"),
+        child.stderr.take().expect("stderr"),
+    );
+    let err_reader = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = pipes.1.read_to_string(&mut s);
+        s
+    });
+    let out_reader = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = pipes.0.read_to_string(&mut s);
+        s
+    });
+    let start = Instant::now();
+    let status = loop {
+        if let Some(status) = child.try_wait().expect("wait") {
+            break status;
+        }
+        if start.elapsed() > RUN_TIMEOUT {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("{} did not finish within {RUN_TIMEOUT:?}", exe.display());
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    };
+    let text = out_reader.join().expect("stdout reader") + &err_reader.join().expect("reader");
+    (status.success(), format!("{text}[{status}]\n"))
+}
+
+/// Runs a conformance program and asserts that all its checks passed.
+fn assert_program_passes(exe: &Path, program: &str) -> String {
+    let (ok, text) = run_program(exe);
+    println!("{text}");
+    let summary = format!("{program}: ALL ");
+    assert!(
+        ok && text
+            .lines()
+            .any(|l| l.starts_with(&summary) && l.ends_with(" CHECKS PASSED")),
+        "C conformance program `{program}` ({}) failed:\n{text}",
+        exe.display()
+    );
+    assert!(
+        !text.contains("FAIL "),
+        "`{program}` printed failures:\n{text}"
+    );
+    text
+}
+
+/// `-D` values with Rust's view of every public struct, for `layout.c`.
+fn layout_defines() -> Vec<String> {
+    let mut d = Vec::new();
+    macro_rules! layout {
+        ($t:ident { $($f:ident),* }) => {
+            d.push(format!("-DRUST_SIZEOF_{}={}", stringify!($t), size_of::<$t>()));
+            d.push(format!("-DRUST_ALIGNOF_{}={}", stringify!($t), align_of::<$t>()));
+            $(d.push(format!(
+                "-DRUST_OFFSETOF_{}_{}={}",
+                stringify!($t),
+                stringify!($f),
+                offset_of!($t, $f)
+            ));)*
+        };
+    }
+    layout!(msbsdf_vec3 { x, y, z });
+    layout!(msbsdf_rgb { r, g, b });
+    layout!(msbsdf_rng { state, inc });
+    layout!(msbsdf_material_desc {
+        struct_size,
+        model,
+        estimator,
+        ndf,
+        facet,
+        alpha_x,
+        alpha_y,
+        shape,
+        eta,
+        k,
+        albedo,
+        max_bounces,
+        tolerance,
+        inner
+    });
+    layout!(msbsdf_sample_result {
+        wo,
+        weight,
+        pdf,
+        flags
+    });
+    let v = |s: &str| s.parse::<u32>().expect("numeric version");
+    let (major, minor, patch) = (
+        v(env!("CARGO_PKG_VERSION_MAJOR")),
+        v(env!("CARGO_PKG_VERSION_MINOR")),
+        v(env!("CARGO_PKG_VERSION_PATCH")),
+    );
+    d.push(format!("-DRUST_VERSION_MAJOR={major}"));
+    d.push(format!("-DRUST_VERSION_MINOR={minor}"));
+    d.push(format!("-DRUST_VERSION_PATCH={patch}"));
+    d.push(format!(
+        "-DRUST_VERSION_PACKED={}u",
+        (major << 16) | (minor << 8) | patch
+    ));
+    d.push(format!("-DRUST_MATERIAL_SIZE={}u", msbsdf_material_size()));
+    d
+}
+
+#[test]
+fn layout_and_version_match_rust_as_c99() {
+    let exe = compile("layout_c99", &["layout.c"], &layout_defines(), Link::Shared);
+    assert_program_passes(&exe, "layout");
+}
+
+#[test]
+fn layout_and_version_match_rust_as_c11() {
+    let mut flags = layout_defines();
+    flags.push("-std=c11".into());
+    let exe = compile("layout_c11", &["layout.c"], &flags, Link::Shared);
+    assert_program_passes(&exe, "layout");
+}
+
+/// A mismatch between Rust and C is a compile error, not a silent pass.
+#[test]
+fn layout_check_rejects_a_wrong_rust_value() {
+    let mut flags: Vec<String> = layout_defines()
+        .into_iter()
+        .filter(|f| !f.starts_with("-DRUST_OFFSETOF_msbsdf_material_desc_inner="))
+        .collect();
+    flags.push("-DRUST_OFFSETOF_msbsdf_material_desc_inner=76".into());
+    for std in ["-std=c99", "-std=c11"] {
+        let out = Command::new("cc")
+            .args([std, "-fsyntax-only"])
+            .args(WARNINGS)
+            .arg("-I")
+            .arg(repo().join("include"))
+            .arg("-I")
+            .arg(repo().join("tests/c"))
+            .args(&flags)
+            .arg(repo().join("tests/c/layout.c"))
+            .output()
+            .expect("run cc");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !out.status.success() && err.contains("offsetof_msbsdf_material_desc_inner"),
+            "{std}: a wrong offset was not caught:\n{err}"
+        );
+    }
+}
+
+#[test]
+fn api_statuses_and_zeroed_outputs_shared() {
+    let exe = compile("api_shared", &["api.c"], &[], Link::Shared);
+    assert_program_passes(&exe, "api");
+}
+
+#[test]
+fn api_statuses_and_zeroed_outputs_static() {
+    let exe = compile("api_static", &["api.c"], &[], Link::Static);
+    assert_program_passes(&exe, "api");
+}
+
+#[test]
+fn rng_matches_reference_pcg32() {
+    for (name, link) in [("rng_shared", Link::Shared), ("rng_static", Link::Static)] {
+        let exe = compile(name, &["rng.c"], &[], link);
+        assert_program_passes(&exe, "rng");
+    }
+}
+
+#[test]
+fn material_init_in_caller_storage() {
+    let exe = compile("storage", &["storage.c"], &[], Link::Shared);
+    assert_program_passes(&exe, "storage");
+}
+
+#[test]
+fn hot_path_never_allocates() {
+    let exe = compile(
+        "no_alloc",
+        &["no_alloc.c", "malloc_count.c"],
+        &[],
+        Link::Shared,
+    );
+    let text = assert_program_passes(&exe, "no_alloc");
+    assert!(
+        text.contains("0 allocations, 0 frees"),
+        "allocation summary missing:\n{text}"
+    );
+}
+
+#[test]
+fn threads_reproduce_single_thread_bits() {
+    let exe = compile(
+        "threads",
+        &["threads.c"],
+        &["-pthread".into()],
+        Link::Shared,
+    );
+    assert_program_passes(&exe, "threads");
+}
+
+#[test]
+fn header_compiles_alone_as_c99_and_cxx11() {
+    let src = repo().join("tests/c/header_only.c");
+    let dir = work_dir();
+    std::fs::create_dir_all(&dir).expect("create work dir");
+    for (compiler, lang) in [
+        ("cc", &["-std=c99"][..]),
+        ("c++", &["-std=c++11", "-x", "c++"][..]),
+    ] {
+        let obj = dir.join(format!("header_only_{compiler}.o"));
+        run_ok(
+            Command::new(compiler)
+                .args(lang)
+                .args(WARNINGS)
+                .arg("-I")
+                .arg(repo().join("include"))
+                .arg("-c")
+                .arg(&src)
+                .arg("-o")
+                .arg(&obj),
+            &format!("compiling include/msbsdf.h alone with {compiler} {lang:?}"),
+        );
+    }
+}
+
+/// Symbols `nm -D --defined-only` lists for a shared object, sorted.
+fn exported_symbols(so: &Path) -> Vec<String> {
+    let text = run_ok(
+        Command::new("nm").args(["-D", "--defined-only"]).arg(so),
+        "nm -D",
+    );
+    let mut syms: Vec<String> = text
+        .lines()
+        .filter_map(|l| l.split_whitespace().last())
+        .map(|s| s.split('@').next().unwrap_or(s).to_string())
+        .collect();
+    syms.sort();
+    syms.dedup();
+    syms
+}
+
+#[test]
+fn exported_symbols_match_abi_list() {
+    let listed = std::fs::read_to_string(repo().join("abi/symbols.txt")).expect("abi/symbols.txt");
+    let listed: Vec<&str> = listed.lines().filter(|l| !l.trim().is_empty()).collect();
+    let mut sorted = listed.clone();
+    sorted.sort();
+    assert_eq!(
+        listed, sorted,
+        "abi/symbols.txt must be sorted bytewise (`LC_ALL=C sort`), one symbol per line"
+    );
+    let got = exported_symbols(&lib().built_so);
+    assert_eq!(
+        got,
+        listed,
+        "the symbols exported by {} differ from abi/symbols.txt; a new function needs its \
+         name added there (sorted), and a symbol must never disappear",
+        lib().built_so.display()
+    );
+    assert!(
+        got.iter().all(|s| s.starts_with("msbsdf_")),
+        "only msbsdf_* symbols may be exported: {got:?}"
+    );
+}
+
+#[test]
+fn shared_object_soname_is_libmsbsdf_so_major() {
+    let text = run_ok(
+        Command::new("readelf").arg("-d").arg(&lib().built_so),
+        "readelf -d",
+    );
+    let sonames: Vec<&str> = text
+        .lines()
+        .filter(|l| l.contains("(SONAME)"))
+        .filter_map(|l| l.split('[').nth(1))
+        .filter_map(|l| l.split(']').next())
+        .collect();
+    let want = format!("libmsbsdf.so.{}", env!("CARGO_PKG_VERSION_MAJOR"));
+    assert_eq!(sonames, [want.as_str()], "readelf -d:\n{text}");
+    assert_eq!(want, "libmsbsdf.so.0", "DESIGN.md fixes the SONAME of 0.x");
+}
+
+/// `c_examples/minimal.c` builds with its Makefile (pointed at this test's
+/// library; with the same flags directly when `make` is not installed) and
+/// prints its albedo table.
+#[test]
+fn c_example_minimal_builds_and_prints_albedo_table() {
+    let dir = work_dir().join("minimal");
+    std::fs::create_dir_all(&dir).expect("create dir");
+    let exe = dir.join("minimal");
+    let _ = std::fs::remove_file(&exe);
+    let examples = repo().join("c_examples");
+    if Command::new("make").arg("--version").output().is_ok() {
+        run_ok(
+            Command::new("make")
+                .arg("-s")
+                .arg("-C")
+                .arg(&examples)
+                .arg(format!("LIBDIR={}", lib().dir.display()))
+                .arg(format!("OUT={}", exe.display()))
+                .arg(exe.display().to_string()),
+            "make -C c_examples",
+        );
+    } else {
+        run_ok(
+            Command::new("cc")
+                .args(["-std=c99", "-O2"])
+                .args(WARNINGS)
+                .arg("-I")
+                .arg(repo().join("include"))
+                .arg("-o")
+                .arg(&exe)
+                .arg(examples.join("minimal.c"))
+                .arg(format!("-L{}", lib().dir.display()))
+                .arg("-lmsbsdf")
+                .arg(format!("-Wl,-rpath,{}", lib().dir.display()))
+                .arg("-lm"),
+            "compiling c_examples/minimal.c",
+        );
+    }
+    let (ok, text) = run_program(&exe);
+    println!("{text}");
+    assert!(ok, "minimal failed:\n{text}");
+    // The table: a header, then theta_i = 0, 10, ..., 80 with finite
+    // albedos in [0, 1.05] (Monte Carlo estimates of values <= 1).
+    let header = text
+        .lines()
+        .position(|l| l.starts_with("theta_i"))
+        .unwrap_or_else(|| panic!("no albedo table in the output:\n{text}"));
+    let rows: Vec<Vec<f64>> = text
+        .lines()
+        .skip(header + 1)
+        .take_while(|l| !l.trim().is_empty())
+        .map(|l| {
+            l.split_whitespace()
+                .map(|x| x.parse::<f64>().unwrap_or(f64::NAN))
+                .collect()
+        })
+        .collect();
+    assert_eq!(rows.len(), 9, "expected 9 rows (0..80 degrees):\n{text}");
+    for (i, row) in rows.iter().enumerate() {
+        assert_eq!(row[0], 10.0 * i as f64, "row {i}:\n{text}");
+        assert!(
+            row.len() >= 7
+                && row[1..]
+                    .iter()
+                    .all(|a| a.is_finite() && (0.0..=1.05).contains(a)),
+            "row {i} has albedos outside [0, 1.05]:\n{text}"
+        );
+    }
+}
