@@ -6,6 +6,7 @@ use crate::facet::Facet;
 use crate::frame::is_valid_direction;
 use crate::multiple::compensation::{self, Compensated};
 use crate::multiple::heitz::Heitz;
+use crate::multiple::position_free::PositionFree;
 use crate::multiple::vgroove::{VGroove, dist::Family};
 use crate::ndf::{Ndf, NdfKind};
 use crate::rng::Rng;
@@ -143,6 +144,7 @@ macro_rules! dispatch {
     ($imp:expr, $m:ident => $body:expr) => {
         match $imp {
             ModelImpl::Single($m) => $body,
+            ModelImpl::PositionFree($m) => $body,
             ModelImpl::Compensated($m) => $body,
             ModelImpl::Heitz($m) => $body,
             ModelImpl::VGroove($m) | ModelImpl::VGrooveNonsymmetric($m) => $body,
@@ -152,6 +154,7 @@ macro_rules! dispatch {
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum ModelImpl {
+    PositionFree(PositionFree),
     Single(Single),
     Compensated(Compensated),
     Heitz(Heitz),
@@ -251,6 +254,14 @@ impl Material {
                 let ndf = Ndf::new(kind, d.alpha_x.max(MIN_ALPHA), d.alpha_y.max(MIN_ALPHA));
                 ModelImpl::Heitz(Heitz::new(ndf, facet, d.max_bounces))
             }
+            Model::PositionFree => {
+                let kind = ndf_kind.ok_or(Error::Unsupported)?;
+                if matches!(facet, Facet::Diffuse { .. }) {
+                    return Err(Error::Unsupported);
+                }
+                let ndf = Ndf::new(kind, d.alpha_x.max(MIN_ALPHA), d.alpha_y.max(MIN_ALPHA));
+                ModelImpl::PositionFree(PositionFree::new(ndf, facet, d.estimator, d.max_bounces))
+            }
             Model::VGroove | Model::VGrooveNonsymmetric => {
                 // seed 002: conductor facets; Beckmann, GGX and Phong NDFs.
                 let Facet::Conductor { eta, k } = facet else {
@@ -299,6 +310,7 @@ impl Material {
         match self.imp {
             ModelImpl::Single(_) | ModelImpl::Compensated(_) => false,
             ModelImpl::Heitz(_) => true,
+            ModelImpl::PositionFree(_) => true,
             ModelImpl::VGroove(_) | ModelImpl::VGrooveNonsymmetric(_) => false,
         }
     }
