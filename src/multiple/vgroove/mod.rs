@@ -111,22 +111,26 @@
 //! nonsymmetric eval multiplies the solutions by 16 quadrature nodes.
 //! Measured with `examples/vgroove_timing.rs` (release, random direction
 //! pairs, gold, the same material as SINGLE, minimum of 5 trials; the
-//! machine was shared, load 10-14 on 2 cores, so the absolute numbers are
-//! inflated and the ratios vary by about 2x between runs):
+//! machine was shared, load 7-12 on 2 cores, so ratios vary by up to 2x
+//! between runs). SINGLE: 68 ns eval, 100 ns sample (GGX); 130-150 ns eval,
+//! 700-850 ns sample (Beckmann).
 //!
-//! | NDF, alpha | eval / SINGLE eval | sample / SINGLE sample | nonsymmetric eval / SINGLE |
+//! | NDF, alpha (N) | eval / SINGLE eval | sample / SINGLE sample | nonsymmetric eval / SINGLE eval |
 //! |---|---|---|---|
-//! | Beckmann 0.2-1 (N 2-5) | 1.1x-3.7x | 1.1x-2.3x | 18x-60x |
-//! | GGX 0.2 (N 11) | 1.6x-6x | 7x | 95x-200x |
-//! | GGX 0.5 (N 25) | 5x-8x | 12x-17x | 220x-330x |
-//! | GGX 1 (N 50) | 9x-12x | 14x-22x | 280x-470x |
+//! | Beckmann 0.2 (2) | 2.1x | 1.5x | 32x |
+//! | Beckmann 0.5 (3) | 2.8x-3.6x | 1.6x-1.7x | 56x |
+//! | Beckmann 1 (5) | 3.5x-3.8x | 1.8x-1.9x | 86x |
+//! | GGX 0.2 (11) | 8.5x-9x | 11x | 250x |
+//! | GGX 0.5 (25) | 12x-17x | 15x-21x | 430x |
+//! | GGX 1 (50) | 18x-25x | 33x-46x | 700x |
 //!
 //! Phong costs like Beckmann at alpha <= 0.5 and like GGX at alpha 1
 //! (identical distributions). The paper's 15-20% is the overhead on a whole
-//! path-traced frame, not per BSDF call; the 1.25x goal per eval is met
-//! only for smooth Beckmann: GGX's heavy tail needs a large `N` for the
-//! 0.1% energy criterion, and each existing solution costs trigonometry,
-//! `D` and `k` Fresnel evaluations.
+//! path-traced frame, not per BSDF call; the 1.25x goal per eval is not
+//! met: every existing solution costs trigonometry, `D` and `k` Fresnel
+//! evaluations, and GGX's heavy tail needs a large `N` for the 0.1% energy
+//! criterion (about half of a GGX eval is the per-reflection Fresnel: `pdf`,
+//! which has none, costs 0.5x-0.7x of `eval`).
 
 // `!(x > 0.0)` is used on purpose: it is also true for NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -303,19 +307,19 @@ impl VGroove {
         let inv_sin_h = 1.0 / sin_h.max(SIN_THETA_H_MIN);
         let mut f = DVec3::ZERO;
         let mut pdf = 0.0f64;
+        // In-plane angles for the frame `e`; the frame `-e` negates them.
+        let (ie0, oe0) = (i.dot(e), o.dot(e));
+        let (ti0, to0) = (ie0.atan2(i.z), oe0.atan2(o.z));
+        let rho = (ie0 * ie0 + i.z * i.z).sqrt();
         for sg in [1.0f64, -1.0] {
             let ex = e * sg;
-            let (ie, oe) = (i.dot(ex), o.dot(ex));
-            let ti = ie.atan2(i.z);
-            let to = oe.atan2(o.z);
-            let rho = (ie * ie + i.z * i.z).sqrt();
             let ctx = Ctx {
                 i,
                 ex,
-                sti: ie / rho,
+                sti: sg * ie0 / rho,
                 cti: i.z / rho,
-                ti,
-                to,
+                ti: sg * ti0,
+                to: sg * to0,
                 rho,
                 oh,
                 inv_sin_h,
