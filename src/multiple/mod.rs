@@ -1,8 +1,11 @@
 //! The multiple-scattering methods, one file each.
 
+pub mod bitterli_deon;
 pub mod compensation;
 #[doc(hidden)]
 pub mod compensation_tables;
 pub mod heitz;
+pub mod invariance;
+pub mod null_scattering;
 pub mod position_free;
 pub mod vgroove;
