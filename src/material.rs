@@ -10,6 +10,7 @@ use crate::multiple::heitz::Heitz;
 use crate::multiple::invariance::Invariance;
 use crate::multiple::null_scattering::{self, NullNdf, NullNdfKind, NullScattering};
 use crate::multiple::position_free::PositionFree;
+use crate::multiple::vgroove::{VGroove, dist::Family};
 use crate::ndf::{Ndf, NdfKind};
 use crate::rng::Rng;
 use crate::single::{G2Form, Single};
@@ -152,6 +153,7 @@ macro_rules! dispatch {
             ModelImpl::Invariance($m) => $body,
             ModelImpl::BitterliDeon($m) => $body,
             ModelImpl::NullScattering($m) => $body,
+            ModelImpl::VGroove($m) | ModelImpl::VGrooveNonsymmetric($m) => $body,
         }
     };
 }
@@ -165,6 +167,8 @@ enum ModelImpl {
     NullScattering(NullScattering),
     Compensated(Compensated),
     Heitz(Heitz),
+    VGroove(VGroove),
+    VGrooveNonsymmetric(VGroove),
 }
 
 /// A validated, immutable material. `Copy`, heap-free, `Send + Sync`: any
@@ -337,6 +341,39 @@ impl Material {
                 );
                 ModelImpl::PositionFree(PositionFree::new(ndf, facet, d.estimator, d.max_bounces))
             }
+            Model::VGroove | Model::VGrooveNonsymmetric => {
+                // seed 002: conductor facets; Beckmann, GGX and Phong NDFs.
+                let Facet::Conductor { eta, k } = facet else {
+                    return Err(Error::Unsupported);
+                };
+                let family = match d.ndf {
+                    NdfId::Beckmann => Family::Beckmann,
+                    NdfId::Ggx => Family::Ggx,
+                    NdfId::Phong => {
+                        // Phong exponent 2 / alpha^2 - 2 must be >= 0.
+                        if d.alpha_x > 1.0 || d.alpha_y > 1.0 {
+                            return Err(Error::InvalidArgument);
+                        }
+                        Family::Phong
+                    }
+                    _ => return Err(Error::Unsupported),
+                };
+                let symmetric = d.model == Model::VGroove;
+                let m = VGroove::new(
+                    family,
+                    d.alpha_x.max(MIN_ALPHA),
+                    d.alpha_y.max(MIN_ALPHA),
+                    eta,
+                    k,
+                    d.max_bounces,
+                    symmetric,
+                );
+                if symmetric {
+                    ModelImpl::VGroove(m)
+                } else {
+                    ModelImpl::VGrooveNonsymmetric(m)
+                }
+            }
             _ => return Err(Error::Unsupported),
         };
         Ok(Material { imp, desc: d })
@@ -355,6 +392,7 @@ impl Material {
             ModelImpl::NullScattering(_) => true,
             ModelImpl::Heitz(_) => true,
             ModelImpl::PositionFree(_) => true,
+            ModelImpl::VGroove(_) | ModelImpl::VGrooveNonsymmetric(_) => false,
         }
     }
 

@@ -8,3 +8,4 @@ pub mod heitz;
 pub mod invariance;
 pub mod null_scattering;
 pub mod position_free;
+pub mod vgroove;
