@@ -43,3 +43,51 @@ pub fn flip_z(v: Vec3) -> Vec3 {
 pub fn is_valid_direction(v: Vec3) -> bool {
     v.is_finite() && v.length_squared() > 0.0
 }
+
+/// A refraction pair's generalised half vector (Walter et al. 2007).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RefractionHalf {
+    /// The facet normal, facing up (z >= 0).
+    pub h: Vec3,
+    /// `wi.h` (> 0).
+    pub ci: f32,
+    /// `wo.h` (< 0).
+    pub co: f32,
+    /// `|d omega_h / d omega_o| = eta^2 |wo.h| / (wi.h + eta wo.h)^2`.
+    pub jacobian: f32,
+}
+
+/// Generalised half vector of a refraction from `wi` (upper side, index 1)
+/// to `wo` (lower side, relative index `eta`), facing up; `None` when the
+/// pair cannot be a refraction through an upward facet (or is the Dirac
+/// straight-through direction of `eta = 1`). Computed in f64: `wi.h + eta
+/// wo.h` cancels near grazing refraction.
+#[inline]
+pub fn refraction_half(wi: Vec3, wo: Vec3, eta: f32) -> Option<RefractionHalf> {
+    let (wi, wo, eta) = (wi.as_dvec3(), wo.as_dvec3(), eta as f64);
+    let h = -(wi + eta * wo);
+    let len2 = h.length_squared();
+    if len2 < 1e-12 || !len2.is_finite() {
+        return None;
+    }
+    let mut h = h / len2.sqrt();
+    if h.z < 0.0 {
+        h = -h;
+    }
+    let ci = wi.dot(h);
+    let co = wo.dot(h);
+    if ci <= 0.0 || co >= 0.0 {
+        return None;
+    }
+    let denom = ci + eta * co;
+    let denom2 = denom * denom;
+    if denom2 < 1e-12 {
+        return None;
+    }
+    Some(RefractionHalf {
+        h: h.as_vec3(),
+        ci: ci as f32,
+        co: co as f32,
+        jacobian: (eta * eta * (-co) / denom2) as f32,
+    })
+}

@@ -137,6 +137,19 @@ pub fn dielectric(cos_i: f32, eta: f32) -> f32 {
     }
 }
 
+/// Fresnel reflectance of a refraction pair (`ci` on the incident side with
+/// relative index `eta`, `co` the cosine on the other side), computed from
+/// the optically thinner side, where its slope is finite: the same value from
+/// both directions, so transmission stays reciprocal near the critical angle.
+#[inline]
+pub fn dielectric_pair(ci: f32, co: f32, eta: f32) -> f32 {
+    if eta >= 1.0 {
+        dielectric(ci, eta)
+    } else {
+        dielectric(co.abs(), 1.0 / eta)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -238,10 +238,10 @@ impl Material {
                 Facet::Diffuse { albedo: d.albedo }
             }
             FacetKind::Material => {
-                let inner = d.inner.ok_or(Error::NullPointer)?;
                 if d.model != Model::NullScattering {
                     return Err(Error::Unsupported);
                 }
+                let inner = d.inner.ok_or(Error::NullPointer)?;
                 let opaque = matches!(inner.desc.facet, FacetKind::Conductor | FacetKind::Diffuse);
                 if !opaque {
                     return Err(Error::Unsupported);

@@ -38,7 +38,7 @@
 
 use crate::bsdf::{Sample, ScatterModel};
 use crate::facet::Facet;
-use crate::frame::{flip_z, reflect, refract};
+use crate::frame::{RefractionHalf, flip_z, reflect, refract, refraction_half};
 use crate::fresnel;
 use crate::ndf::Ndf;
 use crate::rng::Rng;
@@ -68,50 +68,6 @@ fn orient(wi: Vec3, wo: Vec3, eta: f32) -> (Vec3, Vec3, f32, bool) {
         (flip_z(wi), flip_z(wo), 1.0 / eta, true)
     } else {
         (wi, wo, eta, false)
-    }
-}
-
-/// Generalised half vector of a refraction from `wi` (upper side, index 1)
-/// to `wo` (lower side, index `eta`), facing up; `None` when the pair cannot
-/// be a refraction through an upward facet.
-#[inline]
-fn refraction_half(wi: Vec3, wo: Vec3, eta: f32) -> Option<(Vec3, f32, f32, f32)> {
-    // In f64: wi.h + eta wo.h cancels near grazing refraction.
-    let (wi, wo, eta) = (wi.as_dvec3(), wo.as_dvec3(), eta as f64);
-    let h = -(wi + eta * wo);
-    let len2 = h.length_squared();
-    if len2 < 1e-12 || !len2.is_finite() {
-        return None;
-    }
-    let mut h = h / len2.sqrt();
-    if h.z < 0.0 {
-        h = -h;
-    }
-    let ci = wi.dot(h);
-    let co = wo.dot(h);
-    if ci <= 0.0 || co >= 0.0 {
-        return None;
-    }
-    let denom = ci + eta * co;
-    let denom2 = denom * denom;
-    if denom2 < 1e-12 {
-        return None;
-    }
-    // Jacobian |d omega_h / d omega_o| = eta^2 |wo.h| / (wi.h + eta wo.h)^2.
-    let jacobian = eta * eta * (-co) / denom2;
-    Some((h.as_vec3(), ci as f32, co as f32, jacobian as f32))
-}
-
-/// Fresnel reflectance of a refraction pair (`ci` on the incident side with
-/// relative index `eta`, `co` on the other), computed from the optically
-/// thinner side, where its slope is finite: the same value from both
-/// directions, so transmission stays reciprocal near the critical angle.
-#[inline]
-fn fresnel_transmission_pair(ci: f32, co: f32, eta: f32) -> f32 {
-    if eta >= 1.0 {
-        fresnel::dielectric(ci, eta)
-    } else {
-        fresnel::dielectric(co.abs(), 1.0 / eta)
     }
 }
 
@@ -171,10 +127,16 @@ impl ScatterModel for Single {
                         None => Vec3::ZERO,
                     }
                 } else {
-                    let Some((h, ci, co, jac)) = refraction_half(wi, wo, eta) else {
+                    let Some(RefractionHalf {
+                        h,
+                        ci,
+                        co,
+                        jacobian: jac,
+                    }) = refraction_half(wi, wo, eta)
+                    else {
                         return Vec3::ZERO;
                     };
-                    let f = fresnel_transmission_pair(ci, co, eta);
+                    let f = fresnel::dielectric_pair(ci, co, eta);
                     let v =
                         (1.0 - f) * self.ndf.d(h) * self.g2_transmission(wi, wo) * ci * jac / wi.z;
                     Vec3::splat(v)
@@ -225,7 +187,7 @@ impl ScatterModel for Single {
                         return Sample::ABSORBED;
                     }
                     let pdf = match refraction_half(wi_l, wo, eta_l) {
-                        Some((_, _, _, jac)) => (1.0 - f) * dvis * jac,
+                        Some(r) => (1.0 - f) * dvis * r.jacobian,
                         None => 0.0, // index-matched: a Dirac lobe, no density
                     };
                     (wo, self.g2_transmission(wi_l, wo) / g1, pdf)
@@ -275,8 +237,10 @@ impl ScatterModel for Single {
             f * self.ndf.d_visible(wi, h) / (4.0 * ci)
         } else if dielectric {
             match refraction_half(wi, wo, eta) {
-                Some((h, ci, co, jac)) => {
-                    (1.0 - fresnel_transmission_pair(ci, co, eta)) * self.ndf.d_visible(wi, h) * jac
+                Some(r) => {
+                    (1.0 - fresnel::dielectric_pair(r.ci, r.co, eta))
+                        * self.ndf.d_visible(wi, r.h)
+                        * r.jacobian
                 }
                 None => 0.0,
             }

@@ -367,11 +367,7 @@ fn single_bounce_equals_uncorrelated_single() {
         }
     }
     println!("max rel. diff vs uncorrelated {worst:e}, vs height-correlated {max_corr_gap:e}");
-    // 2e-4 when written; SINGLE now takes the refraction Fresnel factor from
-    // the optically thinner side (for reciprocity) and the generalised half
-    // vector in f64, while the walk uses the incident side in f32: near the
-    // critical angle the two roundings differ by up to 3e-4 (measured).
-    assert!(worst < 5e-4, "{worst}");
+    assert!(worst < 2e-4, "{worst}");
     // ... and clearly not the height-correlated form.
     assert!(max_corr_gap > 0.05, "{max_corr_gap}");
 }

@@ -37,6 +37,7 @@ use crate::frame::flip_z;
 use crate::material::MAX_BOUNCES;
 use crate::multiple::invariance::{
     CAP_MAX, CAP_SMALL, RR_DEPTH, RR_MIN_Q, default_max_bounces, hapke_pdf, lambda_signed, scatter,
+    two_sided_hapke_pdf,
 };
 use crate::ndf::Ndf;
 use crate::rng::Rng;
@@ -287,14 +288,6 @@ impl ScatterModel for BitterliDeon {
     }
 
     fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
-        let (wi, wo) = if wi.z < 0.0 {
-            (flip_z(wi), flip_z(wo))
-        } else {
-            (wi, wo)
-        };
-        if wo.z <= 0.0 || wi.z <= 0.0 {
-            return 0.0;
-        }
-        hapke_pdf(&self.ndf, wi, wo)
+        two_sided_hapke_pdf(&self.ndf, wi, wo)
     }
 }

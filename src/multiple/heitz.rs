@@ -69,7 +69,7 @@
 
 use crate::bsdf::{Sample, ScatterModel};
 use crate::facet::Facet;
-use crate::frame::{flip_z, reflect, refract};
+use crate::frame::{RefractionHalf, flip_z, reflect, refract, refraction_half};
 use crate::fresnel;
 use crate::material::MAX_BOUNCES;
 use crate::ndf::Ndf;
@@ -168,36 +168,6 @@ fn cosine_about(n: Vec3, u1: f32, u2: f32) -> Vec3 {
     let t = Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
     let bt = Vec3::new(b, sign + n.y * n.y * a, -n.y);
     (local.x * t + local.y * bt + local.z * n).normalize_or_zero()
-}
-
-/// Generalised half vector of a refraction from `i` (pointing away on the
-/// incident side) to `o` (pointing away on the other side) with relative
-/// index `eta` = n_o / n_i, facing up; with `i.h`, and the Jacobian
-/// `|d omega_h / d omega_o| = eta^2 |o.h| / (i.h + eta o.h)^2` (Walter 2007,
-/// eq. (17)). `None` when the pair cannot be a refraction through an upward
-/// facet.
-#[inline]
-fn refraction_half(i: Vec3, o: Vec3, eta: f32) -> Option<(Vec3, f32, f32)> {
-    let h = -(i + eta * o);
-    let len2 = h.length_squared();
-    if len2 < 1e-12 || !len2.is_finite() {
-        return None;
-    }
-    let mut h = h / len2.sqrt();
-    if h.z < 0.0 {
-        h = -h;
-    }
-    let ci = i.dot(h);
-    let co = o.dot(h);
-    if ci <= 0.0 || co >= 0.0 {
-        return None;
-    }
-    let denom = ci + eta * co;
-    let denom2 = denom * denom;
-    if denom2 < 1e-12 {
-        return None;
-    }
-    Some((h, ci, eta * eta * (-co) / denom2))
 }
 
 impl Heitz {
@@ -315,7 +285,13 @@ impl Heitz {
             if !matches!(self.facet, Facet::Dielectric { .. }) {
                 return Vec3::ZERO;
             }
-            let Some((m, ci, jac)) = refraction_half(i, o, eta) else {
+            let Some(RefractionHalf {
+                h: m,
+                ci,
+                co,
+                jacobian: jac,
+            }) = refraction_half(i, o, eta)
+            else {
                 return Vec3::ZERO;
             };
             if !lam_o.is_finite() {
@@ -323,7 +299,7 @@ impl Heitz {
             }
             let escape = (lam_o * log1mexp(lc).max(-700.0)).exp() as f32;
             // Walter 2007 eq. (17) with the visible-normal density.
-            let p = (1.0 - fresnel::dielectric(ci, eta)) * d_vis(m) * jac;
+            let p = (1.0 - fresnel::dielectric_pair(ci, co, eta)) * d_vis(m) * jac;
             Vec3::splat(p * escape)
         }
     }

@@ -265,6 +265,20 @@ pub fn default_max_bounces(alpha_x: f32, alpha_y: f32) -> u32 {
     }
 }
 
+/// [`hapke_pdf`] for a two-sided conductor: `wi` below mirrors both
+/// directions; transmission has density 0.
+pub(crate) fn two_sided_hapke_pdf(ndf: &Ndf, wi: Vec3, wo: Vec3) -> f32 {
+    let (wi, wo) = if wi.z < 0.0 {
+        (flip_z(wi), flip_z(wo))
+    } else {
+        (wi, wo)
+    };
+    if wo.z <= 0.0 || wi.z <= 0.0 {
+        return 0.0;
+    }
+    hapke_pdf(ndf, wi, wo)
+}
+
 /// Hapke-based pdf of seed 003, eqs. (15)-(16), for `wi.z > 0`, `wo.z > 0`,
 /// normalised as described in the module docs.
 pub(crate) fn hapke_pdf(ndf: &Ndf, wi: Vec3, wo: Vec3) -> f32 {
@@ -563,15 +577,7 @@ impl ScatterModel for Invariance {
     }
 
     fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
-        let (wi, wo) = if wi.z < 0.0 {
-            (flip_z(wi), flip_z(wo))
-        } else {
-            (wi, wo)
-        };
-        if wo.z <= 0.0 || wi.z <= 0.0 {
-            return 0.0;
-        }
-        hapke_pdf(&self.ndf, wi, wo)
+        two_sided_hapke_pdf(&self.ndf, wi, wo)
     }
 }
 

@@ -195,7 +195,7 @@
 
 use crate::bsdf::{Sample, ScatterModel};
 use crate::facet::Facet;
-use crate::frame::{flip_z, reflect, refract};
+use crate::frame::{RefractionHalf, flip_z, reflect, refract, refraction_half};
 use crate::fresnel;
 use crate::material::{Estimator, MAX_BOUNCES};
 use crate::ndf::Ndf;
@@ -429,27 +429,16 @@ impl PositionFree {
             // Refraction (Walter et al. 2007), o expressed in w's frame.
             let eta = self.eta_from(w.inside);
             let ot = flip_z(o.v);
-            let h = -(v + eta * ot);
-            let len2 = h.length_squared();
-            if !above(len2, 1e-20) {
+            let Some(RefractionHalf {
+                h: m,
+                ci,
+                co,
+                jacobian,
+            }) = refraction_half(v, ot, eta)
+            else {
                 return ZERO_VERTEX;
-            }
-            let mut m = h / len2.sqrt();
-            if m.z < 0.0 {
-                m = -m;
-            }
-            let ci = v.dot(m);
-            let co = ot.dot(m);
-            if ci <= 0.0 || co >= 0.0 {
-                return ZERO_VERTEX;
-            }
-            let denom = ci + eta * co;
-            let denom2 = denom * denom;
-            if !above(denom2, 1e-20) {
-                return ZERO_VERTEX;
-            }
-            let jacobian = eta * eta * (-co) / denom2;
-            let f = fresnel::dielectric(ci, eta);
+            };
+            let f = fresnel::dielectric_pair(ci, co, eta);
             let p = (1.0 - f) * ci * self.ndf.d(m) / sig * jacobian;
             VertexEval {
                 value: Vec3::splat(p),
