@@ -773,7 +773,9 @@ mod tests {
                 y: -0.2 * scale,
                 z: 0.9 * scale,
             };
-            let d = direction(c).expect("finite nonzero direction refused");
+            let Ok(d) = direction(c) else {
+                panic!("finite nonzero direction refused at scale {scale}");
+            };
             // Subnormal inputs keep fewer significant bits.
             let tol = if scale < 1e-37 { 1e-3 } else { 1e-6 };
             assert!(

@@ -36,8 +36,8 @@ use crate::facet::Facet;
 use crate::frame::flip_z;
 use crate::material::MAX_BOUNCES;
 use crate::multiple::invariance::{
-    CAP_MAX, CAP_SMALL, RR_DEPTH, RR_MIN_Q, default_max_bounces, hapke_pdf, lambda_signed, scatter,
-    two_sided_hapke_pdf,
+    CAP_MAX, CAP_SMALL, ExitState, RR_DEPTH, RR_MIN_Q, default_max_bounces, lambda_signed,
+    sample_walk, scatter, two_sided_hapke_pdf,
 };
 use crate::ndf::Ndf;
 use crate::rng::Rng;
@@ -55,6 +55,18 @@ pub struct HeightDistribution<const C: usize> {
     a: [f64; C],
     b: [f64; C],
     overflow: bool,
+}
+
+impl<const C: usize> ExitState for HeightDistribution<C> {
+    fn start(l0: f64) -> Self {
+        HeightDistribution::start(l0)
+    }
+    fn push(&mut self, lambda: f64) {
+        HeightDistribution::push(self, lambda)
+    }
+    fn exit_value(&self, s: f64) -> f64 {
+        self.raw(s)
+    }
 }
 
 impl<const C: usize> HeightDistribution<C> {
@@ -232,34 +244,6 @@ impl BitterliDeon {
         }
         f
     }
-
-    fn sample_impl<const C: usize>(&self, wi_in: Vec3, rng: &mut Rng) -> Sample {
-        let flipped = wi_in.z < 0.0;
-        let wi = if flipped { flip_z(wi_in) } else { wi_in };
-        let mut d = -wi;
-        let mut hd = HeightDistribution::<C>::start(-lambda_signed(&self.ndf, d));
-        let mut w = Vec3::ONE;
-        for _ in 0..self.max_bounces {
-            let Some((o, fr)) = scatter(&self.ndf, &self.facet, d, rng) else {
-                return Sample::ABSORBED;
-            };
-            w *= fr;
-            let lam = lambda_signed(&self.ndf, o);
-            if o.z > 0.0 {
-                // Exit with the walk's own conditional probability.
-                let r0 = hd.raw(0.0);
-                let p = if r0 > 0.0 { hd.raw(lam) / r0 } else { 1.0 };
-                if (rng.next_f32() as f64) < p {
-                    let pdf = hapke_pdf(&self.ndf, wi, o);
-                    let wo = if flipped { flip_z(o) } else { o };
-                    return Sample::new(wi_in, wo, w, pdf);
-                }
-            }
-            hd.push(lam);
-            d = o;
-        }
-        Sample::ABSORBED
-    }
 }
 
 impl ScatterModel for BitterliDeon {
@@ -281,9 +265,21 @@ impl ScatterModel for BitterliDeon {
 
     fn sample(&self, wi: Vec3, rng: &mut Rng) -> Sample {
         if (self.max_bounces as usize) < CAP_SMALL {
-            self.sample_impl::<CAP_SMALL>(wi, rng)
+            sample_walk::<HeightDistribution<CAP_SMALL>>(
+                &self.ndf,
+                &self.facet,
+                self.max_bounces,
+                wi,
+                rng,
+            )
         } else {
-            self.sample_impl::<CAP_MAX>(wi, rng)
+            sample_walk::<HeightDistribution<CAP_MAX>>(
+                &self.ndf,
+                &self.facet,
+                self.max_bounces,
+                wi,
+                rng,
+            )
         }
     }
 

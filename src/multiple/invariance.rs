@@ -570,9 +570,9 @@ impl ScatterModel for Invariance {
 
     fn sample(&self, wi: Vec3, rng: &mut Rng) -> Sample {
         if (self.max_bounces as usize) < CAP_SMALL {
-            self.sample_impl::<CAP_SMALL>(wi, rng)
+            sample_walk::<SegmentTerm<CAP_SMALL>>(&self.ndf, &self.facet, self.max_bounces, wi, rng)
         } else {
-            self.sample_impl::<CAP_MAX>(wi, rng)
+            sample_walk::<SegmentTerm<CAP_MAX>>(&self.ndf, &self.facet, self.max_bounces, wi, rng)
         }
     }
 
@@ -581,36 +581,69 @@ impl ScatterModel for Invariance {
     }
 }
 
-impl Invariance {
-    /// The walk of seed 003, Alg. 2, exiting with the exact conditional
-    /// probability `R(Lambda(d)) / R(0)` (module docs).
-    fn sample_impl<const C: usize>(&self, wi_in: Vec3, rng: &mut Rng) -> Sample {
-        let flipped = wi_in.z < 0.0;
-        let wi = if flipped { flip_z(wi_in) } else { wi_in };
-        let mut d = -wi;
-        let mut seg = SegmentTerm::<C>::start(-lambda_signed(&self.ndf, d));
-        let mut w = Vec3::ONE;
-        for _ in 0..self.max_bounces {
-            let Some((o, fr)) = scatter(&self.ndf, &self.facet, d, rng) else {
-                return Sample::ABSORBED;
-            };
-            w *= fr;
-            let lam = lambda_signed(&self.ndf, o);
-            if o.z > 0.0 {
-                let r0 = seg.value(0.0);
-                let re = seg.value(lam);
-                let p_exit = if r0 > 0.0 { re / r0 } else { 1.0 };
-                if (rng.next_f32() as f64) < p_exit {
-                    let pdf = hapke_pdf(&self.ndf, wi, o);
-                    let wo = if flipped { flip_z(o) } else { o };
-                    return Sample::new(wi_in, wo, w, pdf);
-                }
-            }
-            seg.push(lam);
-            d = o;
-        }
-        Sample::ABSORBED
+/// What the conductor walk needs of its depth state: the (unnormalised)
+/// probability `R(s)` that a path of the directions pushed so far escapes
+/// along a direction of Lambda `s`. [`SegmentTerm`] (seed 003) and the
+/// Bitterli-d'Eon hyperexponential recursion give the same values at
+/// different cost.
+pub(crate) trait ExitState: Sized {
+    /// The state after the incident direction (Lambda `l0` of `-wi`).
+    fn start(l0: f64) -> Self;
+    /// Adds a path direction of signed Lambda `lambda`.
+    fn push(&mut self, lambda: f64);
+    /// `R(s)`.
+    fn exit_value(&self, s: f64) -> f64;
+}
+
+impl<const C: usize> ExitState for SegmentTerm<C> {
+    fn start(l0: f64) -> Self {
+        SegmentTerm::start(l0)
     }
+    fn push(&mut self, lambda: f64) {
+        SegmentTerm::push(self, lambda)
+    }
+    fn exit_value(&self, s: f64) -> f64 {
+        self.value(s)
+    }
+}
+
+/// The walk of seed 003, Alg. 2, for a two-sided conductor, exiting with
+/// the exact conditional probability `R(Lambda(d)) / R(0)` (module docs).
+pub(crate) fn sample_walk<S: ExitState>(
+    ndf: &Ndf,
+    facet: &Facet,
+    max_bounces: u32,
+    wi_in: Vec3,
+    rng: &mut Rng,
+) -> Sample {
+    let flipped = wi_in.z < 0.0;
+    let wi = if flipped { flip_z(wi_in) } else { wi_in };
+    let mut d = -wi;
+    let mut state = S::start(-lambda_signed(ndf, d));
+    let mut w = Vec3::ONE;
+    for _ in 0..max_bounces {
+        let Some((o, fr)) = scatter(ndf, facet, d, rng) else {
+            return Sample::ABSORBED;
+        };
+        w *= fr;
+        let lam = lambda_signed(ndf, o);
+        if o.z > 0.0 {
+            let r0 = state.exit_value(0.0);
+            let p_exit = if r0 > 0.0 {
+                state.exit_value(lam) / r0
+            } else {
+                1.0
+            };
+            if (rng.next_f32() as f64) < p_exit {
+                let pdf = hapke_pdf(ndf, wi, o);
+                let wo = if flipped { flip_z(o) } else { o };
+                return Sample::new(wi_in, wo, w, pdf);
+            }
+        }
+        state.push(lam);
+        d = o;
+    }
+    Sample::ABSORBED
 }
 
 #[cfg(test)]
