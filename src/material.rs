@@ -4,6 +4,7 @@
 use crate::bsdf::{Sample, ScatterModel};
 use crate::facet::Facet;
 use crate::frame::is_valid_direction;
+use crate::multiple::auto;
 use crate::multiple::compensation::{self, Compensated};
 use crate::multiple::heitz::Heitz;
 use crate::ndf::{Ndf, NdfKind};
@@ -161,6 +162,8 @@ enum ModelImpl {
 pub struct Material {
     imp: ModelImpl,
     desc: MaterialDesc,
+    /// The model actually built (differs from `desc.model` for AUTO).
+    chosen: auto::Choice,
 }
 
 fn valid_rgb(v: Vec3, lo: f32) -> bool {
@@ -247,9 +250,36 @@ impl Material {
                 let ndf = Ndf::new(kind, d.alpha_x.max(MIN_ALPHA), d.alpha_y.max(MIN_ALPHA));
                 ModelImpl::Heitz(Heitz::new(ndf, facet, d.max_bounces))
             }
+            Model::Auto => {
+                // The choice comes from the measured table (multiple/auto.rs).
+                let c = auto::choose(&d)?;
+                let inner = Material::new(&auto::concrete(&d, c.model, c.estimator))?;
+                return Ok(Material {
+                    imp: inner.imp,
+                    desc: d,
+                    chosen: c,
+                });
+            }
             _ => return Err(Error::Unsupported),
         };
-        Ok(Material { imp, desc: d })
+        let chosen = auto::Choice {
+            model: d.model,
+            estimator: d.estimator,
+            evaluations: 1,
+            error: f32::INFINITY,
+            ns: f32::INFINITY,
+        };
+        Ok(Material {
+            imp,
+            desc: d,
+            chosen,
+        })
+    }
+
+    /// The model, estimator and evaluations per eval query actually used:
+    /// the description's own, or what [`Model::Auto`] picked.
+    pub fn chosen(&self) -> &auto::Choice {
+        &self.chosen
     }
 
     /// The description this material was built from.
@@ -271,7 +301,17 @@ impl Material {
         let Some((wi, wo)) = prepare(wi, wo) else {
             return Vec3::ZERO;
         };
-        let v = dispatch!(&self.imp, m => m.eval(wi, wo, rng));
+        let n = self.chosen.evaluations;
+        let v = if n <= 1 {
+            dispatch!(&self.imp, m => m.eval(wi, wo, rng))
+        } else {
+            // AUTO with a stochastic model: the mean of n evaluations.
+            let mut sum = Vec3::ZERO;
+            for _ in 0..n {
+                sum += finite_or_zero(dispatch!(&self.imp, m => m.eval(wi, wo, rng)));
+            }
+            sum / n as f32
+        };
         finite_or_zero(v)
     }
 

@@ -1,5 +1,7 @@
 //! Multiple-scattering models, one file per method.
 
+pub mod auto;
+pub mod auto_table;
 pub mod compensation;
 #[doc(hidden)]
 pub mod compensation_tables;
