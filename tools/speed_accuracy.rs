@@ -185,26 +185,27 @@ fn lobes(r: &RefMaterial, theta_i: f32, transmit: bool, k: u32) -> (Panel, Panel
         };
         let kk = if c.stochastic { k } else { 1 };
         let mut pts = Vec::new();
-        let mut ie = Vec::new();
+        let mut var = Vec::new();
         let mut rng = c_rng(5, ci as u64);
+        let t = Instant::now();
         for step in 0..=88 {
             // Signed theta_o: positive on the mirror side (azimuth 180).
             let to = (-88.0 + 2.0 * step as f32).to_radians();
             let z = if transmit { -to.cos() } else { to.cos() };
             let wo = Vec3::new(-to.sin(), 0.0, z);
             let mut st = harness::Stats::default();
-            let t = Instant::now();
             for _ in 0..kk {
                 st.push(m.eval(wi, wo, &mut rng));
             }
-            let ns = t.elapsed().as_nanos() as f64 / kk as f64;
             let cos = z.abs() as f64;
             let f = st.mean[0] / cos;
             pts.push((to.to_degrees() as f64, f));
-            if c.stochastic {
-                ie.push((to.to_degrees() as f64, st.var()[0] / (cos * cos) * ns));
-            }
+            var.push((to.to_degrees() as f64, st.var()[0] / (cos * cos)));
         }
+        // Mean ns per evaluation over the whole lobe (per-point timings
+        // on a shared machine are too noisy).
+        let ns = t.elapsed().as_nanos() as f64 / (89 * kk) as f64;
+        let ie: Vec<(f64, f64)> = var.iter().map(|&(x, v)| (x, v * ns)).collect();
         brdf.push(Series {
             label: c.label(),
             points: pts,
@@ -325,7 +326,7 @@ fn main() {
     std::fs::write(format!("{docs}/speed_accuracy.md"), md).expect("write md");
     eprintln!("measurements done in {:.0} s", t.elapsed().as_secs_f64());
     // Lobes (seed 003 Fig. 5 style).
-    let k = if quick { 16 } else { 1024 };
+    let k = if quick { 16 } else { 2048 };
     let find = |name: &str| refs.iter().find(|r| r.mat.name == name);
     let mut top = Vec::new();
     let mut bottom = Vec::new();

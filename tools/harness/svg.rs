@@ -60,9 +60,11 @@ fn nice_ticks(lo: f64, hi: f64, log: bool) -> Vec<f64> {
     if log {
         let (a, b) = (lo.log10().floor() as i32, hi.log10().ceil() as i32);
         let step = ((b - a) as f64 / 8.0).ceil().max(1.0) as i32;
+        // Short ranges also get 2x and 5x ticks.
+        let mults: &[f64] = if b - a <= 2 { &[1.0, 2.0, 5.0] } else { &[1.0] };
         (a..=b)
             .step_by(step as usize)
-            .map(|e| 10f64.powi(e))
+            .flat_map(|e| mults.iter().map(move |m| m * 10f64.powi(e)))
             .filter(|v| *v >= lo * 0.999 && *v <= hi * 1.001)
             .collect()
     } else {
@@ -87,6 +89,16 @@ fn nice_ticks(lo: f64, hi: f64, log: bool) -> Vec<f64> {
 fn fmt_tick(v: f64, log: bool) -> String {
     if log {
         let e = v.log10().round() as i32;
+        if (v / 10f64.powi(e) - 1.0).abs() > 1e-6 {
+            let e = v.log10().floor() as i32;
+            let m = (v / 10f64.powi(e)).round();
+            return if (-3..=3).contains(&e) {
+                let s = format!("{:.6}", v);
+                s.trim_end_matches('0').trim_end_matches('.').to_string()
+            } else {
+                format!("{m}e{e}")
+            };
+        }
         match e {
             0 => "1".into(),
             1 => "10".into(),
