@@ -25,6 +25,9 @@ use harness::svg::{Panel, Series, document};
 use std::fmt::Write as _;
 use std::time::Instant;
 
+/// Errors above this are not drawn.
+const OFF_SCALE: f64 = 5.0;
+
 fn class_panels(rows: &[Row], k: usize, class: &str) -> (Panel, Panel) {
     let mut err_time = Vec::new();
     let mut conv = Vec::new();
@@ -44,6 +47,30 @@ fn class_panels(rows: &[Row], k: usize, class: &str) -> (Panel, Panel) {
             continue;
         }
         let (_, _, n) = pts[0].class[k].unwrap_or((0.0, 0.0, 0));
+        let best = pts
+            .iter()
+            .filter_map(|r| r.class[k].map(|c| c.0))
+            .fold(f64::INFINITY, f64::min);
+        // A model whose error is off every scale (VGROOVE at its mirror
+        // singularity) is named in the legend but not drawn.
+        if best > OFF_SCALE {
+            let label = format!("{l} ({n}): error {best:.1e}, off scale");
+            err_time.push(Series {
+                label: label.clone(),
+                points: Vec::new(),
+                color: i,
+                dashed: true,
+                markers: false,
+            });
+            conv.push(Series {
+                label,
+                points: Vec::new(),
+                color: i,
+                dashed: true,
+                markers: false,
+            });
+            continue;
+        }
         let label = format!("{l} ({n})");
         let stochastic = pts[0].combo.stochastic;
         err_time.push(Series {

@@ -43,10 +43,10 @@ pub struct Panel {
     pub xrange: Option<(f64, f64)>,
 }
 
-const PW: f64 = 520.0;
+const PW: f64 = 580.0;
 const PH: f64 = 360.0;
 const ML: f64 = 70.0;
-const MR: f64 = 190.0;
+const MR: f64 = 240.0;
 const MT: f64 = 36.0;
 const MB: f64 = 50.0;
 
@@ -87,6 +87,9 @@ fn nice_ticks(lo: f64, hi: f64, log: bool) -> Vec<f64> {
 }
 
 fn fmt_tick(v: f64, log: bool) -> String {
+    if !log && v.abs() < 1e-12 {
+        return "0".into();
+    }
     if log {
         let e = v.log10().round() as i32;
         if (v / 10f64.powi(e) - 1.0).abs() > 1e-6 {
