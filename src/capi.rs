@@ -361,10 +361,20 @@ unsafe fn material_from_c(desc: *const msbsdf_material_desc) -> Result<Material,
         albedo: to_rgb(d.albedo),
         max_bounces: d.max_bounces,
         tolerance: d.tolerance,
+        inner: None,
     };
-    if rust.facet == FacetKind::Material && d.inner.is_null() {
-        return Err(Error::NullPointer);
-    }
+    let rust = if rust.facet == FacetKind::Material {
+        // SAFETY: the caller guarantees `inner` is NULL or a live material
+        // handle that outlives the material built here (header contract);
+        // `material_ref` handles NULL.
+        let inner: &'static Material = unsafe { material_ref(d.inner) }?;
+        MaterialDesc {
+            inner: Some(inner),
+            ..rust
+        }
+    } else {
+        rust
+    };
     Material::new(&rust)
 }
 

@@ -121,6 +121,11 @@ pub struct MaterialDesc {
     pub max_bounces: u32,
     /// Error tolerance for [`Model::Auto`].
     pub tolerance: f32,
+    /// [`FacetKind::Material`]: the facets scatter as this material
+    /// (composition, e.g. biscale roughness; seed 001 section 4). Only
+    /// [`Model::NullScattering`] supports it, with an opaque (conductor or
+    /// diffuse) inner material that is not itself a composition.
+    pub inner: Option<&'static Material>,
 }
 
 impl Default for MaterialDesc {
@@ -139,6 +144,7 @@ impl Default for MaterialDesc {
             albedo: Vec3::splat(0.8),
             max_bounces: 0,
             tolerance: 0.01,
+            inner: None,
         }
     }
 }
@@ -234,7 +240,21 @@ impl Material {
                 }
                 Facet::Diffuse { albedo: d.albedo }
             }
-            FacetKind::Material => return Err(Error::Unsupported),
+            FacetKind::Material => {
+                let inner = d.inner.ok_or(Error::NullPointer)?;
+                if d.model != Model::NullScattering {
+                    return Err(Error::Unsupported);
+                }
+                let opaque = matches!(inner.desc.facet, FacetKind::Conductor | FacetKind::Diffuse);
+                if !opaque {
+                    return Err(Error::Unsupported);
+                }
+                // Placeholder: the null-scattering walk scatters by `inner`.
+                Facet::Conductor {
+                    eta: Vec3::ZERO,
+                    k: Vec3::ONE,
+                }
+            }
         };
         let ndf_kind = match d.ndf {
             NdfId::Beckmann => Some(NdfKind::Beckmann),
@@ -293,7 +313,11 @@ impl Material {
                 };
                 let ndf =
                     NullNdf::new(kind, d.alpha_x, d.alpha_y, d.shape).ok_or(Error::Unsupported)?;
-                ModelImpl::NullScattering(NullScattering::new(ndf, facet, d.max_bounces))
+                let model = NullScattering::new(ndf, facet, d.max_bounces);
+                ModelImpl::NullScattering(match d.inner {
+                    Some(inner) if d.facet == FacetKind::Material => model.with_inner(inner),
+                    _ => model,
+                })
             }
             Model::EnergyCompensated => {
                 let kind = ndf_kind.ok_or(Error::Unsupported)?;

@@ -399,6 +399,10 @@ fn hot_path_never_allocates() {
         text.contains("0 allocations, 0 frees"),
         "allocation summary missing:\n{text}"
     );
+    assert!(
+        text.contains("0 allocations after warm-up"),
+        "all-models phase missing:\n{text}"
+    );
 }
 
 #[test]

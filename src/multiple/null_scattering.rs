@@ -559,6 +559,9 @@ pub struct NullScattering {
     ndf: NullNdf,
     facet: Facet,
     max_bounces: u32,
+    /// Composition (seed 001 section 4): the facets scatter as this opaque
+    /// material, in a frame whose z is the facet normal.
+    inner: Option<&'static crate::material::Material>,
 }
 
 /// Outcome of one walk.
@@ -590,6 +593,20 @@ impl NullScattering {
             ndf,
             facet,
             max_bounces,
+            inner: None,
+        }
+    }
+
+    /// The same walk with facets that scatter as the opaque material `inner`
+    /// (microsurface as a BSDF, seed 001 section 4: e.g. a rough conductor
+    /// on a rough macro-structure, biscale roughness). The facet's tangent
+    /// frame is built from its normal alone, so an anisotropic `inner` has an
+    /// arbitrary azimuth on each facet. `eval` uses next-event estimation at
+    /// real collisions with the sampled normal (as for diffuse facets).
+    pub fn with_inner(self, inner: &'static crate::material::Material) -> Self {
+        NullScattering {
+            inner: Some(inner),
+            ..self
         }
     }
 
@@ -686,7 +703,8 @@ impl NullScattering {
         let null = self.ndf.is_null();
         let rate_null = PI * self.ndf.d_max;
         let mut events = 0u32;
-        let diffuse = matches!(self.facet, Facet::Diffuse { .. });
+        // Facets whose phase has no closed form: NEE at real collisions only.
+        let diffuse = matches!(self.facet, Facet::Diffuse { .. }) || self.inner.is_some();
         for _bounce in 0..self.max_bounces {
             // Find the next real collision (or escape).
             let m = loop {
@@ -747,6 +765,30 @@ impl NullScattering {
             let ci = wi_l.dot(m);
             if ci <= 0.0 {
                 continue; // rounding at the rim: treat as null
+            }
+            if let Some(inner) = self.inner {
+                // Scatter by the inner material in the facet's frame.
+                let (t1, t2) = basis(m.as_dvec3());
+                let (t1, t2) = (t1.as_vec3(), t2.as_vec3());
+                let to_local = |v: Vec3| Vec3::new(v.dot(t1), v.dot(t2), v.dot(m));
+                let wi_loc = to_local(wi_l);
+                if let Some(tg) = target
+                    && tg.wo.dot(m) > 0.0
+                {
+                    let f = inner.eval(wi_loc, to_local(tg.wo), rng);
+                    let tr = (-tg.sigma_esc * t / tg.esc.z as f64).exp() as f32;
+                    *acc += weight * f * tr;
+                }
+                let s = inner.sample(wi_loc, rng);
+                if s.flags != crate::bsdf::SAMPLE_REFLECTION {
+                    break;
+                }
+                weight *= s.weight;
+                w = (t1 * s.wo.x + t2 * s.wo.y + m * s.wo.z).normalize_or_zero();
+                if weight.max_element() <= 0.0 || !w.is_finite() || w == Vec3::ZERO {
+                    break;
+                }
+                continue;
             }
             match self.facet {
                 Facet::Conductor { .. } => {

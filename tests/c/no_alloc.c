@@ -50,6 +50,74 @@ typedef union storage {
     void *p;
 } storage;
 
+/* Phase 2: every model / facet combination that msbsdf_material_init
+   accepts, in caller storage. Each material gets a warm-up of a few calls
+   first (tables that a model builds once, thread-safely, on first use are
+   allowed to allocate then); after that, 2000 rounds of sample / eval / pdf
+   must not touch the allocator. */
+static void all_models_phase(void)
+{
+    static storage st;
+    const uint32_t facets[3] = {MSBSDF_FACET_CONDUCTOR, MSBSDF_FACET_DIELECTRIC,
+                                MSBSDF_FACET_DIFFUSE};
+    uint32_t model, f, ndf;
+    int tested = 0;
+    for (model = 0; model <= MSBSDF_MODEL_AUTO; model++) {
+        for (f = 0; f < 3; f++) {
+            for (ndf = 0; ndf <= MSBSDF_NDF_GGX; ndf++) {
+                msbsdf_material_desc d = msbsdf_material_desc_default();
+                msbsdf_material *m = NULL;
+                msbsdf_rng rng;
+                unsigned long allocs;
+                double checksum = 0.0;
+                int i;
+                d.model = model;
+                d.ndf = ndf;
+                d.facet = facets[f];
+                d.alpha_x = d.alpha_y = 0.6f;
+                if (facets[f] == MSBSDF_FACET_DIELECTRIC) {
+                    d.eta.r = d.eta.g = d.eta.b = 1.5f;
+                } else if (facets[f] == MSBSDF_FACET_CONDUCTOR) {
+                    d.eta.r = 0.143f, d.eta.g = 0.374f, d.eta.b = 1.442f;
+                    d.k.r = 3.983f, d.k.g = 2.385f, d.k.b = 1.603f;
+                }
+                if (msbsdf_material_init(&d, st.bytes, sizeof st, &m) != MSBSDF_STATUS_OK) {
+                    continue;
+                }
+                msbsdf_rng_seed(&rng, model, f);
+                for (i = 0; i < 2000 + 16; i++) {
+                    msbsdf_vec3 wi = v3(0.3f, -0.2f, 0.8f), wo = v3(-0.4f, 0.1f, 0.6f);
+                    msbsdf_sample_result smp;
+                    msbsdf_rgb out;
+                    float p;
+                    if (i == 16) { /* warm-up done */
+                        malloc_count_allocs = malloc_count_frees = 0;
+                        malloc_count_enabled = 1;
+                    }
+                    if (msbsdf_sample(m, wi, &rng, &smp) == MSBSDF_STATUS_OK) {
+                        checksum += smp.weight.r;
+                    }
+                    if (msbsdf_eval(m, wi, wo, &rng, &out) == MSBSDF_STATUS_OK) {
+                        checksum += out.r;
+                    }
+                    if (msbsdf_pdf(m, wi, wo, &p) == MSBSDF_STATUS_OK) {
+                        checksum += p;
+                    }
+                }
+                malloc_count_enabled = 0;
+                allocs = malloc_count_allocs + malloc_count_frees;
+                CHECK(allocs == 0, "model %u facet %u ndf %u: %lu allocator calls in 6000 hot-path calls",
+                      (unsigned)model, (unsigned)facets[f], (unsigned)ndf, allocs);
+                CHECK(isfinite(checksum), "model %u: checksum %g", (unsigned)model, checksum);
+                tested++;
+            }
+        }
+    }
+    printf("all models: %d accepted model/facet/NDF combinations, 0 allocations after warm-up\n",
+           tested);
+    CHECK(tested >= 10, "only %d combinations accepted", tested);
+}
+
 int main(void)
 {
     static storage st[2];
@@ -156,5 +224,6 @@ int main(void)
            create_allocs, destroy_frees);
     CHECK(destroy_frees == create_allocs, "create allocated %lu blocks, destroy freed %lu",
           create_allocs, destroy_frees);
+    all_models_phase();
     return check_finish("no_alloc");
 }
