@@ -481,6 +481,18 @@ msbsdf_status msbsdf_sample(const struct msbsdf_material *material, struct msbsd
  */
 msbsdf_status msbsdf_pdf(const struct msbsdf_material *material, struct msbsdf_vec3 wi, struct msbsdf_vec3 wo, float *out);
 
+/**
+ * Which model, estimator and number of evaluations averaged per
+ * `msbsdf_eval` call the material uses: its description's own (1
+ * evaluation), or what `MSBSDF_MODEL_AUTO` picked from the measured
+ * speed-vs-accuracy table. Any output pointer may be NULL (skipped); the
+ * others are zeroed on failure.
+ *
+ * # Safety
+ * `material` NULL or live; each output NULL or writable.
+ */
+msbsdf_status msbsdf_material_model(const struct msbsdf_material *material, uint32_t *model, uint32_t *estimator, uint32_t *evaluations);
+
 #ifdef __cplusplus
 }  // extern "C"
 #endif  // __cplusplus

@@ -730,6 +730,67 @@ pub unsafe extern "C" fn msbsdf_pdf(
     })
 }
 
+/// Which model, estimator and number of evaluations averaged per
+/// `msbsdf_eval` call the material uses: its description's own (1
+/// evaluation), or what `MSBSDF_MODEL_AUTO` picked from the measured
+/// speed-vs-accuracy table. Any output pointer may be NULL (skipped); the
+/// others are zeroed on failure.
+///
+/// # Safety
+/// `material` NULL or live; each output NULL or writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn msbsdf_material_model(
+    material: *const msbsdf_material,
+    model: *mut u32,
+    estimator: *mut u32,
+    evaluations: *mut u32,
+) -> msbsdf_status {
+    for p in [model, estimator, evaluations] {
+        // SAFETY: each output is NULL or writable per the contract.
+        if let Some(p) = unsafe { p.as_mut() } {
+            *p = 0;
+        }
+    }
+    guard(|| {
+        // SAFETY: forwarded contract on `material`.
+        let m = unsafe { material_ref(material) }?;
+        let c = m.chosen();
+        for (p, v) in [
+            (model, model_to_c(c.model)),
+            (estimator, estimator_to_c(c.estimator)),
+            (evaluations, c.evaluations),
+        ] {
+            // SAFETY: as above.
+            if let Some(p) = unsafe { p.as_mut() } {
+                *p = v;
+            }
+        }
+        Ok(())
+    })
+}
+
+fn model_to_c(m: Model) -> u32 {
+    match m {
+        Model::Single => MSBSDF_MODEL_SINGLE,
+        Model::EnergyCompensated => MSBSDF_MODEL_ENERGY_COMPENSATED,
+        Model::HeitzRandomWalk => MSBSDF_MODEL_HEITZ_RANDOM_WALK,
+        Model::PositionFree => MSBSDF_MODEL_POSITION_FREE,
+        Model::Invariance => MSBSDF_MODEL_INVARIANCE,
+        Model::BitterliDeon => MSBSDF_MODEL_BITTERLI_DEON,
+        Model::VGroove => MSBSDF_MODEL_VGROOVE,
+        Model::VGrooveNonsymmetric => MSBSDF_MODEL_VGROOVE_NONSYMMETRIC,
+        Model::NullScattering => MSBSDF_MODEL_NULL_SCATTERING,
+        Model::Auto => MSBSDF_MODEL_AUTO,
+    }
+}
+
+fn estimator_to_c(e: Estimator) -> u32 {
+    match e {
+        Estimator::Pt => MSBSDF_ESTIMATOR_PT,
+        Estimator::Bdpt => MSBSDF_ESTIMATOR_BDPT,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

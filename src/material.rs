@@ -4,6 +4,7 @@
 use crate::bsdf::{Sample, ScatterModel};
 use crate::facet::Facet;
 use crate::frame::is_valid_direction;
+use crate::multiple::auto;
 use crate::multiple::bitterli_deon::BitterliDeon;
 use crate::multiple::compensation::{self, Compensated};
 use crate::multiple::heitz::Heitz;
@@ -183,6 +184,8 @@ enum ModelImpl {
 pub struct Material {
     imp: ModelImpl,
     desc: MaterialDesc,
+    /// The model actually built (differs from `desc.model` for AUTO).
+    chosen: auto::Choice,
 }
 
 fn valid_rgb(v: Vec3, lo: f32) -> bool {
@@ -398,9 +401,35 @@ impl Material {
                     ModelImpl::VGrooveNonsymmetric(m)
                 }
             }
-            _ => return Err(Error::Unsupported),
+            Model::Auto => {
+                // The choice comes from the measured table (multiple/auto.rs).
+                let c = auto::choose(&d)?;
+                let inner = Material::new(&auto::concrete(&d, c.model, c.estimator))?;
+                return Ok(Material {
+                    imp: inner.imp,
+                    desc: d,
+                    chosen: c,
+                });
+            }
         };
-        Ok(Material { imp, desc: d })
+        let chosen = auto::Choice {
+            model: d.model,
+            estimator: d.estimator,
+            evaluations: 1,
+            error: f32::INFINITY,
+            ns: f32::INFINITY,
+        };
+        Ok(Material {
+            imp,
+            desc: d,
+            chosen,
+        })
+    }
+
+    /// The model, estimator and evaluations per eval query actually used:
+    /// the description's own, or what [`Model::Auto`] picked.
+    pub fn chosen(&self) -> &auto::Choice {
+        &self.chosen
     }
 
     /// The description this material was built from.
@@ -426,7 +455,17 @@ impl Material {
         let Some((wi, wo)) = prepare(wi, wo) else {
             return Vec3::ZERO;
         };
-        let v = dispatch!(&self.imp, m => m.eval(wi, wo, rng));
+        let n = self.chosen.evaluations;
+        let v = if n <= 1 {
+            dispatch!(&self.imp, m => m.eval(wi, wo, rng))
+        } else {
+            // AUTO with a stochastic model: the mean of n evaluations.
+            let mut sum = Vec3::ZERO;
+            for _ in 0..n {
+                sum += finite_or_zero(dispatch!(&self.imp, m => m.eval(wi, wo, rng)));
+            }
+            sum / n as f32
+        };
         finite_or_zero(v)
     }
 

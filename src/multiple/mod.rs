@@ -1,5 +1,7 @@
 //! The multiple-scattering methods, one file each.
 
+pub mod auto;
+pub mod auto_table;
 pub mod bitterli_deon;
 pub mod compensation;
 #[doc(hidden)]

@@ -1,0 +1,323 @@
+//! MSBSDF_MODEL_AUTO: on every material of the speed-vs-accuracy suite,
+//! tolerance 0.01 gives a material whose measured error against the
+//! committed HEITZ reference is below 0.01 and that costs no more than the
+//! cheapest configuration meeting it in the committed table; the wrapper
+//! averages the chosen number of evaluations; the C API reports the choice.
+
+#[path = "../tools/harness/mod.rs"]
+mod harness;
+
+use glam::Vec3;
+use harness::reference::{self, RefMaterial};
+use harness::suite::{self, c_desc};
+use msbsdf::capi::*;
+use msbsdf::multiple::auto::{self, concrete};
+use msbsdf::multiple::auto_table::ROWS;
+use msbsdf::{Estimator, FacetKind, Material, MaterialDesc, Model, NdfId, Rng};
+
+const TOLERANCE: f32 = 0.01;
+
+fn refs() -> Vec<RefMaterial> {
+    let text = std::fs::read_to_string(format!(
+        "{}/data/reference_values.csv",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .expect("committed reference CSV");
+    reference::read_values(&text).expect("parse")
+}
+
+fn auto_desc(r: &RefMaterial) -> MaterialDesc {
+    MaterialDesc {
+        tolerance: TOLERANCE,
+        ..r.mat.desc(Model::Auto, Estimator::Pt)
+    }
+}
+
+/// Measured relative RMS error of a query of `evaluations` evaluations of
+/// `m` (the concrete chosen model), from `samples` evaluations per pair:
+/// returns (estimate, upper bound at 4 standard deviations of the
+/// squared-bias estimate). With `reference_model` (HEITZ_RANDOM_WALK, whose
+/// expectation the reference is, see the header of the reference CSV) the
+/// bias is zero and the error is the noise alone.
+fn measured_error(
+    m: &Material,
+    r: &RefMaterial,
+    evaluations: u32,
+    samples: u32,
+    reference_model: bool,
+) -> (f64, f64) {
+    let (mut b2, mut var, mut den, mut b2_var) = (0.0, 0.0, 0.0, 0.0);
+    for (pi, p) in r.pairs.iter().enumerate() {
+        let mut st = harness::Stats::default();
+        let mut rng = Rng::new(31, pi as u64);
+        let n = if m.is_stochastic() { samples } else { 1 };
+        for _ in 0..n {
+            let v = m.eval(p.wi, p.wo, &mut rng);
+            st.push([v.x as f64, v.y as f64, v.z as f64]);
+        }
+        let v = if m.is_stochastic() {
+            st.var()
+        } else {
+            [0.0; 3]
+        };
+        for (c, vc) in v.iter().enumerate() {
+            let d = st.mean[c] - p.value[c];
+            // Noise of the difference: this mean's and the reference's.
+            let noise = vc / n as f64 + p.se[c] * p.se[c];
+            b2 += d * d - noise;
+            // Var(d^2) for a normal d with mean mu, variance s: 4 mu^2 s + 2 s^2.
+            b2_var += 4.0 * (d * d) * noise + 2.0 * noise * noise;
+            var += vc;
+            den += p.value[c] * p.value[c];
+        }
+    }
+    if reference_model {
+        (b2, b2_var) = (0.0, 0.0);
+    }
+    let e = |b: f64| ((b.max(0.0) + var / evaluations as f64) / den).sqrt();
+    // The variance estimate itself is good to sqrt(2 / (n - 1)) per value;
+    // summed over 192 values it is far tighter than the bias bound.
+    (e(b2), e(b2 + 4.0 * b2_var.sqrt()))
+}
+
+#[test]
+fn auto_tolerance_001_meets_it_on_every_suite_material() {
+    let refs = refs();
+    assert!(!ROWS.is_empty(), "the committed AUTO table is empty");
+    let results: Vec<String> = std::thread::scope(|s| {
+        let handles: Vec<_> = (0..2)
+            .map(|t| {
+                let refs = &refs;
+                s.spawn(move || {
+                    let mut out = Vec::new();
+                    for r in refs.iter().skip(t).step_by(2) {
+                        let m = Material::new(&auto_desc(r)).expect("AUTO material");
+                        let c = *m.chosen();
+                        let inner = Material::new(&concrete(
+                            &r.mat.desc(Model::Auto, Estimator::Pt),
+                            c.model,
+                            c.estimator,
+                        ))
+                        .expect("chosen model");
+                        let heitz = c.model == Model::HeitzRandomWalk;
+                        let samples = if heitz { 2048 } else { 4096 };
+                        let (e, hi) = measured_error(&inner, r, c.evaluations, samples, heitz);
+                        out.push((r.mat.name.clone(), c, e, hi));
+                    }
+                    out
+                })
+            })
+            .collect();
+        let mut all = Vec::new();
+        let mut failures = Vec::new();
+        for h in handles {
+            for (name, c, e, hi) in h.join().expect("thread") {
+                let line = format!(
+                    "{name}: {:?}/{:?} x{} table error {:.4} measured {e:.4} (bound {hi:.4}), {:.0} ns",
+                    c.model, c.estimator, c.evaluations, c.error, c.ns
+                );
+                // The table's errors are upper confidence values (3 standard
+                // errors on the squared bias and on the variance), so a
+                // fresh estimate with other random numbers stays below the
+                // tolerance; `hi` (4 standard errors on this estimate's
+                // squared bias) is printed to show how decisive it is.
+                if e >= TOLERANCE as f64 {
+                    failures.push(line.clone());
+                }
+                all.push(line);
+            }
+        }
+        for l in &all {
+            eprintln!("{l}");
+        }
+        assert!(
+            failures.is_empty(),
+            "over tolerance:\n{}",
+            failures.join("\n")
+        );
+        all
+    });
+    assert_eq!(results.len(), refs.len());
+}
+
+#[test]
+fn auto_never_costs_more_than_the_cheapest_config_meeting_it_in_the_table() {
+    for r in refs() {
+        let d = auto_desc(&r);
+        let m = Material::new(&d).expect("AUTO material");
+        let c = m.chosen();
+        let row = ROWS
+            .iter()
+            .find(|row| {
+                row.ndf == r.mat.ndf
+                    && row.alpha_x == r.mat.alpha_x
+                    && row.alpha_y == r.mat.alpha_y
+                    && (row.facet == FacetKind::Dielectric)
+                        == (r.mat.class == suite::Class::Dielectric)
+            })
+            .expect("table row for a suite material");
+        let cheapest = row
+            .candidates
+            .iter()
+            .filter(|x| x.error <= TOLERANCE)
+            .filter(|x| Material::new(&concrete(&d, x.model, x.estimator)).is_ok())
+            .map(|x| x.ns)
+            .fold(f32::INFINITY, f32::min);
+        assert!(
+            cheapest.is_finite(),
+            "{}: no configuration in the table meets {TOLERANCE}",
+            r.mat.name
+        );
+        assert!(
+            c.ns <= cheapest,
+            "{}: AUTO costs {} ns, cheapest meeting it {cheapest}",
+            r.mat.name,
+            c.ns
+        );
+        assert!(c.error <= TOLERANCE, "{}: {c:?}", r.mat.name);
+    }
+}
+
+#[test]
+fn auto_eval_is_the_mean_of_the_chosen_evaluations() {
+    // Find a suite material where AUTO averages several evaluations.
+    let refs = refs();
+    let Some((r, m)) = refs.iter().find_map(|r| {
+        let m = Material::new(&auto_desc(r)).ok()?;
+        (m.chosen().evaluations > 1).then_some((r, m))
+    }) else {
+        // Every choice is a single evaluation: the wrapper is a pass-through.
+        for r in &refs {
+            let m = Material::new(&auto_desc(r)).expect("AUTO");
+            assert_eq!(m.chosen().evaluations, 1);
+        }
+        return;
+    };
+    let c = *m.chosen();
+    let inner = Material::new(&concrete(&auto_desc(r), c.model, c.estimator)).expect("inner");
+    for (i, p) in r.pairs.iter().enumerate().take(8) {
+        let mut a = Rng::new(5, i as u64);
+        let mut b = a;
+        let got = m.eval(p.wi, p.wo, &mut a);
+        let mut sum = Vec3::ZERO;
+        for _ in 0..c.evaluations {
+            sum += inner.eval(p.wi, p.wo, &mut b);
+        }
+        let want = sum / c.evaluations as f32;
+        assert!(
+            (got - want).abs().max_element() <= 1e-6 * want.abs().max_element().max(1e-30),
+            "{}: {got} vs {want}",
+            r.mat.name
+        );
+        assert_eq!(
+            a, b,
+            "the wrapper draws exactly evaluations x the inner draws"
+        );
+    }
+}
+
+#[test]
+fn c_api_reports_the_choice() {
+    let refs = refs();
+    for r in refs.iter().step_by(5) {
+        let d = auto_desc(r);
+        let want = *Material::new(&d).expect("AUTO").chosen();
+        let mut m: *mut msbsdf_material = std::ptr::null_mut();
+        let cd = c_desc(&d);
+        // SAFETY: valid locals.
+        assert_eq!(
+            unsafe { msbsdf_material_create(&cd, &mut m) },
+            MSBSDF_STATUS_OK
+        );
+        let (mut model, mut est, mut n) = (99u32, 99u32, 99u32);
+        // SAFETY: `m` is live, outputs are valid locals.
+        let s = unsafe { msbsdf_material_model(m, &mut model, &mut est, &mut n) };
+        assert_eq!(s, MSBSDF_STATUS_OK);
+        assert_eq!(model, suite::model_c(want.model));
+        assert_eq!(est, suite::estimator_c(want.estimator));
+        assert_eq!(n, want.evaluations);
+        // NULL outputs are skipped.
+        // SAFETY: as above, with NULL outputs.
+        let s =
+            unsafe { msbsdf_material_model(m, std::ptr::null_mut(), std::ptr::null_mut(), &mut n) };
+        assert_eq!(s, MSBSDF_STATUS_OK);
+        // SAFETY: created above.
+        unsafe { msbsdf_material_destroy(m) };
+    }
+    // A non-AUTO material reports itself with one evaluation.
+    let mut m: *mut msbsdf_material = std::ptr::null_mut();
+    let mut cd = msbsdf_material_desc_default();
+    cd.model = MSBSDF_MODEL_HEITZ_RANDOM_WALK;
+    // SAFETY: valid locals.
+    assert_eq!(
+        unsafe { msbsdf_material_create(&cd, &mut m) },
+        MSBSDF_STATUS_OK
+    );
+    let (mut model, mut est, mut n) = (99u32, 99u32, 99u32);
+    // SAFETY: live material, valid outputs.
+    let s = unsafe { msbsdf_material_model(m, &mut model, &mut est, &mut n) };
+    assert_eq!(
+        (s, model, est, n),
+        (
+            MSBSDF_STATUS_OK,
+            MSBSDF_MODEL_HEITZ_RANDOM_WALK,
+            MSBSDF_ESTIMATOR_PT,
+            1
+        )
+    );
+    // SAFETY: created above.
+    unsafe { msbsdf_material_destroy(m) };
+    // NULL material: status, outputs zeroed.
+    // SAFETY: NULL material is allowed; outputs valid.
+    let s = unsafe { msbsdf_material_model(std::ptr::null(), &mut model, &mut est, &mut n) };
+    assert_eq!((s, model, est, n), (MSBSDF_STATUS_NULL_POINTER, 0, 0, 0));
+}
+
+#[test]
+fn auto_outside_the_table_falls_back_to_an_unbiased_walk() {
+    // Diffuse facets: no table row; HEITZ is the reference walk.
+    let d = MaterialDesc {
+        model: Model::Auto,
+        facet: FacetKind::Diffuse,
+        ..MaterialDesc::default()
+    };
+    let m = Material::new(&d).expect("AUTO diffuse");
+    assert_eq!(m.chosen().model, Model::HeitzRandomWalk);
+    // Invalid arguments stay invalid.
+    let bad = MaterialDesc {
+        model: Model::Auto,
+        alpha_x: -1.0,
+        ..MaterialDesc::default()
+    };
+    assert!(Material::new(&bad).is_err());
+    // Tolerance 0: the most accurate configuration measured.
+    let d = MaterialDesc {
+        model: Model::Auto,
+        ndf: NdfId::Ggx,
+        alpha_x: 0.6,
+        alpha_y: 0.6,
+        eta: Vec3::new(0.143, 0.374, 1.442),
+        k: Vec3::new(3.983, 2.385, 1.603),
+        tolerance: 0.0,
+        ..MaterialDesc::default()
+    };
+    let c = *Material::new(&d).expect("AUTO").chosen();
+    let best = auto::choose(&d).expect("choice");
+    assert_eq!(c, best);
+    let row = ROWS
+        .iter()
+        .find(|r| {
+            r.facet == FacetKind::Conductor
+                && r.ndf == NdfId::Ggx
+                && r.alpha_x == 0.6
+                && r.alpha_y == 0.6
+        })
+        .expect("row");
+    let min_err = row
+        .candidates
+        .iter()
+        .filter(|x| Material::new(&concrete(&d, x.model, x.estimator)).is_ok())
+        .map(|x| x.error)
+        .fold(f32::INFINITY, f32::min);
+    assert_eq!(c.error, min_err);
+}

@@ -1,0 +1,677 @@
+//! The converged HEITZ_RANDOM_WALK reference: its estimator (the random walk
+//! with the analytic single-scattering term as a control variate) and the
+//! CSV files it is stored in.
+//!
+//! Estimator. Heitz 2016's walk estimates `f = f_1 + f_{>=2}` (first vertex
+//! plus the rest); the expectation of its first-vertex next-event estimate
+//! is the single-scattering BSDF with height-correlated Smith G2 (Heitz
+//! 2016, Sec. 5; SINGLE in this crate). So the reference runs each walk
+//! twice from the same random state, once with the model's bounce limit and
+//! once with a limit of one vertex: the two share every random number up to
+//! the first vertex, their difference is exactly the walk's `f_{>=2}`
+//! estimate, and `SINGLE(wi, wo) + (walk - walk_1)` is unbiased with the
+//! noise of the multiple-scattering part only. The generator checks
+//! `E[walk_1] = SINGLE` separately and writes the result into the header.
+
+use super::suite::{Class, SuiteMaterial, ndf_from_name, ndf_name};
+use super::{Progress, Stats};
+use glam::Vec3;
+use msbsdf::Rng;
+use msbsdf::bsdf::ScatterModel;
+use msbsdf::facet::Facet;
+use msbsdf::multiple::heitz::Heitz;
+use msbsdf::ndf::{Ndf, NdfKind};
+use msbsdf::single::{G2Form, Single};
+use msbsdf::{Material, Model, NdfId};
+use std::fmt::Write as _;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::Instant;
+
+/// HEITZ with the single-scattering control variate.
+pub struct RefEstimator {
+    full: Heitz,
+    one: Heitz,
+    single: Single,
+    eta: Option<f32>,
+}
+
+impl RefEstimator {
+    /// For a suite material (as `Material::new` builds HEITZ: default bounces).
+    pub fn new(s: &SuiteMaterial) -> Self {
+        let kind = match s.ndf {
+            NdfId::Beckmann => NdfKind::Beckmann,
+            _ => NdfKind::Ggx,
+        };
+        let ndf = Ndf::new(kind, s.alpha_x.max(1e-4), s.alpha_y.max(1e-4));
+        let (facet, eta) = match s.class {
+            Class::Conductor => (Facet::Conductor { eta: s.eta, k: s.k }, None),
+            Class::Dielectric => (Facet::Dielectric { eta: s.eta.x }, Some(s.eta.x)),
+        };
+        RefEstimator {
+            full: Heitz::new(ndf, facet, 0),
+            one: Heitz::new(ndf, facet, 1),
+            single: Single::new(ndf, facet, G2Form::HeightCorrelated),
+            eta,
+        }
+    }
+
+    /// `|wo.z| / |wi.z| * eta_o^2 / eta_i^2`: turns `f(wo, wi)|wi.z|` into
+    /// `f(wi, wo)|wo.z|` (generalised reciprocity, as HEITZ's eval).
+    fn backward_scale(&self, wi: Vec3, wo: Vec3) -> f32 {
+        let r = match self.eta {
+            Some(e) if wi.z * wo.z < 0.0 => {
+                if wi.z > 0.0 {
+                    e * e
+                } else {
+                    1.0 / (e * e)
+                }
+            }
+            _ => 1.0,
+        };
+        wo.z.abs() / wi.z.abs() * r
+    }
+
+    /// `walk - walk_1` from the same random state (the walk's estimate of
+    /// the multiply scattered part); `rng` ends after the full walk.
+    fn multiple(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3 {
+        let start = *rng;
+        let full = self.full.estimate(wi, wo, rng);
+        let end = *rng;
+        *rng = start;
+        let one = self.one.estimate(wi, wo, rng);
+        *rng = end;
+        full - one
+    }
+
+    /// One unbiased control-variate sample of `f(wi, wo)|wo.z|`.
+    pub fn sample(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> [f64; 3] {
+        if self.eta.is_none() && wi.z * wo.z <= 0.0 {
+            return [0.0; 3];
+        }
+        let s = self.single.eval(wi, wo, rng);
+        let f = self.multiple(wi, wo, rng);
+        let b = self.multiple(wo, wi, rng) * self.backward_scale(wi, wo);
+        let v = s + 0.5 * (f + b);
+        [v.x as f64, v.y as f64, v.z as f64]
+    }
+
+    /// One sample of the walk's first-vertex estimate (both directions,
+    /// as HEITZ's eval) and the analytic SINGLE value it should average to.
+    pub fn order_one(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> ([f64; 3], [f64; 3]) {
+        let s = self.single.eval(wi, wo, rng);
+        let f = self.one.estimate(wi, wo, rng);
+        let b = self.one.estimate(wo, wi, rng) * self.backward_scale(wi, wo);
+        let v = 0.5 * (f + b);
+        (
+            [v.x as f64, v.y as f64, v.z as f64],
+            [s.x as f64, s.y as f64, s.z as f64],
+        )
+    }
+}
+
+/// One reference value.
+#[derive(Clone, Copy, Debug)]
+pub struct RefPair {
+    /// Incident direction.
+    pub wi: Vec3,
+    /// Outgoing direction.
+    pub wo: Vec3,
+    /// Converged `f(wi, wo)|wo.z|` per channel.
+    pub value: [f64; 3],
+    /// Its standard error.
+    pub se: [f64; 3],
+    /// Samples used.
+    pub n: u64,
+}
+
+/// A material with its reference values.
+#[derive(Clone, Debug)]
+pub struct RefMaterial {
+    /// The material.
+    pub mat: SuiteMaterial,
+    /// Its pairs.
+    pub pairs: Vec<RefPair>,
+}
+
+/// The CSV columns of the value file.
+pub const VALUE_COLUMNS: &str = "material,class,ndf,alpha_x,alpha_y,eta_r,eta_g,eta_b,k_r,k_g,k_b,pair,wi_x,wi_y,wi_z,wo_x,wo_y,wo_z,ref_r,ref_g,ref_b,se_r,se_g,se_b,samples";
+
+/// Writes the value CSV (header comment lines first, each prefixed `# `).
+pub fn write_values(path: &str, header: &[String], data: &[RefMaterial]) -> std::io::Result<()> {
+    let mut s = String::new();
+    for h in header {
+        let _ = writeln!(s, "# {h}");
+    }
+    let _ = writeln!(s, "{VALUE_COLUMNS}");
+    for r in data {
+        let m = &r.mat;
+        for (i, p) in r.pairs.iter().enumerate() {
+            let _ = writeln!(
+                s,
+                "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.9e},{:.9e},{:.9e},{:.3e},{:.3e},{:.3e},{}",
+                m.name,
+                m.class.name(),
+                ndf_name(m.ndf),
+                m.alpha_x,
+                m.alpha_y,
+                m.eta.x,
+                m.eta.y,
+                m.eta.z,
+                m.k.x,
+                m.k.y,
+                m.k.z,
+                i,
+                p.wi.x,
+                p.wi.y,
+                p.wi.z,
+                p.wo.x,
+                p.wo.y,
+                p.wo.z,
+                p.value[0],
+                p.value[1],
+                p.value[2],
+                p.se[0],
+                p.se[1],
+                p.se[2],
+                p.n
+            );
+        }
+    }
+    std::fs::write(path, s)
+}
+
+/// Reads a value CSV written by [`write_values`].
+pub fn read_values(text: &str) -> Result<Vec<RefMaterial>, String> {
+    let mut out: Vec<RefMaterial> = Vec::new();
+    for (ln, line) in text.lines().enumerate() {
+        if line.starts_with('#') || line.starts_with("material,") || line.trim().is_empty() {
+            continue;
+        }
+        let c: Vec<&str> = line.split(',').collect();
+        if c.len() != 25 {
+            return Err(format!("line {}: {} columns", ln + 1, c.len()));
+        }
+        let f = |i: usize| -> Result<f64, String> {
+            c[i].parse::<f64>()
+                .map_err(|e| format!("line {}: column {i}: {e}", ln + 1))
+        };
+        let class = match c[1] {
+            "conductor" => Class::Conductor,
+            "dielectric" => Class::Dielectric,
+            x => return Err(format!("line {}: class {x}", ln + 1)),
+        };
+        let ndf = ndf_from_name(c[2]).ok_or_else(|| format!("line {}: ndf", ln + 1))?;
+        let v3 = |a: usize| -> Result<Vec3, String> {
+            Ok(Vec3::new(f(a)? as f32, f(a + 1)? as f32, f(a + 2)? as f32))
+        };
+        let mat = SuiteMaterial {
+            name: c[0].to_string(),
+            class,
+            ndf,
+            alpha_x: f(3)? as f32,
+            alpha_y: f(4)? as f32,
+            eta: v3(5)?,
+            k: v3(8)?,
+        };
+        let pair = RefPair {
+            wi: v3(12)?,
+            wo: v3(15)?,
+            value: [f(18)?, f(19)?, f(20)?],
+            se: [f(21)?, f(22)?, f(23)?],
+            n: f(24)? as u64,
+        };
+        match out.last_mut() {
+            Some(last) if last.mat.name == mat.name => last.pairs.push(pair),
+            _ => out.push(RefMaterial {
+                mat,
+                pairs: vec![pair],
+            }),
+        }
+    }
+    Ok(out)
+}
+
+/// Incident angles (degrees) of the albedo tables.
+pub const ALBEDO_THETAS: [f32; 9] = [0.0, 15.0, 30.0, 45.0, 60.0, 70.0, 80.0, 85.0, 89.0];
+
+/// One directional albedo of the reference.
+#[derive(Clone, Debug)]
+pub struct AlbedoRow {
+    /// Material name.
+    pub material: String,
+    /// NDF name.
+    pub ndf: String,
+    /// Roughness.
+    pub alpha_x: f32,
+    /// Roughness.
+    pub alpha_y: f32,
+    /// Incident polar angle (degrees; azimuth 0).
+    pub theta_i: f32,
+    /// Albedo per channel (reflected plus transmitted).
+    pub albedo: [f64; 3],
+    /// Standard error.
+    pub se: [f64; 3],
+    /// Reflected part of the red channel.
+    pub reflected: f64,
+    /// Samples.
+    pub n: u64,
+}
+
+/// CSV columns of the albedo file.
+pub const ALBEDO_COLUMNS: &str = "material,ndf,alpha_x,alpha_y,theta_i,albedo_r,albedo_g,albedo_b,se_r,se_g,se_b,reflected_r,samples";
+
+/// Reads an albedo CSV.
+pub fn read_albedo(text: &str) -> Result<Vec<AlbedoRow>, String> {
+    let mut out = Vec::new();
+    for (ln, line) in text.lines().enumerate() {
+        if line.starts_with('#') || line.starts_with("material,") || line.trim().is_empty() {
+            continue;
+        }
+        let c: Vec<&str> = line.split(',').collect();
+        if c.len() != 13 {
+            return Err(format!("line {}: {} columns", ln + 1, c.len()));
+        }
+        let f = |i: usize| -> Result<f64, String> {
+            c[i].parse::<f64>()
+                .map_err(|e| format!("line {}: column {i}: {e}", ln + 1))
+        };
+        out.push(AlbedoRow {
+            material: c[0].to_string(),
+            ndf: c[1].to_string(),
+            alpha_x: f(2)? as f32,
+            alpha_y: f(3)? as f32,
+            theta_i: f(4)? as f32,
+            albedo: [f(5)?, f(6)?, f(7)?],
+            se: [f(8)?, f(9)?, f(10)?],
+            reflected: f(11)?,
+            n: f(12)? as u64,
+        });
+    }
+    Ok(out)
+}
+
+/// Runs `work(item)` for `0..n` items on `threads` threads, with a progress
+/// bar counting `weight(item)` units.
+pub fn parallel<T: Send + Default + Clone>(
+    n: usize,
+    threads: usize,
+    progress: &mut Progress,
+    weight: impl Fn(usize) -> u64 + Sync,
+    work: impl Fn(usize) -> T + Sync,
+) -> Vec<T> {
+    let next = AtomicUsize::new(0);
+    let results = Mutex::new(vec![T::default(); n]);
+    let done = Mutex::new((0u64, progress));
+    std::thread::scope(|s| {
+        for _ in 0..threads {
+            s.spawn(|| {
+                loop {
+                    let i = next.fetch_add(1, Ordering::Relaxed);
+                    if i >= n {
+                        break;
+                    }
+                    let r = work(i);
+                    if let Ok(mut g) = results.lock() {
+                        g[i] = r;
+                    }
+                    if let Ok(mut d) = done.lock() {
+                        d.0 += weight(i);
+                        let v = d.0;
+                        d.1.update(v);
+                    }
+                }
+            });
+        }
+    });
+    results.into_inner().unwrap_or_default()
+}
+
+/// Result of one value item: statistics and the seconds it took.
+#[derive(Clone, Default)]
+struct Item {
+    stats: Stats,
+    secs: f64,
+}
+
+/// Options of the reference generation.
+pub struct GenOptions {
+    /// Pairs per material (64 in the full run).
+    pub pairs: usize,
+    /// Base seed.
+    pub seed: u64,
+    /// Pilot samples per pair.
+    pub pilot: u64,
+    /// Target relative standard error per value.
+    pub target: f64,
+    /// Wall-clock budget (seconds) for the second pass.
+    pub budget: f64,
+    /// Largest number of samples per pair.
+    pub max_samples: u64,
+    /// Albedo samples per (material, angle) in the pilot.
+    pub albedo_pilot: u64,
+    /// Worker threads.
+    pub threads: usize,
+    /// No progress bars.
+    pub quiet: bool,
+}
+
+/// Summary of a generation, for headers and reports.
+pub struct GenSummary {
+    /// Header lines of the value CSV.
+    pub header: Vec<String>,
+    /// The values.
+    pub data: Vec<RefMaterial>,
+}
+
+/// Relative-error floor: values below this fraction of their material's RMS
+/// value are converged in absolute terms (`target * floor * rms`).
+pub const FLOOR: f64 = 1e-3;
+
+/// Relative standard error of a value, with the floor.
+pub fn rel_se(value: &[f64; 3], se: &[f64; 3], rms: f64) -> f64 {
+    (0..3)
+        .map(|c| se[c] / value[c].abs().max(FLOOR * rms).max(1e-30))
+        .fold(0.0, f64::max)
+}
+
+/// RMS over a material's values (all channels).
+pub fn material_rms(values: &[[f64; 3]]) -> f64 {
+    let n = (values.len() * 3).max(1) as f64;
+    (values.iter().flatten().map(|v| v * v).sum::<f64>() / n).sqrt()
+}
+
+/// Generates the reference values of `suite` (two passes: a pilot, then
+/// samples allotted so that every value reaches the same relative standard
+/// error, `target` or the best the budget allows).
+pub fn generate(suite: &[SuiteMaterial], o: &GenOptions) -> GenSummary {
+    let pairs: Vec<Vec<(Vec3, Vec3)>> = suite
+        .iter()
+        .map(|m| super::suite::pairs(m.class, o.pairs))
+        .collect();
+    let per = pairs[0].len();
+    let n = suite.len() * per;
+    let est: Vec<RefEstimator> = suite.iter().map(RefEstimator::new).collect();
+    let run = |i: usize, seed: u64, count: u64| -> Item {
+        let (mi, pi) = (i / per, i % per);
+        let (wi, wo) = pairs[mi][pi];
+        let mut rng = Rng::new(seed, i as u64);
+        let mut st = Stats::default();
+        let t = Instant::now();
+        for _ in 0..count {
+            st.push(est[mi].sample(wi, wo, &mut rng));
+        }
+        Item {
+            stats: st,
+            secs: t.elapsed().as_secs_f64(),
+        }
+    };
+    // Pass 1: pilot.
+    let mut bar = Progress::new("reference pilot", n as u64, o.quiet);
+    let pilot = parallel(n, o.threads, &mut bar, |_| 1, |i| run(i, o.seed, o.pilot));
+    bar.finish();
+    // Needed samples per item for the target (with the floor).
+    let rms: Vec<f64> = (0..suite.len())
+        .map(|mi| {
+            let v: Vec<[f64; 3]> = (0..per).map(|p| pilot[mi * per + p].stats.mean).collect();
+            material_rms(&v)
+        })
+        .collect();
+    // Per item: n * rel_se^2 = samples needed for relative error 1.
+    let unit: Vec<f64> = (0..n)
+        .map(|i| {
+            let s = &pilot[i].stats;
+            let r = rel_se(&s.mean, &s.se(), rms[i / per]);
+            r * r * s.n as f64
+        })
+        .collect();
+    let t_per: Vec<f64> = pilot.iter().map(|p| p.secs / p.stats.n as f64).collect();
+    // Time (core-seconds) for relative error r: sum unit * t / r^2.
+    let work: f64 = (0..n).map(|i| unit[i] * t_per[i]).sum();
+    let cores = o.threads as f64;
+    let r_budget = (work / (o.budget * cores)).sqrt();
+    let target = o.target.max(r_budget);
+    let extra: Vec<u64> = (0..n)
+        .map(|i| {
+            let need = (unit[i] / (target * target)).ceil() as u64;
+            need.min(o.max_samples).saturating_sub(o.pilot)
+        })
+        .collect();
+    let total_extra: u64 = extra.iter().sum();
+    let mut bar = Progress::new("reference values", total_extra.max(1), o.quiet);
+    let pass2 = parallel(
+        n,
+        o.threads,
+        &mut bar,
+        |i| extra[i],
+        |i| run(i, o.seed + 1, extra[i]),
+    );
+    bar.finish();
+    let mut data = Vec::new();
+    let mut worst = 0.0f64;
+    let mut rel_all = Vec::new();
+    let mut norm_worst = 0.0f64;
+    for (mi, m) in suite.iter().enumerate() {
+        let mut ps = Vec::new();
+        let mut num = 0.0;
+        let mut den = 0.0;
+        for p in 0..per {
+            let i = mi * per + p;
+            let mut st = pilot[i].stats;
+            st.merge(&pass2[i].stats);
+            let se = st.se();
+            let r = rel_se(&st.mean, &se, rms[mi]);
+            worst = worst.max(r);
+            rel_all.push(r);
+            for c in 0..3 {
+                num += se[c] * se[c];
+                den += st.mean[c] * st.mean[c];
+            }
+            ps.push(RefPair {
+                wi: pairs[mi][p].0,
+                wo: pairs[mi][p].1,
+                value: st.mean,
+                se,
+                n: st.n,
+            });
+        }
+        norm_worst = norm_worst.max((num / den.max(1e-300)).sqrt());
+        data.push(RefMaterial {
+            mat: m.clone(),
+            pairs: ps,
+        });
+    }
+    let med = super::median(&rel_all);
+    let header = vec![
+        format!(
+            "estimator: HEITZ_RANDOM_WALK (default bounce limit) with the analytic SINGLE term as control variate: ref = SINGLE + (walk - walk with 1 vertex), same random numbers; forward and reverse walks averaged as HEITZ eval"
+        ),
+        format!(
+            "seeds: pilot pass Rng::new({}, stream = item), second pass Rng::new({}, stream = item), item = material_index * {per} + pair",
+            o.seed,
+            o.seed + 1
+        ),
+        format!(
+            "samples: pilot {} per value, then allotted for relative standard error {:.2e} (requested {:.1e}; budget {:.0} s on {} threads), at most {} per value; total {} samples",
+            o.pilot,
+            target,
+            o.target,
+            o.budget,
+            o.threads,
+            o.max_samples,
+            (n as u64) * o.pilot + total_extra
+        ),
+        format!(
+            "reached: relative standard error per value (channel max; values below {FLOOR:e} x the material RMS count against that floor) median {med:.2e}, worst {worst:.2e}; worst material-normalised RMS of the standard errors {norm_worst:.2e}"
+        ),
+    ];
+    GenSummary { header, data }
+}
+
+/// Checks `E[walk_1] = SINGLE` on a few pairs per material: returns header
+/// lines with the worst |z| and the worst relative deviation.
+pub fn check_order_one(suite: &[SuiteMaterial], samples: u64, o: &GenOptions) -> Vec<String> {
+    let n = suite.len() * 8;
+    let mut bar = Progress::new("order-1 check", n as u64, o.quiet);
+    let res = parallel(
+        n,
+        o.threads,
+        &mut bar,
+        |_| 1,
+        |i| {
+            let (mi, pi) = (i / 8, i % 8);
+            let e = RefEstimator::new(&suite[mi]);
+            let (wi, wo) = super::suite::pairs(suite[mi].class, 8)[pi];
+            let mut rng = Rng::new(o.seed + 7, i as u64);
+            let mut st = Stats::default();
+            let mut s = [0.0; 3];
+            for _ in 0..samples {
+                let (v, single) = e.order_one(wi, wo, &mut rng);
+                st.push(v);
+                s = single;
+            }
+            let se = st.se();
+            let mut z: f64 = 0.0;
+            let mut rel: f64 = 0.0;
+            for c in 0..3 {
+                // f32 rounding of both sides (1e-6 relative) where the walk
+                // is deterministic (mirror pairs: escape probability 1).
+                let sd = (se[c] * se[c] + (1e-6 * s[c]).powi(2)).sqrt();
+                if sd > 0.0 {
+                    z = z.max((st.mean[c] - s[c]).abs() / sd);
+                }
+                if s[c] > 1e-3 {
+                    rel = rel.max((st.mean[c] - s[c]).abs() / s[c]);
+                }
+            }
+            if std::env::var_os("MSBSDF_CHECK_VERBOSE").is_some() && (z > 4.0 || rel > 2e-3) {
+                eprintln!(
+                    "\n{} pair {pi} wi {wi} wo {wo}: walk_1 {:?} +- {:?}, SINGLE {:?}",
+                    suite[mi].name, st.mean, se, s
+                );
+            }
+            (z, rel)
+        },
+    );
+    bar.finish();
+    let zmax = res.iter().map(|r| r.0).fold(0.0, f64::max);
+    let relmax = res.iter().map(|r| r.1).fold(0.0, f64::max);
+    vec![format!(
+        "check: E[first-vertex walk estimate] vs analytic SINGLE on {n} pairs x {samples} samples: worst |z| {zmax:.2} (Sidak 1% two-sided for {} tests: {:.2}), worst relative deviation {relmax:.2e} (values > 1e-3)",
+        n * 3,
+        sidak_z(0.01, n * 3)
+    )]
+}
+
+/// Two-sided normal quantile of a Sidak-corrected level (bisection on erfc).
+pub fn sidak_z(alpha: f64, tests: usize) -> f64 {
+    let a = 1.0 - (1.0 - alpha).powf(1.0 / tests as f64);
+    let (mut lo, mut hi) = (0.0f64, 40.0f64);
+    for _ in 0..100 {
+        let mid = 0.5 * (lo + hi);
+        if erfc(mid / std::f64::consts::SQRT_2) > a {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    lo
+}
+
+/// Complementary error function (Numerical Recipes' erfcc, 1.2e-7 relative).
+pub fn erfc(x: f64) -> f64 {
+    let z = x.abs();
+    let t = 1.0 / (1.0 + 0.5 * z);
+    let r = t
+        * (-z * z - 1.26551223
+            + t * (1.00002368
+                + t * (0.37409196
+                    + t * (0.09678418
+                        + t * (-0.18628806
+                            + t * (0.27886807
+                                + t * (-1.13520398
+                                    + t * (1.48851513 + t * (-0.82215223 + t * 0.17087277)))))))))
+            .exp();
+    if x >= 0.0 { r } else { 2.0 - r }
+}
+
+/// Directional albedo of HEITZ (mean sample weight) for every suite
+/// material at [`ALBEDO_THETAS`] (azimuth 0).
+pub fn albedo(suite: &[SuiteMaterial], samples: u64, o: &GenOptions) -> Vec<AlbedoRow> {
+    let nt = ALBEDO_THETAS.len();
+    let n = suite.len() * nt;
+    let mut bar = Progress::new("albedo", n as u64, o.quiet);
+    let res = parallel(
+        n,
+        o.threads,
+        &mut bar,
+        |_| 1,
+        |i| {
+            let (mi, ti) = (i / nt, i % nt);
+            let s = &suite[mi];
+            let Ok(m) = Material::new(&s.desc(Model::HeitzRandomWalk, msbsdf::Estimator::Pt))
+            else {
+                return None;
+            };
+            let t = ALBEDO_THETAS[ti].to_radians();
+            let wi = Vec3::new(t.sin(), 0.0, t.cos());
+            let mut rng = Rng::new(o.seed + 3, i as u64);
+            let mut st = Stats::default();
+            let mut refl = 0.0;
+            for _ in 0..samples {
+                let smp = m.sample(wi, &mut rng);
+                let w = [
+                    smp.weight.x as f64,
+                    smp.weight.y as f64,
+                    smp.weight.z as f64,
+                ];
+                if smp.wo.z > 0.0 {
+                    refl += w[0];
+                }
+                st.push(w);
+            }
+            Some(AlbedoRow {
+                material: s.name.clone(),
+                ndf: ndf_name(s.ndf).to_string(),
+                alpha_x: s.alpha_x,
+                alpha_y: s.alpha_y,
+                theta_i: ALBEDO_THETAS[ti],
+                albedo: st.mean,
+                se: st.se(),
+                reflected: refl / samples as f64,
+                n: samples,
+            })
+        },
+    );
+    bar.finish();
+    res.into_iter().flatten().collect()
+}
+
+/// Writes the albedo CSV.
+pub fn write_albedo(path: &str, header: &[String], rows: &[AlbedoRow]) -> std::io::Result<()> {
+    let mut s = String::new();
+    for h in header {
+        let _ = writeln!(s, "# {h}");
+    }
+    let _ = writeln!(s, "{ALBEDO_COLUMNS}");
+    for r in rows {
+        let _ = writeln!(
+            s,
+            "{},{},{},{},{},{:.7},{:.7},{:.7},{:.2e},{:.2e},{:.2e},{:.7},{}",
+            r.material,
+            r.ndf,
+            r.alpha_x,
+            r.alpha_y,
+            r.theta_i,
+            r.albedo[0],
+            r.albedo[1],
+            r.albedo[2],
+            r.se[0],
+            r.se[1],
+            r.se[2],
+            r.reflected,
+            r.n
+        );
+    }
+    std::fs::write(path, s)
+}

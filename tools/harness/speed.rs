@@ -1,0 +1,472 @@
+//! The speed-vs-accuracy measurement: for every (model, estimator) the
+//! library accepts and every evaluation count, the median time per query
+//! through `msbsdf_eval` and the relative RMS error against the reference.
+//!
+//! Error of a query that averages `N` evaluations, per material:
+//! `sqrt((B + V / N) / R)`, with `R = sum ref^2`, `B = sum (mean - ref)^2 -
+//! V / M - se_ref^2` (squared bias, corrected for the noise of both means)
+//! and `V = sum var` (variance of one evaluation), sums over the pairs and
+//! RGB channels, `M` evaluations per pair. This is the expected mean squared
+//! error of averaging `N` independent evaluations, measured once from `M`
+//! evaluations rather than by repeating every `N` (same expectation, less
+//! noise). A class error is the RMS over its materials.
+//!
+//! HEITZ_RANDOM_WALK is the reference: its bias is zero by definition (the
+//! reference is its expectation, computed with a control variate whose
+//! first-order term is checked against the walk in the reference header),
+//! so its error is its noise alone; its measured bias (noise-limited:
+//! `sqrt(V / M)` with a few dominant pairs) is still written to the
+//! per-material CSV as a consistency check.
+
+use super::reference::RefMaterial;
+use super::suite::{
+    CMaterial, Class, Combo, c_rng, discover, estimator_name, model_name, ndf_name,
+};
+use super::{Progress, Stats, median};
+use msbsdf::NdfId;
+use std::fmt::Write as _;
+use std::hint::black_box;
+use std::time::Instant;
+
+/// Options of a run.
+#[derive(Clone, Debug)]
+pub struct Options {
+    /// Evaluation counts per query (stochastic models), timed directly.
+    pub evals: Vec<u32>,
+    /// Further evaluation counts for the AUTO table only (error from the
+    /// same statistics; time extrapolated linearly from the largest timed
+    /// count, since a query is a loop of evaluations).
+    pub table_evals: Vec<u32>,
+    /// Evaluations per pair for the statistics.
+    pub samples: u32,
+    /// Timing runs (median taken).
+    pub timing_runs: usize,
+    /// Evaluations per timing run (at least 4 queries).
+    pub timing_evals: u32,
+    /// Worker threads for the statistics.
+    pub threads: usize,
+    /// No progress bar.
+    pub quiet: bool,
+}
+
+impl Options {
+    /// The full run: 1, 2, 4, ..., 256 evaluations timed, up to 65536 for
+    /// the AUTO table (stochastic models need thousands of evaluations per
+    /// query to reach 1% on this suite).
+    pub fn full() -> Self {
+        Options {
+            evals: (0..9).map(|i| 1 << i).collect(),
+            table_evals: (9..17).map(|i| 1 << i).collect(),
+            samples: 2048,
+            timing_runs: 5,
+            timing_evals: 1024,
+            threads: super::threads(),
+            quiet: false,
+        }
+    }
+
+    /// A quick run for tests.
+    pub fn quick() -> Self {
+        Options {
+            evals: vec![1, 2, 4],
+            table_evals: vec![8],
+            samples: 32,
+            timing_runs: 3,
+            timing_evals: 64,
+            threads: 1,
+            quiet: true,
+        }
+    }
+}
+
+/// Result of one (combo, material).
+#[derive(Clone, Debug, Default)]
+pub struct MatResult {
+    /// Index into the combos.
+    pub combo: usize,
+    /// Index into the reference materials.
+    pub material: usize,
+    /// Squared bias (summed, noise-corrected; may be slightly negative);
+    /// 0 for the reference model.
+    pub bias2: f64,
+    /// The measured squared bias, also for the reference model.
+    pub bias2_measured: f64,
+    /// Summed variance of one evaluation.
+    pub var: f64,
+    /// Standard error of `var` (spread of 8 batch estimates / sqrt(8)).
+    pub var_se: f64,
+    /// Standard error of `bias2` (normal approximation, see the tests).
+    pub bias2_se: f64,
+    /// Summed squared reference values.
+    pub den: f64,
+    /// Median ns per query for each evaluation count (one entry for
+    /// deterministic models).
+    pub ns: Vec<f64>,
+    /// Evaluation counts of `ns`.
+    pub evals: Vec<u32>,
+    /// Non-finite or negative outputs seen.
+    pub bad: u64,
+}
+
+impl MatResult {
+    /// Relative RMS error of a query averaging `n` evaluations.
+    pub fn rel_err(&self, n: u32) -> f64 {
+        ((self.bias2.max(0.0) + self.var / n as f64) / self.den.max(1e-300)).sqrt()
+    }
+
+    /// Upper confidence value of the relative RMS error of `n` evaluations:
+    /// squared bias and variance each raised by 3 standard errors. The AUTO
+    /// table stores this, so that a choice near the tolerance still meets
+    /// it when measured again with other random numbers.
+    pub fn rel_err_upper(&self, n: u32) -> f64 {
+        let b = (self.bias2 + 3.0 * self.bias2_se).max(0.0);
+        let v = self.var + 3.0 * self.var_se;
+        ((b + v / n as f64) / self.den.max(1e-300)).sqrt()
+    }
+
+    /// Relative bias alone (as measured, also for the reference model).
+    pub fn rel_bias(&self) -> f64 {
+        (self.bias2_measured.max(0.0) / self.den.max(1e-300)).sqrt()
+    }
+
+    /// Median ns per query of `n` evaluations: measured, or extrapolated
+    /// linearly from the largest measured count.
+    pub fn ns_for(&self, n: u32) -> f64 {
+        if let Some(i) = self.evals.iter().position(|&e| e == n) {
+            return self.ns[i];
+        }
+        match (self.evals.last(), self.ns.last()) {
+            (Some(&e), Some(&t)) => t * n as f64 / e as f64,
+            _ => f64::NAN,
+        }
+    }
+}
+
+/// Everything a run measured.
+pub struct Run {
+    /// The combinations measured.
+    pub combos: Vec<Combo>,
+    /// Per (combo, material) results.
+    pub results: Vec<MatResult>,
+    /// Options used.
+    pub options: Options,
+}
+
+fn time_queries(m: &CMaterial, pairs: &[(glam::Vec3, glam::Vec3)], n: u32, o: &Options) -> f64 {
+    let q = ((o.timing_evals / n).max(4)) as usize;
+    let mut rng = c_rng(99, 1);
+    let mut times = Vec::with_capacity(o.timing_runs);
+    for _ in 0..o.timing_runs {
+        let t = Instant::now();
+        for j in 0..q {
+            let (wi, wo) = pairs[j % pairs.len()];
+            let mut s = [0.0f64; 3];
+            for _ in 0..n {
+                let v = m.eval(wi, wo, &mut rng);
+                s[0] += v[0];
+                s[1] += v[1];
+                s[2] += v[2];
+            }
+            black_box(s);
+        }
+        times.push(t.elapsed().as_nanos() as f64 / q as f64);
+    }
+    median(&times)
+}
+
+/// Measures every accepted (model, estimator) on `refs`.
+pub fn run(refs: &[RefMaterial], o: &Options) -> Run {
+    let suite: Vec<_> = refs.iter().map(|r| r.mat.clone()).collect();
+    let combos = discover(&suite);
+    let mut jobs = Vec::new();
+    for ci in 0..combos.len() {
+        for mi in 0..refs.len() {
+            let d = refs[mi].mat.c_desc(combos[ci].model, combos[ci].estimator);
+            if CMaterial::new(&d).is_some() {
+                jobs.push((ci, mi));
+            }
+        }
+    }
+    let mut bar = Progress::new("accuracy", jobs.len() as u64, o.quiet);
+    let stats = super::reference::parallel(
+        jobs.len(),
+        o.threads,
+        &mut bar,
+        |_| 1,
+        |j| {
+            let (ci, mi) = jobs[j];
+            let c = combos[ci];
+            let r = &refs[mi];
+            let Some(m) = CMaterial::new(&r.mat.c_desc(c.model, c.estimator)) else {
+                return MatResult::default();
+            };
+            let samples = if c.stochastic { o.samples } else { 1 };
+            let mut res = MatResult {
+                combo: ci,
+                material: mi,
+                ..MatResult::default()
+            };
+            let mut b2_var = 0.0;
+            let mut batch_var = [0.0f64; 8];
+            for (pi, p) in r.pairs.iter().enumerate() {
+                let mut rng = c_rng(1000 + ci as u64, (mi * r.pairs.len() + pi) as u64);
+                let mut st = Stats::default();
+                let mut batch = [Stats::default(); 8];
+                for k in 0..samples {
+                    let v = m.eval(p.wi, p.wo, &mut rng);
+                    if v.iter().any(|x| !x.is_finite() || *x < 0.0) {
+                        res.bad += 1;
+                    }
+                    st.push(v);
+                    batch[(k as usize * 8) / samples as usize].push(v);
+                }
+                let var = if c.stochastic { st.var() } else { [0.0; 3] };
+                for ch in 0..3 {
+                    let d = st.mean[ch] - p.value[ch];
+                    let noise = var[ch] / samples as f64 + p.se[ch] * p.se[ch];
+                    res.bias2 += d * d - noise;
+                    // Var(d^2) for a normal d: 4 mu^2 s + 2 s^2.
+                    b2_var += 4.0 * d * d * noise + 2.0 * noise * noise;
+                    res.var += var[ch];
+                    res.den += p.value[ch] * p.value[ch];
+                    if c.stochastic {
+                        for (b, bs) in batch.iter().enumerate() {
+                            batch_var[b] += bs.var()[ch];
+                        }
+                    }
+                }
+            }
+            res.bias2_se = b2_var.sqrt();
+            if c.stochastic {
+                let mean = batch_var.iter().sum::<f64>() / 8.0;
+                let sd = (batch_var.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / 7.0).sqrt();
+                res.var_se = sd / 8f64.sqrt();
+            }
+            res.bias2_measured = res.bias2;
+            if c.model == msbsdf::Model::HeitzRandomWalk {
+                res.bias2 = 0.0;
+                res.bias2_se = 0.0;
+            }
+            res
+        },
+    );
+    bar.finish();
+    // Timing, one thread, after the statistics.
+    let mut results = stats;
+    let mut bar = Progress::new("timing", results.len() as u64, o.quiet);
+    for (k, res) in results.iter_mut().enumerate() {
+        let c = combos[res.combo];
+        let r = &refs[res.material];
+        let pairs: Vec<_> = r.pairs.iter().map(|p| (p.wi, p.wo)).collect();
+        if let Some(m) = CMaterial::new(&r.mat.c_desc(c.model, c.estimator)) {
+            res.evals = if c.stochastic {
+                o.evals.clone()
+            } else {
+                vec![1]
+            };
+            res.ns = res
+                .evals
+                .iter()
+                .map(|&n| time_queries(&m, &pairs, n, o))
+                .collect();
+        }
+        bar.update(k as u64 + 1);
+    }
+    bar.finish();
+    Run {
+        combos,
+        results,
+        options: o.clone(),
+    }
+}
+
+/// One row of the class summary.
+#[derive(Clone, Debug)]
+pub struct Row {
+    /// The combination.
+    pub combo: Combo,
+    /// Evaluations per query.
+    pub evals: u32,
+    /// Per class (conductor, dielectric): RMS relative error, mean ns per
+    /// query, materials covered.
+    pub class: [Option<(f64, f64, usize)>; 2],
+}
+
+/// The class summary: one row per (model, estimator, evaluations).
+pub fn summary(run: &Run, refs: &[RefMaterial]) -> Vec<Row> {
+    let mut rows = Vec::new();
+    for (ci, c) in run.combos.iter().enumerate() {
+        let evals: Vec<u32> = if c.stochastic {
+            run.options.evals.clone()
+        } else {
+            vec![1]
+        };
+        for (ei, &n) in evals.iter().enumerate() {
+            let mut class = [None, None];
+            for (k, cl) in [Class::Conductor, Class::Dielectric]
+                .into_iter()
+                .enumerate()
+            {
+                let rs: Vec<&MatResult> = run
+                    .results
+                    .iter()
+                    .filter(|r| r.combo == ci && refs[r.material].mat.class == cl)
+                    .filter(|r| r.ns.len() > ei)
+                    .collect();
+                if rs.is_empty() {
+                    continue;
+                }
+                let e2: f64 =
+                    rs.iter().map(|r| r.rel_err(n).powi(2)).sum::<f64>() / rs.len() as f64;
+                let ns: f64 = rs.iter().map(|r| r.ns[ei]).sum::<f64>() / rs.len() as f64;
+                class[k] = Some((e2.sqrt(), ns, rs.len()));
+            }
+            rows.push(Row {
+                combo: *c,
+                evals: n,
+                class,
+            });
+        }
+    }
+    rows
+}
+
+/// Header line of the summary CSV.
+pub const SUMMARY_COLUMNS: &str = "model,estimator,evaluations,conductor_rel_rms_error,conductor_ns_per_query,conductor_materials,dielectric_rel_rms_error,dielectric_ns_per_query,dielectric_materials";
+
+/// The summary CSV text.
+pub fn summary_csv(header: &[String], rows: &[Row]) -> String {
+    let mut s = String::new();
+    for h in header {
+        let _ = writeln!(s, "# {h}");
+    }
+    let _ = writeln!(s, "{SUMMARY_COLUMNS}");
+    for r in rows {
+        let _ = write!(
+            s,
+            "{},{},{}",
+            model_name(r.combo.model),
+            estimator_name(r.combo.estimator),
+            r.evals
+        );
+        for c in r.class {
+            match c {
+                Some((e, ns, n)) => {
+                    let _ = write!(s, ",{e:.5e},{ns:.1},{n}");
+                }
+                None => s.push_str(",,,0"),
+            }
+        }
+        s.push('\n');
+    }
+    s
+}
+
+/// The per-material CSV text.
+pub fn materials_csv(header: &[String], run: &Run, refs: &[RefMaterial]) -> String {
+    let mut s = String::new();
+    for h in header {
+        let _ = writeln!(s, "# {h}");
+    }
+    s.push_str("model,estimator,evaluations,material,class,ndf,alpha_x,alpha_y,rel_rms_error,ns_per_query,rel_bias,rel_noise_one_eval,bad_outputs\n");
+    for r in &run.results {
+        let c = run.combos[r.combo];
+        let m = &refs[r.material].mat;
+        for (ei, &n) in r.evals.iter().enumerate() {
+            let _ = writeln!(
+                s,
+                "{},{},{},{},{},{},{},{},{:.5e},{:.1},{:.4e},{:.4e},{}",
+                model_name(c.model),
+                estimator_name(c.estimator),
+                n,
+                m.name,
+                m.class.name(),
+                ndf_name(m.ndf),
+                m.alpha_x,
+                m.alpha_y,
+                r.rel_err(n),
+                r.ns[ei],
+                r.rel_bias(),
+                (r.var / r.den.max(1e-300)).sqrt(),
+                r.bad
+            );
+        }
+    }
+    s
+}
+
+/// Rust source of `src/multiple/auto_table.rs`: per (NDF, facet, roughness)
+/// of the suite, every measured (model, estimator, evaluations) with its
+/// error (worst over the suite's materials with that key: the three metals
+/// for conductors) and its cost (largest mean ns per query among them).
+pub fn auto_table_source(run: &Run, refs: &[RefMaterial], command: &str) -> String {
+    // Keys in suite order.
+    let mut keys: Vec<(NdfId, Class, f32, f32)> = Vec::new();
+    for r in refs {
+        let k = (r.mat.ndf, r.mat.class, r.mat.alpha_x, r.mat.alpha_y);
+        if !keys.contains(&k) {
+            keys.push(k);
+        }
+    }
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "//! Measured error and cost of every model, per NDF, facet and roughness:\n//! the table [`super::auto`] picks from. GENERATED by `{command}`\n//! from `data/reference_values.csv`; do not edit by hand.\n//!\n//! `error` is the relative RMS error of one query averaging `evaluations`\n//! calls of eval, against the converged HEITZ_RANDOM_WALK reference over\n//! 64 direction pairs (worst over the suite's materials with that key),\n//! as an upper confidence value (squared bias and variance each raised by\n//! 3 of their standard errors);\n//! `ns` is the median time per query through `msbsdf_eval` (largest over\n//! those materials) on the machine that generated it; above 256\n//! evaluations it is extrapolated linearly from the 256-evaluation timing.\n//! HEITZ_RANDOM_WALK's error is its noise alone (it is the reference).\n"
+    );
+    let _ = writeln!(
+        s,
+        "use super::auto::{{Candidate, Row}};\nuse crate::material::{{Estimator, FacetKind, Model, NdfId}};\n"
+    );
+    let _ = writeln!(s, "/// Every measured row.\npub const ROWS: &[Row] = &[");
+    for (ndf, class, ax, ay) in keys {
+        let ndf_s = match ndf {
+            NdfId::Beckmann => "NdfId::Beckmann",
+            _ => "NdfId::Ggx",
+        };
+        let facet_s = match class {
+            Class::Conductor => "FacetKind::Conductor",
+            Class::Dielectric => "FacetKind::Dielectric",
+        };
+        let _ = writeln!(
+            s,
+            "    Row {{\n        ndf: {ndf_s},\n        facet: {facet_s},\n        alpha_x: {ax:?},\n        alpha_y: {ay:?},\n        candidates: &["
+        );
+        for (ci, c) in run.combos.iter().enumerate() {
+            let rs: Vec<&MatResult> = run
+                .results
+                .iter()
+                .filter(|r| {
+                    let m = &refs[r.material].mat;
+                    r.combo == ci
+                        && m.ndf == ndf
+                        && m.class == class
+                        && m.alpha_x == ax
+                        && m.alpha_y == ay
+                        && !r.ns.is_empty()
+                })
+                .collect();
+            if rs.is_empty() {
+                continue;
+            }
+            let mut counts = rs[0].evals.clone();
+            if c.stochastic {
+                counts.extend(run.options.table_evals.iter().copied());
+            }
+            for n in counts {
+                let err = rs.iter().map(|r| r.rel_err_upper(n)).fold(0.0, f64::max);
+                let ns = rs.iter().map(|r| r.ns_for(n)).fold(0.0, f64::max);
+                let model = format!("{:?}", c.model);
+                let est = format!("{:?}", c.estimator);
+                let _ = writeln!(
+                    s,
+                    "            Candidate {{\n                model: Model::{model},\n                estimator: Estimator::{est},\n                evaluations: {n},\n                error: {:?},\n                ns: {:?},\n            }},",
+                    err as f32,
+                    ns.max(0.1).round() as f32
+                );
+            }
+        }
+        let _ = writeln!(s, "        ],\n    }},");
+    }
+    s.push_str("];\n");
+    s
+}
