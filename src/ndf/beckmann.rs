@@ -3,7 +3,7 @@
 //! Heitz and d'Eon 2014, solved in f64 in a scaled form that stays finite
 //! for up-welling views whose visible area is tiny).
 
-use crate::math::{FRAC_1_SQRT_PI, erf, erfc, erfcx_pos, erfinv};
+use crate::math::{FRAC_1_SQRT_PI, erf, erfc, erfcx_pos, erfinv_fast};
 use glam::Vec3;
 use std::f32::consts::PI;
 
@@ -66,23 +66,39 @@ fn log_cdf(a: f64, x: f64) -> f64 {
     }
 }
 
-/// d/dx log F(x).
-fn dlog_cdf(a: f64, x: f64) -> f64 {
+/// `log F(x)` and `d/dx log F(x)` together (they share the special functions).
+#[inline]
+fn log_cdf_and_slope(a: f64, x: f64) -> (f64, f64) {
     if x <= 0.0 {
-        let inner = a * erfcx_pos(-x) + FRAC_1_SQRT_PI;
-        2.0 * (a - x) * FRAC_1_SQRT_PI / inner.max(1e-300)
+        let inner = (a * erfcx_pos(-x) + FRAC_1_SQRT_PI).max(1e-300);
+        (
+            -x * x + (0.5 * inner).ln(),
+            2.0 * (a - x) * FRAC_1_SQRT_PI / inner,
+        )
     } else {
-        (a - x) * FRAC_1_SQRT_PI * (-x * x).exp() / log_cdf(a, x).exp()
+        let g = FRAC_1_SQRT_PI * (-x * x).exp();
+        let f = (0.5 * a * (1.0 + erf(x)) + 0.5 * g).max(1e-300);
+        (f.ln(), (a - x) * g / f)
     }
 }
 
 /// Samples the first slope coordinate with density proportional to
-/// `(a - x) exp(-x^2)` on `x < a` by safeguarded Newton iteration on log F.
+/// `(a - x) exp(-x^2)` on `x < a` by safeguarded Newton iteration on log F,
+/// started from the quantile of the Gaussian truncated at `a` (exact as
+/// `a -> inf`), to a tolerance of 1e-7 (below the f32 resolution of the
+/// normal it produces).
 fn sample_slope_x(a: f64, u: f64) -> f64 {
     let u = u.clamp(1e-12, 1.0);
     let target = log_cdf(a, a) + u.ln();
     let mut hi = a;
-    let mut lo = a.min(0.0) - 1.0;
+    let mut x = if a > -1.0 {
+        erfinv_fast((u * (1.0 + erf(a)) - 1.0).clamp(-1.0 + 1e-15, 1.0 - 1e-15)).min(a)
+    } else {
+        // Far below: x = a - t with t ~ Gamma(2, 2|a|) to first order;
+        // start at its median 1.68 / (2|a|).
+        a - 1.68 / (2.0 * -a)
+    };
+    let mut lo = x.min(a) - 1.0;
     let mut step = 1.0;
     while log_cdf(a, lo) > target {
         step *= 2.0;
@@ -91,23 +107,26 @@ fn sample_slope_x(a: f64, u: f64) -> f64 {
             break;
         }
     }
-    let mut x = 0.5 * (lo + hi);
+    if !(x > lo && x < hi) {
+        x = 0.5 * (lo + hi);
+    }
     for _ in 0..60 {
-        let g = log_cdf(a, x) - target;
+        let (l, dl) = log_cdf_and_slope(a, x);
+        let g = l - target;
         if g > 0.0 {
             hi = x;
         } else {
             lo = x;
         }
-        if g.abs() < 1e-12 || hi - lo < 1e-12 * (1.0 + x.abs()) {
-            break;
-        }
-        let dg = dlog_cdf(a, x);
-        let mut next = x - g / dg;
+        let mut next = x - g / dl;
         if !(next > lo && next < hi) {
             next = 0.5 * (lo + hi);
         }
+        let done = (next - x).abs() < 1e-7 * (1.0 + x.abs()) || hi - lo < 1e-9 * (1.0 + x.abs());
         x = next;
+        if done {
+            break;
+        }
     }
     x
 }
@@ -128,7 +147,7 @@ pub fn sample_visible(ax: f32, ay: f32, v: Vec3, u1: f32, u2: f32) -> Vec3 {
     } else {
         let a = (vs.z / sin_theta).max(-1e4);
         let x = sample_slope_x(a, u1 as f64);
-        let y = erfinv((2.0 * u2 as f64 - 1.0).clamp(-1.0 + 1e-15, 1.0 - 1e-15));
+        let y = erfinv_fast((2.0 * u2 as f64 - 1.0).clamp(-1.0 + 1e-15, 1.0 - 1e-15));
         let (cp, sp) = (vs.x / sin_theta, vs.y / sin_theta);
         (cp * x - sp * y, sp * x + cp * y)
     };
