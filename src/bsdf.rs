@@ -42,7 +42,7 @@ impl Sample {
     /// A sample in direction `wo` leaving from the side of `wi`.
     #[inline]
     pub fn new(wi: Vec3, wo: Vec3, weight: Vec3, pdf: f32) -> Sample {
-        let flags = if wo.z * wi.z > 0.0 {
+        let flags = if same_side(wo, wi) {
             SAMPLE_REFLECTION
         } else {
             SAMPLE_TRANSMISSION
@@ -54,6 +54,22 @@ impl Sample {
             flags,
         }
     }
+}
+
+/// True when `a` and `b` are strictly on the same side of the surface (both
+/// z > 0 or both z < 0). Unlike `a.z * b.z > 0`, this does not underflow to
+/// "not the same side" for tiny (subnormal) z, which the C API accepts
+/// (found by fuzz/dirs_fuzz.c: wi.z = 1.4e-45 with wo.z = 0.44).
+#[inline]
+pub fn same_side(a: Vec3, b: Vec3) -> bool {
+    (a.z > 0.0 && b.z > 0.0) || (a.z < 0.0 && b.z < 0.0)
+}
+
+/// True when `a` and `b` are strictly on opposite sides of the surface
+/// (see [`same_side`] for why this is not `a.z * b.z < 0`).
+#[inline]
+pub fn opposite_sides(a: Vec3, b: Vec3) -> bool {
+    (a.z > 0.0 && b.z < 0.0) || (a.z < 0.0 && b.z > 0.0)
 }
 
 /// The three queries every model answers. Implementations must not allocate,
