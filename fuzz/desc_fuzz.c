@@ -120,6 +120,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     if (sc == MSBSDF_STATUS_OK) {
         msbsdf_rng rng;
         fz_exact_pdf = fz_model_has_exact_pdf(d->model);
+        fz_set_alpha(d->alpha_x, d->alpha_y);
         fz_index_matched =
             d->facet == MSBSDF_FACET_DIELECTRIC && fabsf(d->eta.r - 1.0f) < 1e-5f;
         msbsdf_rng_seed(&rng, fz_u32(&r), fz_u32(&r));

@@ -18,6 +18,7 @@
 
 static msbsdf_material *materials[N_MATERIALS];
 static int exact_pdf[N_MATERIALS];
+static float alpha_min[N_MATERIALS];
 static int n_materials = -1;
 
 static void build_materials(void)
@@ -50,6 +51,7 @@ static void build_materials(void)
                                 n_materials, model, ndf, facet, d.alpha_x, d.alpha_y, d.eta.r);
 #endif
                         exact_pdf[n_materials] = fz_model_has_exact_pdf(d.model);
+                        alpha_min[n_materials] = fminf(d.alpha_x, d.alpha_y);
                         materials[n_materials++] = m;
                     }
                 }
@@ -81,6 +83,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         fprintf(stderr, "using material %d\n", i);
 #endif
         fz_exact_pdf = exact_pdf[i];
+        fz_set_alpha(alpha_min[i], alpha_min[i]);
     }
     msbsdf_rng_seed(&rng, fz_u32(&r), fz_u32(&r));
     for (q = 0; q < 8 && (q == 0 || r.n > 0); q++) {

@@ -142,6 +142,24 @@ static int fz_exact_pdf;
    msbsdf_pdf is 0 there, so the positivity rule below does not apply. */
 static int fz_index_matched;
 
+/* Set by the harness: the smaller roughness of the material (values below
+   1e-4 act as 1e-4). A unit vector in float resolves a direction to ~6e-8
+   per component, so the half vector pdf rebuilds from a sampled (wi, wo)
+   pair is off by ~1e-7 / (|wi.z| + |wo.z|) radians; when that is not small
+   against alpha (grazing pairs on a near-mirror surface, e.g. wi.z = 1e-4
+   with alpha = 1e-4), pdf can land outside the lobe and return 0 although
+   sample just went there, or differ from the pdf sample reports (computed
+   from the sampled normal itself). These two rules are checked only where the
+   float directions resolve the lobe to ~1% of alpha: (|wi.z| + |wo.z|) * alpha
+   >= 1e-5; the pdf agreement is then asked within 5%. */
+static float fz_alpha_min = 1.0f;
+
+static void fz_set_alpha(float ax, float ay)
+{
+    float a = fminf(ax, ay);
+    fz_alpha_min = a > 1e-4f ? a : 1e-4f;
+}
+
 static int fz_model_has_exact_pdf(uint32_t model)
 {
     return model == MSBSDF_MODEL_SINGLE || model == MSBSDF_MODEL_ENERGY_COMPENSATED;
@@ -223,13 +241,16 @@ static void fz_query(const msbsdf_material *m, msbsdf_vec3 wi, msbsdf_vec3 wo, m
             FZ_ASSERT((wi.z > 0.0f) != (s.wo.z > 0.0f), "transmission flag, wi.z %g wo.z %g",
                       wi.z, s.wo.z);
         }
-        if (s.weight.r + s.weight.g + s.weight.b > 0.0f && !fz_index_matched) {
+        double wlen = sqrt((double)wi.x * wi.x + (double)wi.y * wi.y + (double)wi.z * wi.z);
+        double zsum = fabs((double)wi.z) / wlen + fabs((double)s.wo.z);
+        int resolved = zsum * fz_alpha_min >= 1e-5;
+        if (s.weight.r + s.weight.g + s.weight.b > 0.0f && !fz_index_matched && resolved) {
             FZ_ASSERT(p > 0.0f, "sample reached wo (%g %g %g) from wi (%g %g %g) with weight "
                       "(%g %g %g) but pdf there is 0", s.wo.x, s.wo.y, s.wo.z, wi.x, wi.y, wi.z,
                       s.weight.r, s.weight.g, s.weight.b);
         }
-        if (fz_exact_pdf && isfinite(p) && p < 1e6f && s.pdf < 1e6f) {
-            FZ_ASSERT(fabsf(p - s.pdf) <= 1e-2f * fmaxf(1.0f, fmaxf(p, s.pdf)),
+        if (fz_exact_pdf && resolved && p < 1e6f && s.pdf < 1e6f) {
+            FZ_ASSERT(fabsf(p - s.pdf) <= 5e-2f * fmaxf(1.0f, fmaxf(p, s.pdf)),
                       "sample pdf %g but msbsdf_pdf %g at wo (%g %g %g) from wi (%g %g %g)",
                       s.pdf, p, s.wo.x, s.wo.y, s.wo.z, wi.x, wi.y, wi.z);
         }

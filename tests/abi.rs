@@ -131,7 +131,10 @@ fn constant_entries(header: &str) -> Entries {
         let v = parsed.unwrap_or_else(|| panic!("#define {name} {value}: not an integer literal"));
         e.insert(name.to_string(), v.to_string());
     }
-    assert!(e.len() > 20, "too few constants parsed from the header: {e:?}");
+    assert!(
+        e.len() > 20,
+        "too few constants parsed from the header: {e:?}"
+    );
     e
 }
 
@@ -195,8 +198,11 @@ fn classify(file: &str, old: &Entries, new: &Entries) -> (Bump, Vec<String>) {
     let mut notes = Vec::new();
     // Structs that start with `struct_size` may grow at the end.
     let extensible = |key: &str| -> bool {
-        key.strip_suffix(".size")
-            .is_some_and(|s| old.get(&format!("{s}.struct_size.offset")).map(String::as_str) == Some("0"))
+        key.strip_suffix(".size").is_some_and(|s| {
+            old.get(&format!("{s}.struct_size.offset"))
+                .map(String::as_str)
+                == Some("0")
+        })
     };
     for (k, v) in old {
         match new.get(k) {
@@ -210,7 +216,9 @@ fn classify(file: &str, old: &Entries, new: &Entries) -> (Bump, Vec<String>) {
                     && matches!((v.parse::<u64>(), n.parse::<u64>()), (Ok(a), Ok(b)) if b > a);
                 if grew {
                     bump = bump.max(Bump::Minor);
-                    notes.push(format!("{file}: `{k}` grew {v} -> {n} (appended fields: minor)"));
+                    notes.push(format!(
+                        "{file}: `{k}` grew {v} -> {n} (appended fields: minor)"
+                    ));
                 } else {
                     bump = bump.max(Bump::Major);
                     notes.push(format!("{file}: changed `{k}` {v} -> {n} (major)"));
@@ -325,8 +333,11 @@ fn abi_snapshot_matches_or_version_bumped() {
             notes.join("\n")
         );
         for file in FILES {
-            std::fs::write(repo().join("abi").join(file), render(file, current, &entries[file]))
-                .expect("write snapshot");
+            std::fs::write(
+                repo().join("abi").join(file),
+                render(file, current, &entries[file]),
+            )
+            .expect("write snapshot");
         }
         let mut names: Vec<&String> = entries["functions.txt"].keys().collect();
         names.sort();
@@ -368,7 +379,10 @@ fn snapshot_is_complete() {
     let symbols: Vec<&str> = symbols.lines().filter(|l| !l.is_empty()).collect();
     let functions = function_entries(&h);
     let names: Vec<&str> = functions.keys().map(String::as_str).collect();
-    assert_eq!(symbols, names, "abi/symbols.txt differs from the header's functions");
+    assert_eq!(
+        symbols, names,
+        "abi/symbols.txt differs from the header's functions"
+    );
     // The parsers see what they should.
     assert_eq!(
         functions.get("msbsdf_eval").map(String::as_str),
@@ -377,10 +391,21 @@ fn snapshot_is_complete() {
              struct msbsdf_rng *, struct msbsdf_rgb *)"
         )
     );
-    assert_eq!(functions.get("msbsdf_version").map(String::as_str), Some("uint32_t (void)"));
+    assert_eq!(
+        functions.get("msbsdf_version").map(String::as_str),
+        Some("uint32_t (void)")
+    );
     let constants = constant_entries(&h);
-    assert_eq!(constants.get("MSBSDF_STATUS_UNKNOWN_CONSTANT").map(String::as_str), Some("10"));
-    assert_eq!(constants.get("MSBSDF_MAX_BOUNCES").map(String::as_str), Some("256"));
+    assert_eq!(
+        constants
+            .get("MSBSDF_STATUS_UNKNOWN_CONSTANT")
+            .map(String::as_str),
+        Some("10")
+    );
+    assert_eq!(
+        constants.get("MSBSDF_MAX_BOUNCES").map(String::as_str),
+        Some("256")
+    );
     assert!(!constants.contains_key("MSBSDF_VERSION_MAJOR"));
 }
 
@@ -388,7 +413,10 @@ fn snapshot_is_complete() {
 #[test]
 fn version_rule_classifies_changes() {
     let e = |pairs: &[(&str, &str)]| -> Entries {
-        pairs.iter().map(|(k, v)| (k.to_string(), v.to_string())).collect()
+        pairs
+            .iter()
+            .map(|(k, v)| (k.to_string(), v.to_string()))
+            .collect()
     };
     let base = e(&[
         ("d.size", "8"),
@@ -419,8 +447,19 @@ fn version_rule_classifies_changes() {
     assert_eq!(classify("layout.txt", &base, &removed).0, Bump::Major);
     // A new constant: minor; a changed value: major.
     let c = e(&[("MSBSDF_A", "1")]);
-    assert_eq!(classify("constants.txt", &c, &e(&[("MSBSDF_A", "1"), ("MSBSDF_B", "2")])).0, Bump::Minor);
-    assert_eq!(classify("constants.txt", &c, &e(&[("MSBSDF_A", "2")])).0, Bump::Major);
+    assert_eq!(
+        classify(
+            "constants.txt",
+            &c,
+            &e(&[("MSBSDF_A", "1"), ("MSBSDF_B", "2")])
+        )
+        .0,
+        Bump::Minor
+    );
+    assert_eq!(
+        classify("constants.txt", &c, &e(&[("MSBSDF_A", "2")])).0,
+        Bump::Major
+    );
     // Which versions allow which bump.
     let v = |s: &str| Version::parse(s).expect("version");
     assert!(allowed(Bump::None, v("0.1.0"), v("0.1.0")));
@@ -430,6 +469,13 @@ fn version_rule_classifies_changes() {
     assert!(!allowed(Bump::Major, v("0.1.0"), v("0.2.0")));
     assert!(allowed(Bump::Major, v("0.1.0"), v("1.0.0")));
     // Round trip of the file format.
-    let text = render("functions.txt", v("0.1.0"), &e(&[("msbsdf_f", "int (float *, void)")]));
-    assert_eq!(parse(&text), (Some(v("0.1.0")), e(&[("msbsdf_f", "int (float *, void)")])));
+    let text = render(
+        "functions.txt",
+        v("0.1.0"),
+        &e(&[("msbsdf_f", "int (float *, void)")]),
+    );
+    assert_eq!(
+        parse(&text),
+        (Some(v("0.1.0")), e(&[("msbsdf_f", "int (float *, void)")]))
+    );
 }

@@ -35,7 +35,7 @@ fn replay(target: &str, min_inputs: usize) {
     let sanitize = compiler_supports("cc", &SAN);
     let exe = work_dir("fuzz_corpus").join(format!("{target}_replay"));
     let mut cc = Command::new("cc");
-    cc.args(["-std=c99", "-O1", "-g"])
+    cc.args(["-std=c11", "-O1", "-g"])
         .args(WARNINGS)
         .arg("-I")
         .arg(repo().join("include"));

@@ -88,7 +88,10 @@ fn install_layout_soname_and_symlinks() {
     for h in ["msbsdf.h", "msbsdf.hpp"] {
         let installed = std::fs::read(prefix().join("include/msbsdf").join(h)).expect("header");
         let committed = std::fs::read(repo().join("include").join(h)).expect("header");
-        assert!(installed == committed, "installed {h} differs from include/{h}");
+        assert!(
+            installed == committed,
+            "installed {h} differs from include/{h}"
+        );
     }
 }
 
@@ -106,13 +109,22 @@ fn pkg_config_describes_the_install() {
     );
     let static_libs = pkg_config(&["--static", "--libs"]);
     for l in ["-lmsbsdf", "-lpthread", "-lm", "-ldl"] {
-        assert!(static_libs.iter().any(|x| x == l), "{l} missing: {static_libs:?}");
+        assert!(
+            static_libs.iter().any(|x| x == l),
+            "{l} missing: {static_libs:?}"
+        );
     }
 }
 
 /// Compiles `source` with `compiler flags... $(pkg-config ...)` into the
 /// install work dir.
-fn build_with_pkg_config(compiler: &str, flags: &[&str], source: &Path, libs: &[String], exe: &str) -> PathBuf {
+fn build_with_pkg_config(
+    compiler: &str,
+    flags: &[&str],
+    source: &Path,
+    libs: &[String],
+    exe: &str,
+) -> PathBuf {
     let out = work_dir("install").join(exe);
     let _ = std::fs::remove_file(&out);
     run_ok(
@@ -184,7 +196,13 @@ fn minimal_c_links_static_via_pkg_config() {
     // name (-l:libmsbsdf.a, as the README shows).
     let libs: Vec<String> = pkg_config(&["--static", "--libs"])
         .into_iter()
-        .map(|l| if l == "-lmsbsdf" { "-l:libmsbsdf.a".into() } else { l })
+        .map(|l| {
+            if l == "-lmsbsdf" {
+                "-l:libmsbsdf.a".into()
+            } else {
+                l
+            }
+        })
         .collect();
     let exe = build_with_pkg_config(
         "cc",
@@ -195,7 +213,9 @@ fn minimal_c_links_static_via_pkg_config() {
     );
     let text = readelf_dynamic(&exe);
     assert!(
-        !dynamic_entries(&text, "NEEDED").iter().any(|n| n.contains("msbsdf")),
+        !dynamic_entries(&text, "NEEDED")
+            .iter()
+            .any(|n| n.contains("msbsdf")),
         "a static link still needs the shared object:\n{text}"
     );
     let out = run_installed(&exe, None);
