@@ -10,10 +10,11 @@
 //! next to that link, for an RPATH.
 #![allow(dead_code)]
 
+use std::collections::BTreeMap;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
-use std::sync::OnceLock;
+use std::sync::{Mutex, OnceLock};
 use std::time::{Duration, Instant};
 
 /// Warnings every C and C++ translation unit must compile cleanly with.
@@ -176,9 +177,19 @@ pub fn run_program(cmd: &mut Command, timeout: Duration) -> (bool, String) {
 }
 
 /// True when `compiler flags` builds and runs a trivial C program (used to
-/// tell whether a sanitizer runtime is installed).
+/// tell whether a sanitizer runtime is installed). Probed once per process
+/// and flag set (tests run in parallel threads).
 pub fn compiler_supports(compiler: &str, flags: &[&str]) -> bool {
-    let dir = work_dir("probe");
+    static CACHE: Mutex<BTreeMap<String, bool>> = Mutex::new(BTreeMap::new());
+    let key = format!("{compiler} {flags:?}");
+    let mut cache = CACHE.lock().unwrap_or_else(|e| e.into_inner());
+    *cache
+        .entry(key)
+        .or_insert_with(|| probe_compiler(compiler, flags))
+}
+
+fn probe_compiler(compiler: &str, flags: &[&str]) -> bool {
+    let dir = work_dir(&format!("probe{}", std::process::id()));
     let tag: String = flags
         .iter()
         .map(|f| f.replace(|c: char| !c.is_ascii_alphanumeric(), "_"))
