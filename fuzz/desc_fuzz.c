@@ -122,8 +122,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         fz_exact_pdf = fz_model_has_exact_pdf(d->model);
         fz_set_alpha(d->alpha_x, d->alpha_y);
         fz_index_matched =
-            d->facet == MSBSDF_FACET_DIELECTRIC && fabsf(d->eta.r - 1.0f) < 1e-5f;
-        msbsdf_rng_seed(&rng, fz_u32(&r), fz_u32(&r));
+            d->facet == MSBSDF_FACET_DIELECTRIC && fabsf(d->eta.r - 1.0f) * fz_alpha_min < 1e-5f;
+        fz_seed(&r, &rng);
         for (q = 0; q < 4; q++) {
             msbsdf_vec3 wi = fz_dir(&r);
             msbsdf_vec3 wo = fz_dir(&r);

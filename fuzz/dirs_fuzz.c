@@ -77,7 +77,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     r.p = data;
     r.n = size;
     {
-        int i = (fz_u8(&r) | (fz_u8(&r) << 8)) % n_materials;
+        int i = fz_u16(&r) % n_materials;
         m = materials[i];
 #ifdef FUZZ_TRACE
         fprintf(stderr, "using material %d\n", i);
@@ -85,7 +85,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         fz_exact_pdf = exact_pdf[i];
         fz_set_alpha(alpha_min[i], alpha_min[i]);
     }
-    msbsdf_rng_seed(&rng, fz_u32(&r), fz_u32(&r));
+    fz_seed(&r, &rng);
     for (q = 0; q < 8 && (q == 0 || r.n > 0); q++) {
         msbsdf_vec3 wi = fz_dir(&r);
         msbsdf_vec3 wo = fz_dir(&r);
