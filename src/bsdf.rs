@@ -83,3 +83,27 @@ pub trait ScatterModel {
     /// positive wherever `sample` can go).
     fn pdf(&self, wi: Vec3, wo: Vec3) -> f32;
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Subnormal z (accepted by the C API) must not make `a.z * b.z`
+    /// underflow into "not the same side" (fuzz/corpus/dirs_fuzz/
+    /// regress-subnormal-wi-z-same-side: the random walk reflected a
+    /// direction that eval and pdf then called unreachable).
+    #[test]
+    fn sides_of_subnormal_directions() {
+        let tiny = Vec3::new(-1.0, 0.0, 1.4e-45);
+        let up = Vec3::new(0.3, 0.2, 0.44);
+        assert_eq!(tiny.z * up.z, 0.0, "the product underflows");
+        assert!(same_side(tiny, up) && !opposite_sides(tiny, up));
+        assert!(opposite_sides(-tiny, up) && !same_side(-tiny, up));
+        let flat = Vec3::new(1.0, 0.0, 0.0);
+        assert!(!same_side(flat, up) && !opposite_sides(flat, up));
+        assert_eq!(
+            Sample::new(tiny, up, Vec3::ONE, 1.0).flags,
+            SAMPLE_REFLECTION
+        );
+    }
+}
