@@ -44,6 +44,7 @@ pub mod multiple;
 pub mod ndf;
 pub mod rng;
 pub mod single;
+pub mod specfun;
 pub mod status;
 
 pub use bsdf::{SAMPLE_ABSORBED, SAMPLE_REFLECTION, SAMPLE_TRANSMISSION, Sample};

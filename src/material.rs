@@ -4,8 +4,13 @@
 use crate::bsdf::{Sample, ScatterModel};
 use crate::facet::Facet;
 use crate::frame::is_valid_direction;
+use crate::multiple::bitterli_deon::BitterliDeon;
 use crate::multiple::compensation::{self, Compensated};
 use crate::multiple::heitz::Heitz;
+use crate::multiple::invariance::Invariance;
+use crate::multiple::null_scattering::{self, NullNdf, NullNdfKind, NullScattering};
+use crate::multiple::position_free::PositionFree;
+use crate::multiple::vgroove::{VGroove, dist::Family};
 use crate::ndf::{Ndf, NdfKind};
 use crate::rng::Rng;
 use crate::single::{G2Form, Single};
@@ -142,17 +147,28 @@ macro_rules! dispatch {
     ($imp:expr, $m:ident => $body:expr) => {
         match $imp {
             ModelImpl::Single($m) => $body,
+            ModelImpl::PositionFree($m) => $body,
             ModelImpl::Compensated($m) => $body,
             ModelImpl::Heitz($m) => $body,
+            ModelImpl::Invariance($m) => $body,
+            ModelImpl::BitterliDeon($m) => $body,
+            ModelImpl::NullScattering($m) => $body,
+            ModelImpl::VGroove($m) | ModelImpl::VGrooveNonsymmetric($m) => $body,
         }
     };
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum ModelImpl {
+    PositionFree(PositionFree),
     Single(Single),
+    Invariance(Invariance),
+    BitterliDeon(BitterliDeon),
+    NullScattering(NullScattering),
     Compensated(Compensated),
     Heitz(Heitz),
+    VGroove(VGroove),
+    VGrooveNonsymmetric(VGroove),
 }
 
 /// A validated, immutable material. `Copy`, heap-free, `Send + Sync`: any
@@ -169,6 +185,13 @@ fn valid_rgb(v: Vec3, lo: f32) -> bool {
 
 impl Material {
     /// Validates `desc` and builds the material.
+    ///
+    /// [`Model::NullScattering`] refuses with [`Error::InvalidArgument`] a
+    /// roughness below [`null_scattering::MIN_ALPHA`] (0.2: the delta-tracking
+    /// rejection rate grows like `1 / alpha^2`, seed 001 section 3.3), and with
+    /// [`Error::Unsupported`] the Phong NDF, anisotropic vMF / exponential /
+    /// Bessel K0, and Student-T with shape below 2 (unbounded at the horizon,
+    /// so no constant majorant exists).
     pub fn new(desc: &MaterialDesc) -> Result<Material, Error> {
         let d = *desc;
         for a in [d.alpha_x, d.alpha_y] {
@@ -213,6 +236,7 @@ impl Material {
         let ndf_kind = match d.ndf {
             NdfId::Beckmann => Some(NdfKind::Beckmann),
             NdfId::Ggx => Some(NdfKind::Ggx),
+            NdfId::StudentT => Some(NdfKind::StudentT),
             _ => None,
         };
         let imp = match d.model {
@@ -221,11 +245,58 @@ impl Material {
                 if matches!(facet, Facet::Diffuse { .. }) {
                     return Err(Error::Unsupported);
                 }
-                let ndf = Ndf::new(kind, d.alpha_x.max(MIN_ALPHA), d.alpha_y.max(MIN_ALPHA));
+                let ndf = Ndf::with_shape(
+                    kind,
+                    d.alpha_x.max(MIN_ALPHA),
+                    d.alpha_y.max(MIN_ALPHA),
+                    d.shape,
+                );
                 ModelImpl::Single(Single::new(ndf, facet, G2Form::HeightCorrelated))
+            }
+            Model::Invariance | Model::BitterliDeon => {
+                let kind = ndf_kind.ok_or(Error::Unsupported)?;
+                if kind == NdfKind::StudentT {
+                    // Not validated with Student-T yet (furnace and agreement
+                    // tests cover Beckmann and GGX only).
+                    return Err(Error::Unsupported);
+                }
+                if !matches!(facet, Facet::Conductor { .. }) {
+                    return Err(Error::Unsupported);
+                }
+                let ndf = Ndf::new(kind, d.alpha_x.max(MIN_ALPHA), d.alpha_y.max(MIN_ALPHA));
+                if d.model == Model::Invariance {
+                    ModelImpl::Invariance(Invariance::new(ndf, facet, d.estimator, d.max_bounces))
+                } else {
+                    if d.estimator != Estimator::Pt {
+                        return Err(Error::Unsupported);
+                    }
+                    ModelImpl::BitterliDeon(BitterliDeon::new(ndf, facet, d.max_bounces))
+                }
+            }
+            Model::NullScattering => {
+                // Below null_scattering::MIN_ALPHA the rejection rate makes
+                // the walk impractical (seed 001, section 3.3): refused.
+                if d.alpha_x.min(d.alpha_y) < null_scattering::MIN_ALPHA {
+                    return Err(Error::InvalidArgument);
+                }
+                let kind = match d.ndf {
+                    NdfId::Beckmann => NullNdfKind::Beckmann,
+                    NdfId::Ggx => NullNdfKind::Ggx,
+                    NdfId::StudentT => NullNdfKind::StudentT,
+                    NdfId::Vmf => NullNdfKind::Vmf,
+                    NdfId::Exponential => NullNdfKind::Exponential,
+                    NdfId::BesselK0 => NullNdfKind::BesselK0,
+                    NdfId::Phong => return Err(Error::Unsupported),
+                };
+                let ndf =
+                    NullNdf::new(kind, d.alpha_x, d.alpha_y, d.shape).ok_or(Error::Unsupported)?;
+                ModelImpl::NullScattering(NullScattering::new(ndf, facet, d.max_bounces))
             }
             Model::EnergyCompensated => {
                 let kind = ndf_kind.ok_or(Error::Unsupported)?;
+                if kind == NdfKind::StudentT {
+                    return Err(Error::Unsupported); // tables for Beckmann and GGX only
+                }
                 match facet {
                     Facet::Diffuse { .. } => return Err(Error::Unsupported),
                     Facet::Dielectric { eta }
@@ -244,8 +315,64 @@ impl Material {
             }
             Model::HeitzRandomWalk => {
                 let kind = ndf_kind.ok_or(Error::Unsupported)?;
-                let ndf = Ndf::new(kind, d.alpha_x.max(MIN_ALPHA), d.alpha_y.max(MIN_ALPHA));
+                let ndf = Ndf::with_shape(
+                    kind,
+                    d.alpha_x.max(MIN_ALPHA),
+                    d.alpha_y.max(MIN_ALPHA),
+                    d.shape,
+                );
                 ModelImpl::Heitz(Heitz::new(ndf, facet, d.max_bounces))
+            }
+            Model::PositionFree => {
+                let kind = ndf_kind.ok_or(Error::Unsupported)?;
+                if kind == NdfKind::StudentT {
+                    // Not validated with Student-T yet (tests/position_free.rs
+                    // pins Unsupported); its walk would take the shape as is.
+                    return Err(Error::Unsupported);
+                }
+                if matches!(facet, Facet::Diffuse { .. }) {
+                    return Err(Error::Unsupported);
+                }
+                let ndf = Ndf::with_shape(
+                    kind,
+                    d.alpha_x.max(MIN_ALPHA),
+                    d.alpha_y.max(MIN_ALPHA),
+                    d.shape,
+                );
+                ModelImpl::PositionFree(PositionFree::new(ndf, facet, d.estimator, d.max_bounces))
+            }
+            Model::VGroove | Model::VGrooveNonsymmetric => {
+                // seed 002: conductor facets; Beckmann, GGX and Phong NDFs.
+                let Facet::Conductor { eta, k } = facet else {
+                    return Err(Error::Unsupported);
+                };
+                let family = match d.ndf {
+                    NdfId::Beckmann => Family::Beckmann,
+                    NdfId::Ggx => Family::Ggx,
+                    NdfId::Phong => {
+                        // Phong exponent 2 / alpha^2 - 2 must be >= 0.
+                        if d.alpha_x > 1.0 || d.alpha_y > 1.0 {
+                            return Err(Error::InvalidArgument);
+                        }
+                        Family::Phong
+                    }
+                    _ => return Err(Error::Unsupported),
+                };
+                let symmetric = d.model == Model::VGroove;
+                let m = VGroove::new(
+                    family,
+                    d.alpha_x.max(MIN_ALPHA),
+                    d.alpha_y.max(MIN_ALPHA),
+                    eta,
+                    k,
+                    d.max_bounces,
+                    symmetric,
+                );
+                if symmetric {
+                    ModelImpl::VGroove(m)
+                } else {
+                    ModelImpl::VGrooveNonsymmetric(m)
+                }
             }
             _ => return Err(Error::Unsupported),
         };
@@ -261,7 +388,11 @@ impl Material {
     pub fn is_stochastic(&self) -> bool {
         match self.imp {
             ModelImpl::Single(_) | ModelImpl::Compensated(_) => false,
+            ModelImpl::Invariance(_) | ModelImpl::BitterliDeon(_) => true,
+            ModelImpl::NullScattering(_) => true,
             ModelImpl::Heitz(_) => true,
+            ModelImpl::PositionFree(_) => true,
+            ModelImpl::VGroove(_) | ModelImpl::VGrooveNonsymmetric(_) => false,
         }
     }
 

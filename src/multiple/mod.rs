@@ -1,6 +1,11 @@
-//! Multiple-scattering models, one file per method.
+//! The multiple-scattering methods, one file each.
 
+pub mod bitterli_deon;
 pub mod compensation;
 #[doc(hidden)]
 pub mod compensation_tables;
 pub mod heitz;
+pub mod invariance;
+pub mod null_scattering;
+pub mod position_free;
+pub mod vgroove;

@@ -11,6 +11,7 @@
 
 pub mod beckmann;
 pub mod ggx;
+pub mod student_t;
 
 use glam::Vec3;
 
@@ -21,6 +22,8 @@ pub enum NdfKind {
     Beckmann,
     /// GGX / Trowbridge-Reitz.
     Ggx,
+    /// Student-T with shape [`Ndf::shape`] > 1.5 (seed 001).
+    StudentT,
 }
 
 /// A microfacet distribution with its roughness.
@@ -32,6 +35,8 @@ pub struct Ndf {
     pub alpha_x: f32,
     /// Roughness along the bitangent y.
     pub alpha_y: f32,
+    /// Shape parameter (Student-T gamma > 1.5; unused by the others).
+    pub shape: f32,
 }
 
 impl Ndf {
@@ -41,6 +46,18 @@ impl Ndf {
             kind,
             alpha_x,
             alpha_y,
+            shape: 2.0,
+        }
+    }
+
+    /// A distribution with a shape parameter (Student-T gamma > 1.5, validated
+    /// by the caller; ignored by the others).
+    pub fn with_shape(kind: NdfKind, alpha_x: f32, alpha_y: f32, shape: f32) -> Self {
+        Ndf {
+            kind,
+            alpha_x,
+            alpha_y,
+            shape,
         }
     }
 
@@ -51,6 +68,7 @@ impl Ndf {
         match self.kind {
             NdfKind::Beckmann => beckmann::d(self.alpha_x, self.alpha_y, m),
             NdfKind::Ggx => ggx::d(self.alpha_x, self.alpha_y, m),
+            NdfKind::StudentT => student_t::d(self.alpha_x, self.alpha_y, self.shape, m),
         }
     }
 
@@ -61,6 +79,7 @@ impl Ndf {
         match self.kind {
             NdfKind::Beckmann => beckmann::sigma(self.alpha_x, self.alpha_y, v),
             NdfKind::Ggx => ggx::sigma(self.alpha_x, self.alpha_y, v),
+            NdfKind::StudentT => student_t::sigma(self.alpha_x, self.alpha_y, self.shape, v),
         }
     }
 
@@ -70,6 +89,7 @@ impl Ndf {
         match self.kind {
             NdfKind::Beckmann => beckmann::lambda_upper(self.alpha_x, self.alpha_y, v),
             NdfKind::Ggx => ggx::lambda_upper(self.alpha_x, self.alpha_y, v),
+            NdfKind::StudentT => student_t::lambda_upper(self.alpha_x, self.alpha_y, self.shape, v),
         }
     }
 
@@ -141,6 +161,9 @@ impl Ndf {
         match self.kind {
             NdfKind::Beckmann => beckmann::sample_visible(self.alpha_x, self.alpha_y, v, u1, u2),
             NdfKind::Ggx => ggx::sample_visible(self.alpha_x, self.alpha_y, v, u1, u2),
+            NdfKind::StudentT => {
+                student_t::sample_visible(self.alpha_x, self.alpha_y, self.shape, v, u1, u2)
+            }
         }
     }
 }
