@@ -42,7 +42,7 @@ impl Sample {
     /// A sample in direction `wo` leaving from the side of `wi`.
     #[inline]
     pub fn new(wi: Vec3, wo: Vec3, weight: Vec3, pdf: f32) -> Sample {
-        let flags = if wo.z * wi.z > 0.0 {
+        let flags = if same_side(wo, wi) {
             SAMPLE_REFLECTION
         } else {
             SAMPLE_TRANSMISSION
@@ -56,6 +56,22 @@ impl Sample {
     }
 }
 
+/// True when `a` and `b` are strictly on the same side of the surface (both
+/// z > 0 or both z < 0). Unlike `a.z * b.z > 0`, this does not underflow to
+/// "not the same side" for tiny (subnormal) z, which the C API accepts
+/// (found by fuzz/dirs_fuzz.c: wi.z = 1.4e-45 with wo.z = 0.44).
+#[inline]
+pub fn same_side(a: Vec3, b: Vec3) -> bool {
+    (a.z > 0.0 && b.z > 0.0) || (a.z < 0.0 && b.z < 0.0)
+}
+
+/// True when `a` and `b` are strictly on opposite sides of the surface
+/// (see [`same_side`] for why this is not `a.z * b.z < 0`).
+#[inline]
+pub fn opposite_sides(a: Vec3, b: Vec3) -> bool {
+    (a.z > 0.0 && b.z < 0.0) || (a.z < 0.0 && b.z > 0.0)
+}
+
 /// The three queries every model answers. Implementations must not allocate,
 /// lock or touch globals.
 pub trait ScatterModel {
@@ -66,4 +82,28 @@ pub trait ScatterModel {
     /// Density of `sample` choosing `wo` (an approximation for stochastic models,
     /// positive wherever `sample` can go).
     fn pdf(&self, wi: Vec3, wo: Vec3) -> f32;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Subnormal z (accepted by the C API) must not make `a.z * b.z`
+    /// underflow into "not the same side" (fuzz/corpus/dirs_fuzz/
+    /// regress-subnormal-wi-z-same-side: the random walk reflected a
+    /// direction that eval and pdf then called unreachable).
+    #[test]
+    fn sides_of_subnormal_directions() {
+        let tiny = Vec3::new(-1.0, 0.0, 1.4e-45);
+        let up = Vec3::new(0.3, 0.2, 0.44);
+        assert_eq!(tiny.z * up.z, 0.0, "the product underflows");
+        assert!(same_side(tiny, up) && !opposite_sides(tiny, up));
+        assert!(opposite_sides(-tiny, up) && !same_side(-tiny, up));
+        let flat = Vec3::new(1.0, 0.0, 0.0);
+        assert!(!same_side(flat, up) && !opposite_sides(flat, up));
+        assert_eq!(
+            Sample::new(tiny, up, Vec3::ONE, 1.0).flags,
+            SAMPLE_REFLECTION
+        );
+    }
 }

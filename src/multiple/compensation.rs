@@ -26,7 +26,7 @@
 //! refuses values outside.
 
 use super::compensation_tables as t;
-use crate::bsdf::{Sample, ScatterModel};
+use crate::bsdf::{Sample, ScatterModel, same_side};
 use crate::facet::Facet;
 use crate::frame::{flip_z, reflect, refract};
 use crate::fresnel;
@@ -237,7 +237,7 @@ impl ScatterModel for Compensated {
         match self.kind {
             Kind::Dielectric { eta } => ss * self.dielectric_scale(wi, eta),
             Kind::Conductor { e_avg, tint } => {
-                if wi.z * wo.z <= 0.0 {
+                if !same_side(wi, wo) {
                     return ss;
                 }
                 ss + self.ms_lobe(wi, wo, e_avg, tint)
@@ -287,7 +287,7 @@ impl ScatterModel for Compensated {
         match self.kind {
             Kind::Dielectric { .. } => self.single.pdf(wi, wo),
             Kind::Conductor { e_avg, tint } => {
-                if wi.z * wo.z <= 0.0 {
+                if !same_side(wi, wo) {
                     return 0.0;
                 }
                 let p_ss = self.p_single(wi, e_avg, tint);

@@ -67,7 +67,7 @@
 //! The walk keeps no path arrays: its whole state (direction, log height,
 //! side, throughput) lives in a few registers.
 
-use crate::bsdf::{Sample, ScatterModel};
+use crate::bsdf::{Sample, ScatterModel, opposite_sides, same_side};
 use crate::facet::Facet;
 use crate::frame::{RefractionHalf, flip_z, reflect, refract, refraction_half};
 use crate::fresnel;
@@ -437,7 +437,7 @@ impl Heitz {
     #[inline]
     fn reciprocity_factor(&self, wi: Vec3, wo: Vec3) -> f32 {
         match self.facet {
-            Facet::Dielectric { eta } if wi.z * wo.z < 0.0 => {
+            Facet::Dielectric { eta } if opposite_sides(wi, wo) => {
                 if wi.z > 0.0 {
                     eta * eta
                 } else {
@@ -451,7 +451,7 @@ impl Heitz {
 
 impl ScatterModel for Heitz {
     fn eval(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3 {
-        if wi.z * wo.z <= 0.0 && !matches!(self.facet, Facet::Dielectric { .. }) {
+        if !same_side(wi, wo) && !matches!(self.facet, Facet::Dielectric { .. }) {
             return Vec3::ZERO;
         }
         let forward = self.estimate(wi, wo, rng);
@@ -472,10 +472,10 @@ impl ScatterModel for Heitz {
     }
 
     fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
-        let same_side = wi.z * wo.z > 0.0;
+        let reflection = same_side(wi, wo);
         let cosine = match self.facet {
             Facet::Dielectric { .. } => wo.z.abs() / (2.0 * PI),
-            _ if same_side => wo.z.abs() / PI,
+            _ if reflection => wo.z.abs() / PI,
             _ => 0.0,
         };
         let single = if self.q < 1.0 {

@@ -115,7 +115,7 @@
 //!
 //! Composition (`MSBSDF_FACET_MATERIAL`) is not implemented.
 
-use crate::bsdf::{Sample, ScatterModel};
+use crate::bsdf::{Sample, ScatterModel, opposite_sides, same_side};
 use crate::facet::Facet;
 use crate::frame::{flip_z, reflect, refract};
 use crate::fresnel;
@@ -923,7 +923,7 @@ impl NullScattering {
         let a = self.eval_with_stats(wi, wo, rng, stats);
         let b = self.eval_with_stats(wo, wi, rng, stats);
         let mut scale = wo.z.abs() / wi.z.abs();
-        if let (Facet::Dielectric { eta }, true) = (self.facet, wi.z * wo.z < 0.0) {
+        if let (Facet::Dielectric { eta }, true) = (self.facet, opposite_sides(wi, wo)) {
             let r = if wi.z > 0.0 { eta } else { 1.0 / eta }; // eta_o / eta_i
             scale *= r * r;
         }
@@ -947,7 +947,7 @@ impl ScatterModel for NullScattering {
         match self.facet {
             Facet::Dielectric { .. } => 0.5 * c,
             _ => {
-                if wi.z * wo.z > 0.0 {
+                if same_side(wi, wo) {
                     c
                 } else {
                     0.0

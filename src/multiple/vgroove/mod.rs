@@ -311,6 +311,15 @@ impl VGroove {
         let (ie0, oe0) = (i.dot(e), o.dot(e));
         let (ti0, to0) = (ie0.atan2(i.z), oe0.atan2(o.z));
         let rho = (ie0 * ie0 + i.z * i.z).sqrt();
+        // Grazing beyond what `ti = atan2(ie, i.z)` resolves in f64 (pi/2
+        // has an ulp of 2.2e-16): the groove geometry then sees ti = pi/2
+        // exactly, the lit fraction no longer vanishes with i.z, and the
+        // `/ i.z` of eq. (14) made the nonsymmetric sum grow as 1/i.z (mean
+        // sample weight 4e12 at i.z = 1e-30; found by fuzz/dirs_fuzz.c).
+        // Treated as the horizon, as the symmetric sum already does.
+        if !(i.z > 1e-15 * rho) {
+            return (Vec3::ZERO, 0.0);
+        }
         for sg in [1.0f64, -1.0] {
             let ex = e * sg;
             let ctx = Ctx {
