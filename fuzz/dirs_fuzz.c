@@ -38,6 +38,7 @@ static void build_materials(void)
                     d.alpha_x = alphas[a];
                     d.alpha_y = alphas[(a + (model & 1)) % N_ALPHAS];
                     d.shape = 2.5f;
+                    d.tolerance = 0.1f; /* AUTO: a cheap choice (see desc_fuzz.c) */
                     if (facet == MSBSDF_FACET_CONDUCTOR && (a & 1)) {
                         d.eta.r = 0.143f, d.eta.g = 0.374f, d.eta.b = 1.442f;
                         d.k.r = 3.983f, d.k.g = 2.385f, d.k.b = 1.603f;

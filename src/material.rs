@@ -28,6 +28,13 @@ pub const MIN_ALPHA: f32 = 1e-4;
 /// Largest roughness accepted.
 pub const MAX_ALPHA: f32 = 10.0;
 
+/// Largest relative index of a dielectric (and smallest, inverted): far
+/// beyond any real material; larger values only overflow f32 arithmetic.
+pub const MAX_ETA: f32 = 100.0;
+
+/// Largest Student-T shape gamma (Beckmann to f32 precision beyond).
+pub const MAX_SHAPE: f32 = 1e4;
+
 /// The scattering method (`MSBSDF_MODEL_*`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Model {
@@ -214,7 +221,9 @@ impl Material {
         if d.max_bounces > MAX_BOUNCES {
             return Err(Error::InvalidArgument);
         }
-        if d.ndf == NdfId::StudentT && d.shape <= 1.5 {
+        // Student-T: gamma > 1.5 (finite variance of the slopes); above 1e4 it
+        // is Beckmann to f32 precision, and huge values overflow its sampler.
+        if d.ndf == NdfId::StudentT && !(d.shape > 1.5 && d.shape <= MAX_SHAPE) {
             return Err(Error::InvalidArgument);
         }
         let facet = match d.facet {
@@ -229,7 +238,7 @@ impl Material {
                 Facet::Conductor { eta: d.eta, k: d.k }
             }
             FacetKind::Dielectric => {
-                if !(d.eta.x.is_finite() && d.eta.x > 0.0) {
+                if !(d.eta.x.is_finite() && d.eta.x >= 1.0 / MAX_ETA && d.eta.x <= MAX_ETA) {
                     return Err(Error::InvalidArgument);
                 }
                 Facet::Dielectric { eta: d.eta.x }
