@@ -23,7 +23,7 @@
 /** Library version this header describes; msbsdf_version() returns
     (MSBSDF_VERSION_MAJOR << 16) | (MSBSDF_VERSION_MINOR << 8) | MSBSDF_VERSION_PATCH. */
 #define MSBSDF_VERSION_MAJOR 0
-#define MSBSDF_VERSION_MINOR 1
+#define MSBSDF_VERSION_MINOR 2
 #define MSBSDF_VERSION_PATCH 0
 #define MSBSDF_VERSION ((MSBSDF_VERSION_MAJOR << 16) | (MSBSDF_VERSION_MINOR << 8) | MSBSDF_VERSION_PATCH)
 
@@ -242,12 +242,13 @@ typedef struct msbsdf_material_desc {
    */
   float alpha_y;
   /**
-   * NDF shape parameter (Student-T gamma > 1.5).
+   * NDF shape parameter (Student-T gamma in (1.5, 1e4]).
    */
   float shape;
   /**
    * Conductor: real part of the complex IOR per channel (eta 0, k 1 is a
-   * perfect mirror); dielectric: `eta.r` = inside / outside index.
+   * perfect mirror); dielectric: `eta.r` = inside / outside index, in
+   * [0.01, 100].
    */
   struct msbsdf_rgb eta;
   /**

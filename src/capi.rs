@@ -166,10 +166,11 @@ pub struct msbsdf_material_desc {
     pub alpha_x: f32,
     /// Roughness along y, in (0, 10].
     pub alpha_y: f32,
-    /// NDF shape parameter (Student-T gamma > 1.5).
+    /// NDF shape parameter (Student-T gamma in (1.5, 1e4]).
     pub shape: f32,
     /// Conductor: real part of the complex IOR per channel (eta 0, k 1 is a
-    /// perfect mirror); dielectric: `eta.r` = inside / outside index.
+    /// perfect mirror); dielectric: `eta.r` = inside / outside index, in
+    /// [0.01, 100].
     pub eta: msbsdf_rgb,
     /// Conductor: imaginary part of the IOR per channel.
     pub k: msbsdf_rgb,
