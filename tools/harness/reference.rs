@@ -569,30 +569,13 @@ pub fn sidak_z(alpha: f64, tests: usize) -> f64 {
     let (mut lo, mut hi) = (0.0f64, 40.0f64);
     for _ in 0..100 {
         let mid = 0.5 * (lo + hi);
-        if erfc(mid / std::f64::consts::SQRT_2) > a {
+        if msbsdf::math::erfc(mid / std::f64::consts::SQRT_2) > a {
             lo = mid;
         } else {
             hi = mid;
         }
     }
     lo
-}
-
-/// Complementary error function (Numerical Recipes' erfcc, 1.2e-7 relative).
-pub fn erfc(x: f64) -> f64 {
-    let z = x.abs();
-    let t = 1.0 / (1.0 + 0.5 * z);
-    let r = t
-        * (-z * z - 1.26551223
-            + t * (1.00002368
-                + t * (0.37409196
-                    + t * (0.09678418
-                        + t * (-0.18628806
-                            + t * (0.27886807
-                                + t * (-1.13520398
-                                    + t * (1.48851513 + t * (-0.82215223 + t * 0.17087277)))))))))
-            .exp();
-    if x >= 0.0 { r } else { 2.0 - r }
 }
 
 /// Directional albedo of HEITZ (mean sample weight) for every suite
