@@ -271,18 +271,23 @@ impl Material {
             NdfId::StudentT => Some(NdfKind::StudentT),
             _ => None,
         };
+        // The Smith NDF of the description (roughness clamped to MIN_ALPHA;
+        // the shape matters for Student-T only).
+        let smith_ndf = |kind: NdfKind| {
+            Ndf::with_shape(
+                kind,
+                d.alpha_x.max(MIN_ALPHA),
+                d.alpha_y.max(MIN_ALPHA),
+                d.shape,
+            )
+        };
         let imp = match d.model {
             Model::Single => {
                 let kind = ndf_kind.ok_or(Error::Unsupported)?;
                 if matches!(facet, Facet::Diffuse { .. }) {
                     return Err(Error::Unsupported);
                 }
-                let ndf = Ndf::with_shape(
-                    kind,
-                    d.alpha_x.max(MIN_ALPHA),
-                    d.alpha_y.max(MIN_ALPHA),
-                    d.shape,
-                );
+                let ndf = smith_ndf(kind);
                 ModelImpl::Single(Single::new(ndf, facet, G2Form::HeightCorrelated))
             }
             Model::Invariance | Model::BitterliDeon => {
@@ -295,7 +300,7 @@ impl Material {
                 if !matches!(facet, Facet::Conductor { .. }) {
                     return Err(Error::Unsupported);
                 }
-                let ndf = Ndf::new(kind, d.alpha_x.max(MIN_ALPHA), d.alpha_y.max(MIN_ALPHA));
+                let ndf = smith_ndf(kind);
                 if d.model == Model::Invariance {
                     ModelImpl::Invariance(Invariance::new(ndf, facet, d.estimator, d.max_bounces))
                 } else {
@@ -346,17 +351,12 @@ impl Material {
                 if d.alpha_x > compensation::MAX_ALPHA || d.alpha_y > compensation::MAX_ALPHA {
                     return Err(Error::InvalidArgument);
                 }
-                let ndf = Ndf::new(kind, d.alpha_x.max(MIN_ALPHA), d.alpha_y.max(MIN_ALPHA));
+                let ndf = smith_ndf(kind);
                 ModelImpl::Compensated(Compensated::new(ndf, facet))
             }
             Model::HeitzRandomWalk => {
                 let kind = ndf_kind.ok_or(Error::Unsupported)?;
-                let ndf = Ndf::with_shape(
-                    kind,
-                    d.alpha_x.max(MIN_ALPHA),
-                    d.alpha_y.max(MIN_ALPHA),
-                    d.shape,
-                );
+                let ndf = smith_ndf(kind);
                 ModelImpl::Heitz(Heitz::new(ndf, facet, d.max_bounces))
             }
             Model::PositionFree => {
@@ -369,12 +369,7 @@ impl Material {
                 if matches!(facet, Facet::Diffuse { .. }) {
                     return Err(Error::Unsupported);
                 }
-                let ndf = Ndf::with_shape(
-                    kind,
-                    d.alpha_x.max(MIN_ALPHA),
-                    d.alpha_y.max(MIN_ALPHA),
-                    d.shape,
-                );
+                let ndf = smith_ndf(kind);
                 ModelImpl::PositionFree(PositionFree::new(ndf, facet, d.estimator, d.max_bounces))
             }
             Model::VGroove | Model::VGrooveNonsymmetric => {
