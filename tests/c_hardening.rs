@@ -16,7 +16,7 @@
 //!   memcheck flags that comparison although the library does nothing wrong.
 //!   Miri would be the Rust-side tool, but it needs a nightly toolchain,
 //!   which cannot be installed here.
-//! - `tests/c/stress.c`: 8 pthreads x `STRESS_CALLS` (2 x 10^5; env
+//! - `tests/c/stress.c`: 8 pthreads x `STRESS_CALLS` (10^6 as issue 7 asks; env
 //!   `MSBSDF_STRESS_CALLS` overrides) mixed eval / sample /
 //!   pdf calls on shared materials of every model create accepts; the bits
 //!   equal the single-thread run per seed. Once natively and once under
@@ -36,10 +36,10 @@ use std::time::Duration;
 
 /// Calls per thread of the native stress run. The issue asks for 10^6; one
 /// call costs ~1.5-3.3 us on average here (the random walk dominates), so 8
-/// x 10^6 calls single-threaded plus the same threaded took 19-35 s on 2
-/// loaded cores: reduced to 2 x 10^5 (~4 s) to keep the suite fast. The
-/// full run: `MSBSDF_STRESS_CALLS=1000000 cargo test --test c_hardening`.
-const STRESS_CALLS: u32 = 200_000;
+/// x 10^6 calls single-threaded plus the same threaded take about 18 s on 2
+/// cores (once AUTO is given a loose tolerance in stress.c): the full size
+/// issue 7 asks for. `MSBSDF_STRESS_CALLS` overrides it for quick runs.
+const STRESS_CALLS: u32 = 1_000_000;
 
 fn stress_calls() -> u32 {
     std::env::var("MSBSDF_STRESS_CALLS")
