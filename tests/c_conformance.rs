@@ -19,16 +19,18 @@
 //! `$CARGO_TARGET_TMPDIR/c_conformance-<profile>/lib/` next to a `libmsbsdf.so.0` link
 //! and links with an RPATH to that directory.
 
+mod clib;
+
+use clib::{repo, run_ok};
 use msbsdf::capi::{
     msbsdf_material_desc, msbsdf_material_size, msbsdf_rgb, msbsdf_rng, msbsdf_sample_result,
     msbsdf_vec3,
 };
-use std::io::Read;
 use std::mem::{align_of, offset_of, size_of};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::process::Command;
 use std::sync::OnceLock;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// Warnings every C and C++ translation unit must compile cleanly with.
 const WARNINGS: [&str; 4] = ["-Wall", "-Wextra", "-pedantic", "-Werror"];
@@ -46,22 +48,13 @@ const STATIC_NATIVE_LIBS: [&str; 7] = [
 /// Wall-clock limit for one C program (they take well under a second).
 const RUN_TIMEOUT: Duration = Duration::from_secs(120);
 
-fn repo() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-/// `$CARGO_TARGET_TMPDIR/c_conformance-<profile>` (the tmp dir is shared by
-/// all profiles; a debug and a release run must not overwrite each other).
+/// This test's scratch directory (`$CARGO_TARGET_TMPDIR/c_conformance-<profile>`).
 fn work_dir() -> PathBuf {
-    let (_, profile) = artifact_dirs();
-    let name = profile
-        .file_name()
-        .and_then(|n| n.to_str())
-        .unwrap_or("profile");
-    PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("c_conformance-{name}"))
+    clib::work_dir("c_conformance")
 }
 
-/// The libraries under test.
+/// The libraries under test (shared through its SONAME link, static, and
+/// the shared object as cargo built it), located or built by `tests/clib`.
 struct Lib {
     /// Directory with `libmsbsdf.so` and the `libmsbsdf.so.0` SONAME link.
     dir: PathBuf,
@@ -73,78 +66,11 @@ struct Lib {
 
 fn lib() -> &'static Lib {
     static LIB: OnceLock<Lib> = OnceLock::new();
-    LIB.get_or_init(setup_lib)
-}
-
-/// `target/<profile>/deps` and `target/<profile>`, from this executable.
-fn artifact_dirs() -> (PathBuf, PathBuf) {
-    let exe = std::env::current_exe().expect("current_exe");
-    let deps = exe
-        .parent()
-        .expect("test executable has a directory")
-        .to_path_buf();
-    let profile = deps.parent().expect("deps has a parent").to_path_buf();
-    (deps, profile)
-}
-
-fn find_artifact(name: &str) -> Option<PathBuf> {
-    let (deps, profile) = artifact_dirs();
-    [deps.join(name), profile.join(name)]
-        .into_iter()
-        .find(|p| p.is_file())
-}
-
-/// Builds the library with `cargo build` for the profile of this test.
-fn cargo_build() {
-    let (_, profile) = artifact_dirs();
-    let target_dir = profile.parent().expect("target dir");
-    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let mut cmd = Command::new(cargo);
-    cmd.arg("build")
-        .arg("--lib")
-        .arg("--manifest-path")
-        .arg(repo().join("Cargo.toml"))
-        .arg("--target-dir")
-        .arg(target_dir);
-    match profile.file_name().and_then(|n| n.to_str()) {
-        Some("debug") => {}
-        Some("release") => {
-            cmd.arg("--release");
-        }
-        Some(other) => {
-            cmd.args(["--profile", other]);
-        }
-        None => panic!("cannot tell the cargo profile from {}", profile.display()),
-    }
-    let out = cmd.output().expect("run cargo build");
-    assert!(
-        out.status.success(),
-        "cargo build failed:\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
-
-fn setup_lib() -> Lib {
-    if find_artifact("libmsbsdf.so").is_none() || find_artifact("libmsbsdf.a").is_none() {
-        cargo_build();
-    }
-    let built_so = find_artifact("libmsbsdf.so").expect("libmsbsdf.so after cargo build");
-    let built_a = find_artifact("libmsbsdf.a").expect("libmsbsdf.a after cargo build");
-    let dir = work_dir().join("lib");
-    std::fs::create_dir_all(&dir).expect("create lib dir");
-    // Copy (not link) so a concurrent cargo build cannot change the file
-    // under a running test; rename makes the copy atomic.
-    let tmp = dir.join(format!("libmsbsdf.so.tmp{}", std::process::id()));
-    std::fs::copy(&built_so, &tmp).expect("copy libmsbsdf.so");
-    std::fs::rename(&tmp, dir.join("libmsbsdf.so")).expect("rename libmsbsdf.so");
-    let soname_link = dir.join("libmsbsdf.so.0");
-    let _ = std::fs::remove_file(&soname_link);
-    std::os::unix::fs::symlink("libmsbsdf.so", &soname_link).expect("symlink libmsbsdf.so.0");
-    Lib {
-        dir,
-        built_so,
-        built_a,
-    }
+    LIB.get_or_init(|| Lib {
+        dir: clib::shared_lib_dir("c_conformance"),
+        built_so: clib::built_dir().join("libmsbsdf.so"),
+        built_a: clib::static_lib(),
+    })
 }
 
 /// How a program is linked.
@@ -154,20 +80,6 @@ enum Link {
     Shared,
     /// Against `libmsbsdf.a`.
     Static,
-}
-
-/// Runs a command, panicking with its output when it fails.
-fn run_ok(cmd: &mut Command, what: &str) -> String {
-    let out = cmd
-        .output()
-        .unwrap_or_else(|e| panic!("{what}: cannot run {cmd:?}: {e}"));
-    let text = format!(
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    assert!(out.status.success(), "{what} failed ({cmd:?}):\n{text}");
-    text
 }
 
 /// Compiles `sources` (paths under `tests/c`) into `work_dir()/<name>`.
@@ -207,39 +119,7 @@ fn compile(name: &str, sources: &[&str], extra: &[String], link: Link) -> PathBu
 
 /// Runs `exe` with a time limit; returns (exit success, stdout + stderr).
 fn run_program(exe: &Path) -> (bool, String) {
-    let mut child = Command::new(exe)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap_or_else(|e| panic!("cannot run {}: {e}", exe.display()));
-    let mut pipes = (
-        child.stdout.take().expect("stdout"),
-        child.stderr.take().expect("stderr"),
-    );
-    let err_reader = std::thread::spawn(move || {
-        let mut s = String::new();
-        let _ = pipes.1.read_to_string(&mut s);
-        s
-    });
-    let out_reader = std::thread::spawn(move || {
-        let mut s = String::new();
-        let _ = pipes.0.read_to_string(&mut s);
-        s
-    });
-    let start = Instant::now();
-    let status = loop {
-        if let Some(status) = child.try_wait().expect("wait") {
-            break status;
-        }
-        if start.elapsed() > RUN_TIMEOUT {
-            let _ = child.kill();
-            let _ = child.wait();
-            panic!("{} did not finish within {RUN_TIMEOUT:?}", exe.display());
-        }
-        std::thread::sleep(Duration::from_millis(5));
-    };
-    let text = out_reader.join().expect("stdout reader") + &err_reader.join().expect("reader");
-    (status.success(), format!("{text}[{status}]\n"))
+    clib::run_program(&mut Command::new(exe), RUN_TIMEOUT)
 }
 
 /// Runs a conformance program and asserts that all its checks passed.

@@ -1,6 +1,6 @@
 //! Helpers for the integration tests that build and run C / C++ programs
 //! against the library cargo test built (tests/install.rs,
-//! tests/c_hardening.rs, tests/fuzz_corpus.rs).
+//! tests/c_hardening.rs, tests/fuzz_corpus.rs, tests/c_conformance.rs).
 //!
 //! `cargo test` builds the crate's `cdylib` and `staticlib` next to the test
 //! executables (`target/<profile>/deps/`); when neither that directory nor
