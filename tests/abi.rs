@@ -21,11 +21,9 @@
 //! bump does not match the change; `MSBSDF_UPDATE_ABI=force` overrides,
 //! e.g. to re-baseline).
 
-use msbsdf::capi::{
-    msbsdf_material_desc, msbsdf_rgb, msbsdf_rng, msbsdf_sample_result, msbsdf_vec3,
-};
+mod clib;
+
 use std::collections::BTreeMap;
-use std::mem::{align_of, offset_of, size_of};
 use std::path::PathBuf;
 
 type Entries = BTreeMap<String, String>;
@@ -64,43 +62,14 @@ const STRUCTS: [&str; 5] = [
 ];
 
 fn layout_entries() -> Entries {
-    let mut e = Entries::new();
-    macro_rules! layout {
-        ($t:ident { $($f:ident),* }) => {
-            e.insert(format!("{}.size", stringify!($t)), size_of::<$t>().to_string());
-            e.insert(format!("{}.align", stringify!($t)), align_of::<$t>().to_string());
-            $(e.insert(
-                format!("{}.{}.offset", stringify!($t), stringify!($f)),
-                offset_of!($t, $f).to_string(),
-            );)*
-        };
-    }
-    layout!(msbsdf_vec3 { x, y, z });
-    layout!(msbsdf_rgb { r, g, b });
-    layout!(msbsdf_rng { state, inc });
-    layout!(msbsdf_material_desc {
-        struct_size,
-        model,
-        estimator,
-        ndf,
-        facet,
-        alpha_x,
-        alpha_y,
-        shape,
-        eta,
-        k,
-        albedo,
-        max_bounces,
-        tolerance,
-        inner
-    });
-    layout!(msbsdf_sample_result {
-        wo,
-        weight,
-        pdf,
-        flags
-    });
-    e
+    clib::rust_layout()
+        .into_iter()
+        .map(|item| match item {
+            clib::LayoutItem::Size(t, n) => (format!("{t}.size"), n.to_string()),
+            clib::LayoutItem::Align(t, n) => (format!("{t}.align"), n.to_string()),
+            clib::LayoutItem::Offset(t, f, n) => (format!("{t}.{f}.offset"), n.to_string()),
+        })
+        .collect()
 }
 
 fn header() -> String {

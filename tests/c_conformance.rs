@@ -22,11 +22,7 @@
 mod clib;
 
 use clib::{repo, run_ok};
-use msbsdf::capi::{
-    msbsdf_material_desc, msbsdf_material_size, msbsdf_rgb, msbsdf_rng, msbsdf_sample_result,
-    msbsdf_vec3,
-};
-use std::mem::{align_of, offset_of, size_of};
+use msbsdf::capi::msbsdf_material_size;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
@@ -143,44 +139,14 @@ fn assert_program_passes(exe: &Path, program: &str) -> String {
 
 /// `-D` values with Rust's view of every public struct, for `layout.c`.
 fn layout_defines() -> Vec<String> {
-    let mut d = Vec::new();
-    macro_rules! layout {
-        ($t:ident { $($f:ident),* }) => {
-            d.push(format!("-DRUST_SIZEOF_{}={}", stringify!($t), size_of::<$t>()));
-            d.push(format!("-DRUST_ALIGNOF_{}={}", stringify!($t), align_of::<$t>()));
-            $(d.push(format!(
-                "-DRUST_OFFSETOF_{}_{}={}",
-                stringify!($t),
-                stringify!($f),
-                offset_of!($t, $f)
-            ));)*
-        };
-    }
-    layout!(msbsdf_vec3 { x, y, z });
-    layout!(msbsdf_rgb { r, g, b });
-    layout!(msbsdf_rng { state, inc });
-    layout!(msbsdf_material_desc {
-        struct_size,
-        model,
-        estimator,
-        ndf,
-        facet,
-        alpha_x,
-        alpha_y,
-        shape,
-        eta,
-        k,
-        albedo,
-        max_bounces,
-        tolerance,
-        inner
-    });
-    layout!(msbsdf_sample_result {
-        wo,
-        weight,
-        pdf,
-        flags
-    });
+    let mut d: Vec<String> = clib::rust_layout()
+        .into_iter()
+        .map(|item| match item {
+            clib::LayoutItem::Size(t, n) => format!("-DRUST_SIZEOF_{t}={n}"),
+            clib::LayoutItem::Align(t, n) => format!("-DRUST_ALIGNOF_{t}={n}"),
+            clib::LayoutItem::Offset(t, f, n) => format!("-DRUST_OFFSETOF_{t}_{f}={n}"),
+        })
+        .collect();
     let v = |s: &str| s.parse::<u32>().expect("numeric version");
     let (major, minor, patch) = (
         v(env!("CARGO_PKG_VERSION_MAJOR")),

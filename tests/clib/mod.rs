@@ -213,3 +213,56 @@ fn probe_compiler(compiler: &str, flags: &[&str]) -> bool {
             .map(|o| o.status.success())
             .unwrap_or(false)
 }
+
+/// One number of Rust's view of the public C structs.
+pub enum LayoutItem {
+    /// `size_of` the struct.
+    Size(&'static str, usize),
+    /// `align_of` the struct.
+    Align(&'static str, usize),
+    /// `offset_of` a field: struct, field, offset.
+    Offset(&'static str, &'static str, usize),
+}
+
+/// Size, alignment and every field offset of each public C struct, as Rust
+/// lays them out (the one list the layout and ABI tests share).
+pub fn rust_layout() -> Vec<LayoutItem> {
+    use msbsdf::capi::{
+        msbsdf_material_desc, msbsdf_rgb, msbsdf_rng, msbsdf_sample_result, msbsdf_vec3,
+    };
+    use std::mem::{align_of, offset_of, size_of};
+    let mut v = Vec::new();
+    macro_rules! layout {
+        ($t:ident { $($f:ident),* }) => {
+            v.push(LayoutItem::Size(stringify!($t), size_of::<$t>()));
+            v.push(LayoutItem::Align(stringify!($t), align_of::<$t>()));
+            $(v.push(LayoutItem::Offset(stringify!($t), stringify!($f), offset_of!($t, $f)));)*
+        };
+    }
+    layout!(msbsdf_vec3 { x, y, z });
+    layout!(msbsdf_rgb { r, g, b });
+    layout!(msbsdf_rng { state, inc });
+    layout!(msbsdf_material_desc {
+        struct_size,
+        model,
+        estimator,
+        ndf,
+        facet,
+        alpha_x,
+        alpha_y,
+        shape,
+        eta,
+        k,
+        albedo,
+        max_bounces,
+        tolerance,
+        inner
+    });
+    layout!(msbsdf_sample_result {
+        wo,
+        weight,
+        pdf,
+        flags
+    });
+    v
+}
