@@ -172,6 +172,10 @@ macro_rules! dispatch {
     };
 }
 
+// Variants are stored inline (the largest, ENERGY_COMPENSATED with its
+// Fresnel tint table, is about 500 bytes): a material lives in caller storage
+// (`msbsdf_material_init`) and never allocates, so boxing is not an option.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum ModelImpl {
     PositionFree(PositionFree),

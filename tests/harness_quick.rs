@@ -103,32 +103,25 @@ fn quick_harness_has_one_row_per_model_estimator_evaluations() {
     assert_eq!(run.results.iter().map(|r| r.bad).sum::<u64>(), 0);
 }
 
-/// ENERGY_COMPENSATED's directional albedo (mean sample weight) with gold
-/// Fresnel against the HEITZ reference albedo of `data/reference_albedo.csv`,
-/// isotropic alpha up to 1, theta_i 0 to 89 degrees, both NDFs.
-///
-/// Requested bound: 2%. It does not hold (measured, printed by this test
-/// with `--nocapture`): the red channel, where gold's Fresnel is near 1, is
-/// within 1.9%, but the green and blue channels fall short of HEITZ by up
-/// to 5.9% and 7.3% (GGX alpha 1, theta_i 45 to 70 degrees), and by 5 to 7%
-/// at 80 to 85 degrees for every alpha in blue. Kulla-Conty's Fresnel tint
-/// `F_avg^2 E_avg / (1 - F_avg (1 - E_avg))` assumes the multiply scattered
-/// light meets an average Fresnel at every bounce and leaves with a lobe
-/// shaped like `1 - E`; with a strongly coloured conductor and at grazing
-/// incidence the walk's energy differs from that. The assertion is held at
-/// the measured bounds (beyond 4 combined standard errors): 2% for the
-/// red channel, 8% for all channels.
+/// ENERGY_COMPENSATED's directional albedo (mean sample weight) with gold,
+/// copper and aluminium Fresnel against the HEITZ reference albedo of
+/// `data/reference_albedo.csv`, isotropic alpha up to 1, theta_i 0 to 89
+/// degrees, both NDFs: within 2% (beyond 4 combined standard errors) in
+/// every channel. (With Kulla-Conty's `F_avg` tint gold's blue channel was
+/// up to 7.3% low; the walk-derived tint of `compensation.rs` fixed it.)
 #[test]
-fn energy_compensated_gold_albedo_matches_heitz_reference() {
+fn energy_compensated_metal_albedo_matches_heitz_reference() {
     let rows = reference::read_albedo(&committed("reference_albedo.csv")).expect("parse");
     let suite = suite::full_suite();
     let mut worst = (0.0f64, String::new());
-    let mut worst_red = 0.0f64;
     let mut checked = 0;
-    for r in rows
-        .iter()
-        .filter(|r| r.material.contains("_gold_") && r.alpha_x == r.alpha_y && r.alpha_x <= 1.0)
-    {
+    for r in rows.iter().filter(|r| {
+        ["_gold_", "_copper_", "_aluminium_"]
+            .iter()
+            .any(|m| r.material.contains(m))
+            && r.alpha_x == r.alpha_y
+            && r.alpha_x <= 1.0
+    }) {
         let s = suite
             .iter()
             .find(|s| s.name == r.material)
@@ -171,17 +164,13 @@ fn energy_compensated_gold_albedo_matches_heitz_reference() {
                     ),
                 );
             }
-            if c == 0 {
-                worst_red = worst_red.max(excess);
-            }
         }
         checked += 1;
     }
-    assert!(checked >= 90, "{checked} albedo rows");
+    assert!(checked >= 270, "{checked} albedo rows");
     eprintln!(
-        "worst EC albedo deviation beyond 4 sigma: {:.4} ({}); red channel {:.4}",
-        worst.0, worst.1, worst_red
+        "worst EC albedo deviation beyond 4 sigma: {:.4} ({})",
+        worst.0, worst.1
     );
-    assert!(worst_red <= 0.02, "red channel: {worst_red}");
-    assert!(worst.0 <= 0.08, "{}", worst.1);
+    assert!(worst.0 <= 0.02, "{}", worst.1);
 }

@@ -3,6 +3,11 @@
 //! quadrature of the SINGLE model (`msbsdf::multiple::compensation::single_albedo`).
 //!
 //! `cargo run --release --example gen_compensation` (about a minute on 2 cores).
+//!
+//! `cargo run --release --example gen_compensation -- --ms` instead generates
+//! `src/multiple/compensation_ms_tables.rs`, the Fresnel tint tables of the
+//! conductor multiple-scattering lobe, from a random walk of the Heitz 2016
+//! microsurface (see [`ms_tables`]; a few minutes on 2 cores).
 //! The grid formulas here must match `grid_mu`, `grid_alpha` and `grid_eta`
 //! in `src/multiple/compensation.rs`; `tests/compensation.rs` checks table
 //! entries against a fresh quadrature at those grid points.
@@ -85,6 +90,10 @@ fn fmt_row(v: &[f32]) -> String {
 }
 
 fn main() {
+    if std::env::args().any(|a| a == "--ms") {
+        ms_tables();
+        return;
+    }
     let t0 = std::time::Instant::now();
     let mut cond = vec![vec![vec![0f32; MU_N]; ALPHA_N]; 2];
     let mut cond_avg = vec![vec![0f32; ALPHA_N]; 2];
@@ -243,6 +252,258 @@ fn main() {
     let path = concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/src/multiple/compensation_tables.rs"
+    );
+    let mut f = std::fs::File::create(path).expect("create the tables file");
+    f.write_all(s.as_bytes()).expect("write the tables file");
+    eprintln!("wrote {path} in {:.0} s", t0.elapsed().as_secs_f32());
+}
+
+/// Cosine bins of the multiple-scattering bounce histogram.
+const MS_BINS: usize = 16;
+/// Schlick `F0` nodes of the tint table (uniform on [0, 1]).
+const F0_N: usize = 17;
+/// Bounce limit of the walk (the walk with F = 1 loses less than 1e-4 of
+/// the energy to it up to alpha 2).
+const MS_MAX_BOUNCES: usize = 96;
+/// Walks per cell: batches until this many multiply scattered paths...
+const MS_TARGET_PATHS: u64 = 6000;
+/// ...or this many walks.
+const MS_MAX_WALKS: u64 = 300_000;
+
+fn open_uniform(rng: &mut Rng) -> f64 {
+    ((rng.next_u32() >> 8) as f64 + 0.5) * (1.0 / 16_777_216.0)
+}
+
+/// One walk of Heitz et al. 2016 over conductor facets with F = 1 (the
+/// same stochastic process as `MSBSDF_MODEL_HEITZ_RANDOM_WALK`; heights by
+/// the log of the uniform height CDF): true if it leaves the surface, with
+/// the cosine `|w.m|` of every reflection in `cos`.
+fn ms_walk(ndf: &Ndf, wi: Vec3, rng: &mut Rng, cos: &mut Vec<f32>) -> bool {
+    cos.clear();
+    let mut w = -wi;
+    let mut lc = 0.0f64; // ln C1(h)
+    for _ in 0..MS_MAX_BOUNCES {
+        let lam = ndf.lambda(w) as f64;
+        let u = open_uniform(rng);
+        if w.z > 0.0 {
+            if lam.is_finite() {
+                let escape = (lam * lc).exp();
+                if u < escape {
+                    return true;
+                }
+                lc = (lc - (1.0 - u + escape).ln() / lam).min(0.0);
+            }
+        } else if lam.is_finite() && lam < 0.0 {
+            lc += u.ln() / (-lam);
+        }
+        let i = -w;
+        let m = ndf.sample_visible(i, rng.next_f32(), rng.next_f32());
+        let ci = i.dot(m);
+        if ci <= 0.0 || !m.is_finite() {
+            return false;
+        }
+        cos.push(ci);
+        w = msbsdf::frame::reflect(i, m);
+    }
+    false
+}
+
+fn schlick(c: f32, f0: f64) -> f64 {
+    f0 + (1.0 - f0) * (1.0 - c as f64).powi(5)
+}
+
+/// Per (NDF, alpha, mu) cell, from walks with F = 1 restricted to the paths
+/// that leave after two or more reflections (the energy of the
+/// multiple-scattering lobe): the histogram of their reflection cosines
+/// (`MS_BINS` uniform bins, normalised) and the mean of the product of the
+/// Schlick reflectances `prod_j S(c_j; F0)` for `F0_N` values of `F0`, i.e.
+/// the fraction of that energy a Schlick conductor keeps. Also checks the
+/// single-reflection fraction against the quadrature table `CONDUCTOR_E`.
+fn ms_tables() {
+    use msbsdf::multiple::compensation_tables as t;
+    let t0 = std::time::Instant::now();
+    let cells: Vec<(usize, usize, usize)> = (0..2)
+        .flat_map(|n| (0..ALPHA_N).flat_map(move |j| (0..MU_N).map(move |i| (n, j, i))))
+        .collect();
+    let total = cells.len();
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    // (cell, histogram, tint per F0, walks, ms paths, |z| of the E check)
+    type Cell = ((usize, usize, usize), Vec<f32>, Vec<f32>, u64, u64, f64);
+    let results: Vec<Vec<Cell>> = std::thread::scope(|sc| {
+        let handles: Vec<_> = (0..2)
+            .map(|th| {
+                let cells = &cells;
+                let done = &done;
+                sc.spawn(move || {
+                    let mut out = Vec::new();
+                    let mut cos = Vec::new();
+                    for (idx, &(n, j, i)) in cells.iter().enumerate() {
+                        if idx % 2 != th {
+                            continue;
+                        }
+                        let alpha = grid_alpha(j);
+                        let mut hist = [0f64; MS_BINS];
+                        let mut tint = [0f64; F0_N];
+                        let (mut walks, mut paths, mut singles) = (0u64, 0u64, 0u64);
+                        if alpha > 0.0 {
+                            let ndf = Ndf::new(NDFS[n], alpha, alpha);
+                            let wi = dir(grid_mu(i));
+                            let mut rng = Rng::new(20_261_122 + idx as u64, 7);
+                            while paths < MS_TARGET_PATHS && walks < MS_MAX_WALKS {
+                                walks += 1;
+                                if !ms_walk(&ndf, wi, &mut rng, &mut cos) {
+                                    continue;
+                                }
+                                if cos.len() == 1 {
+                                    singles += 1;
+                                    continue;
+                                }
+                                paths += 1;
+                                let wgt = 1.0; // every reflection counts once
+                                for &c in &cos {
+                                    let b = ((c * MS_BINS as f32) as usize).min(MS_BINS - 1);
+                                    hist[b] += wgt;
+                                }
+                                for (q, tq) in tint.iter_mut().enumerate() {
+                                    let f0 = q as f64 / (F0_N - 1) as f64;
+                                    *tq += cos.iter().map(|&c| schlick(c, f0)).product::<f64>();
+                                }
+                            }
+                        }
+                        let (hist, tint) = if paths > 0 {
+                            let hs: f64 = hist.iter().sum();
+                            (
+                                hist.iter().map(|h| (h / hs) as f32).collect(),
+                                tint.iter().map(|x| (x / paths as f64) as f32).collect(),
+                            )
+                        } else {
+                            // No multiple scattering (alpha 0): the tint is
+                            // never used; keep a sane uniform histogram.
+                            (
+                                vec![1.0 / MS_BINS as f32; MS_BINS],
+                                (0..F0_N)
+                                    .map(|q| {
+                                        let f0 = q as f32 / (F0_N - 1) as f32;
+                                        f0 * f0
+                                    })
+                                    .collect(),
+                            )
+                        };
+                        let z = if walks > 0 {
+                            let p = singles as f64 / walks as f64;
+                            let e = t::CONDUCTOR_E[n][j][i] as f64;
+                            // Binomial error of the walk, floored at the table's
+                            // quadrature accuracy (2e-5, rounding included).
+                            let var = (e * (1.0 - e)).max(p * (1.0 - p)) / walks as f64;
+                            ((p - e).abs() - 2e-5).max(0.0) / var.sqrt().max(1e-6)
+                        } else {
+                            0.0
+                        };
+                        out.push(((n, j, i), hist, tint, walks, paths, z));
+                        let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+                        let el = t0.elapsed().as_secs_f32();
+                        if d.is_multiple_of(64) || d == total {
+                            eprintln!(
+                                "{d}/{total} cells, {el:.0} s, ETA {:.0} s",
+                                el / d as f32 * (total - d) as f32
+                            );
+                        }
+                    }
+                    out
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().expect("worker"))
+            .collect()
+    });
+    let mut hist = vec![vec![vec![vec![0f32; MS_BINS]; MU_N]; ALPHA_N]; 2];
+    let mut tint = vec![vec![vec![vec![0f32; F0_N]; MU_N]; ALPHA_N]; 2];
+    let (mut walks, mut worst_z, mut fewest) = (0u64, 0f64, u64::MAX);
+    for ((n, j, i), h, tq, w, p, z) in results.into_iter().flatten() {
+        hist[n][j][i] = h;
+        tint[n][j][i] = tq;
+        walks += w;
+        worst_z = worst_z.max(z);
+        if z > 5.0 {
+            eprintln!(
+                "  cell ndf {n} alpha {} mu {}: single-reflection fraction off by {z:.1} sigma",
+                grid_alpha(j),
+                grid_mu(i)
+            );
+        }
+        if j > 0 && t::CONDUCTOR_E[n][j][i] < 0.99 {
+            fewest = fewest.min(p);
+        }
+    }
+    eprintln!(
+        "{walks} walks; single-reflection fraction vs CONDUCTOR_E: worst |z| {worst_z:.2}; \
+         fewest multiply scattered paths where E < 0.99: {fewest}"
+    );
+    let mut s = String::new();
+    writeln!(
+        s,
+        "//! Generated by `cargo run --release --example gen_compensation -- --ms`: do not edit.\n\
+         //! Heitz 2016 walks with F = 1 per (NDF, alpha, mu) grid cell of\n\
+         //! `compensation_tables` (seed 20261122 + cell, until {MS_TARGET_PATHS} paths with\n\
+         //! two or more reflections or {MS_MAX_WALKS} walks; {walks} walks in all).\n\
+         //! Single-reflection fraction vs `CONDUCTOR_E`: worst |z| {worst_z:.2}.\n\
+         //! Index order: [ndf: Beckmann, GGX][alpha][mu][bin or F0 node]."
+    )
+    .ok();
+    writeln!(
+        s,
+        "#![allow(clippy::excessive_precision, clippy::approx_constant)]\n\n\
+         use super::compensation_tables::{{ALPHA_N, MU_N}};\n"
+    )
+    .ok();
+    writeln!(
+        s,
+        "/// Uniform cosine bins of [`CONDUCTOR_MS_COS_HIST`].\npub const MS_BINS: usize = {MS_BINS};"
+    )
+    .ok();
+    writeln!(
+        s,
+        "/// Schlick `F0` nodes (uniform on [0, 1]) of [`CONDUCTOR_MS_TINT`].\npub const F0_N: usize = {F0_N};"
+    )
+    .ok();
+    let write4 = |s: &mut String, name: &str, doc: &str, len: &str, v: &Vec<Vec<Vec<Vec<f32>>>>| {
+        writeln!(
+            s,
+            "/// {doc}\npub static {name}: [[[[f32; {len}]; MU_N]; ALPHA_N]; 2] = ["
+        )
+        .ok();
+        for per_ndf in v {
+            writeln!(s, "  [").ok();
+            for per_alpha in per_ndf {
+                writeln!(s, "    [").ok();
+                for row in per_alpha {
+                    writeln!(s, "      {},", fmt_row(row)).ok();
+                }
+                writeln!(s, "    ],").ok();
+            }
+            writeln!(s, "  ],").ok();
+        }
+        writeln!(s, "];").ok();
+    };
+    write4(
+        &mut s,
+        "CONDUCTOR_MS_COS_HIST",
+        "Distribution of the reflection cosines `|w.m|` of multiply scattered paths (every reflection counts once).",
+        "MS_BINS",
+        &hist,
+    );
+    write4(
+        &mut s,
+        "CONDUCTOR_MS_TINT",
+        "Mean over multiply scattered paths of `prod_j S(c_j; F0)`, Schlick's reflectance.",
+        "F0_N",
+        &tint,
+    );
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/src/multiple/compensation_ms_tables.rs"
     );
     let mut f = std::fs::File::create(path).expect("create the tables file");
     f.write_all(s.as_bytes()).expect("write the tables file");
