@@ -93,6 +93,9 @@ pub struct MatResult {
     pub bias2_measured: f64,
     /// Summed variance of one evaluation.
     pub var: f64,
+    /// `bias2`, `var` and `den` over the pairs that are not mirror
+    /// configurations (see [`is_mirror_pair`]).
+    pub off_mirror: [f64; 3],
     /// Standard error of `var` (spread of 8 batch estimates / sqrt(8)).
     pub var_se: f64,
     /// Standard error of `bias2` (normal approximation, see the tests).
@@ -124,6 +127,13 @@ impl MatResult {
         ((b + v / n as f64) / self.den.max(1e-300)).sqrt()
     }
 
+    /// [`MatResult::rel_err`] over the pairs that are not mirror
+    /// configurations.
+    pub fn rel_err_off_mirror(&self, n: u32) -> f64 {
+        let [b, v, d] = self.off_mirror;
+        ((b.max(0.0) + v / n as f64) / d.max(1e-300)).sqrt()
+    }
+
     /// Relative bias alone (as measured, also for the reference model).
     pub fn rel_bias(&self) -> f64 {
         (self.bias2_measured.max(0.0) / self.den.max(1e-300)).sqrt()
@@ -140,6 +150,18 @@ impl MatResult {
             _ => f64::NAN,
         }
     }
+}
+
+/// A reflection pair whose half vector is within 1 degree of the normal:
+/// the exact mirror configuration, where VGROOVE's `1 / sin(theta_h)` of
+/// seed 002 eq. (14) is singular (evaluated with a floor, so 10^4 times the
+/// typical value) and point errors say nothing about the model's accuracy.
+pub fn is_mirror_pair(wi: glam::Vec3, wo: glam::Vec3) -> bool {
+    if wi.z * wo.z <= 0.0 {
+        return false;
+    }
+    let h = (wi + wo).normalize_or_zero();
+    (h.x * h.x + h.y * h.y).sqrt() < 1f32.to_radians().sin()
 }
 
 /// Everything a run measured.
@@ -209,6 +231,7 @@ pub fn run(refs: &[RefMaterial], o: &Options) -> Run {
             let mut b2_var = 0.0;
             let mut batch_var = [0.0f64; 8];
             for (pi, p) in r.pairs.iter().enumerate() {
+                let mirror = is_mirror_pair(p.wi, p.wo);
                 let mut rng = c_rng(1000 + ci as u64, (mi * r.pairs.len() + pi) as u64);
                 let mut st = Stats::default();
                 let mut batch = [Stats::default(); 8];
@@ -225,6 +248,11 @@ pub fn run(refs: &[RefMaterial], o: &Options) -> Run {
                     let d = st.mean[ch] - p.value[ch];
                     let noise = var[ch] / samples as f64 + p.se[ch] * p.se[ch];
                     res.bias2 += d * d - noise;
+                    if !mirror {
+                        res.off_mirror[0] += d * d - noise;
+                        res.off_mirror[1] += var[ch];
+                        res.off_mirror[2] += p.value[ch] * p.value[ch];
+                    }
                     // Var(d^2) for a normal d: 4 mu^2 s + 2 s^2.
                     b2_var += 4.0 * d * d * noise + 2.0 * noise * noise;
                     res.var += var[ch];
@@ -244,6 +272,7 @@ pub fn run(refs: &[RefMaterial], o: &Options) -> Run {
             }
             res.bias2_measured = res.bias2;
             if c.model == msbsdf::Model::HeitzRandomWalk {
+                res.off_mirror[0] = 0.0;
                 res.bias2 = 0.0;
                 res.bias2_se = 0.0;
             }
