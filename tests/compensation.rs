@@ -64,13 +64,14 @@ fn white_furnace_conductor_within_one_percent() {
     println!("{table}");
 }
 
-/// Anisotropic roughness reads the isotropic tables at the RMS alpha: an
-/// approximation whose furnace error is measured here. Measured worst cases
-/// (200k samples each): (0.1, 0.6) 12% (GGX, 80 degrees along the smooth
-/// axis), (0.2, 0.8) 16%, (0.05, 1) 23%; at normal incidence at most 3.5%.
-/// The bound asserts that it does not get worse; it is not a quality claim.
+/// Anisotropic conductors read the 4D table (alpha_x, alpha_y, azimuth,
+/// mu) with E_avg integrated from the same interpolant, so the furnace
+/// error is the table's interpolation error alone. Measured (200k samples
+/// each, standard error about 1e-4): worst 0.61% (Beckmann (0.1, 0.6), 80
+/// degrees along the smooth axis); it was 23% with the isotropic tables read
+/// at the RMS alpha. Bound: 1%, the isotropic requirement.
 #[test]
-fn white_furnace_conductor_anisotropic_rms_alpha() {
+fn white_furnace_conductor_anisotropic() {
     let n = 200_000;
     let mut worst: f64 = 0.0;
     for ndf in NDFS {
@@ -90,7 +91,7 @@ fn white_furnace_conductor_anisotropic_rms_alpha() {
         }
     }
     println!("anisotropic furnace: worst |albedo - 1| = {worst:.4}");
-    assert!(worst < 0.25, "anisotropic furnace error {worst}");
+    assert!(worst < 0.01, "anisotropic furnace error {worst}");
 }
 
 #[test]
@@ -247,6 +248,56 @@ fn committed_tables_match_a_fresh_quadrature() {
                     "{kind:?} dielectric [{side}][{k}][{j}][{i}]: table {table}, fresh {fresh}"
                 );
             }
+        }
+    }
+}
+
+/// Entries of the anisotropic albedo table recomputed as the generator does
+/// (same quadrature and grid): a stale table or a changed SINGLE fails. The
+/// interpolation between nodes is what the anisotropic furnace measures.
+#[test]
+fn anisotropic_table_matches_a_fresh_quadrature() {
+    use msbsdf::bsdf::ScatterModel;
+    use msbsdf::facet::Facet;
+    use msbsdf::multiple::compensation::{aniso_grid_alpha, aniso_grid_mu, aniso_grid_phi};
+    use msbsdf::multiple::compensation_aniso_tables as an;
+    use msbsdf::ndf::{Ndf, NdfKind};
+    use msbsdf::single::{G2Form, Single};
+    let albedo = |kind, ax: f32, ay: f32, wi: Vec3, n: usize| {
+        let s = Single::new(
+            Ndf::new(kind, ax, ay),
+            Facet::Conductor {
+                eta: Vec3::ZERO,
+                k: Vec3::ONE,
+            },
+            G2Form::HeightCorrelated,
+        );
+        single_albedo(
+            |a, b| s.eval(a, b, &mut Rng::new(0, 0)).x,
+            ax,
+            ay,
+            wi,
+            None,
+            n,
+        ) as f32
+    };
+    let dir = |mu: f32, phi: f32| {
+        let st = (1.0 - mu * mu).max(0.0).sqrt();
+        Vec3::new(st * phi.cos(), st * phi.sin(), mu)
+    };
+    for (n, kind) in [NdfKind::Beckmann, NdfKind::Ggx].into_iter().enumerate() {
+        for (jx, jy, k, i) in [
+            (3usize, 9usize, 0usize, 2usize),
+            (10, 4, 4, 12),
+            (15, 1, 6, 15),
+        ] {
+            let wi = dir(aniso_grid_mu(i), aniso_grid_phi(k));
+            let fresh = albedo(kind, aniso_grid_alpha(jx), aniso_grid_alpha(jy), wi, 96);
+            let table = an::CONDUCTOR_E_ANISO[n][jx][jy][k][i];
+            assert!(
+                (fresh - table).abs() < 1e-5,
+                "{kind:?} [{jx}][{jy}][{k}][{i}]: table {table}, fresh {fresh}"
+            );
         }
     }
 }

@@ -7,7 +7,10 @@
 //! `cargo run --release --example gen_compensation -- --ms` instead generates
 //! `src/multiple/compensation_ms_tables.rs`, the Fresnel tint tables of the
 //! conductor multiple-scattering lobe, from a random walk of the Heitz 2016
-//! microsurface (see [`ms_tables`]; a few minutes on 2 cores).
+//! microsurface (see [`ms_tables`]; under a minute on 2 cores), and
+//! `-- --aniso` generates `src/multiple/compensation_aniso_tables.rs`, the
+//! conductor albedo with F = 1 for anisotropic roughness (see
+//! [`aniso_tables`]; under a minute).
 //! The grid formulas here must match `grid_mu`, `grid_alpha` and `grid_eta`
 //! in `src/multiple/compensation.rs`; `tests/compensation.rs` checks table
 //! entries against a fresh quadrature at those grid points.
@@ -92,6 +95,10 @@ fn fmt_row(v: &[f32]) -> String {
 fn main() {
     if std::env::args().any(|a| a == "--ms") {
         ms_tables();
+        return;
+    }
+    if std::env::args().any(|a| a == "--aniso") {
+        aniso_tables();
         return;
     }
     let t0 = std::time::Instant::now();
@@ -508,4 +515,172 @@ fn ms_tables() {
     let mut f = std::fs::File::create(path).expect("create the tables file");
     f.write_all(s.as_bytes()).expect("write the tables file");
     eprintln!("wrote {path} in {:.0} s", t0.elapsed().as_secs_f32());
+}
+
+/// Grid of the anisotropic albedo table: mu (quadratic spacing, dense
+/// towards grazing), azimuth in [0, pi/2] (the albedo is even in both wx and
+/// wy), and alpha along x and y (uniform in sqrt(alpha / MAX_ALPHA)). The
+/// formulas must match `aniso_grid_*` in `src/multiple/compensation.rs`.
+const AN_MU: usize = 16;
+const AN_PHI: usize = 7;
+const AN_A: usize = 16;
+const AN_QUAD_N: usize = 96;
+
+fn aniso_grid_mu(i: usize) -> f32 {
+    let s = i as f32 / (AN_MU - 1) as f32;
+    MU_MIN + (1.0 - MU_MIN) * s * s
+}
+fn aniso_grid_phi(k: usize) -> f32 {
+    std::f32::consts::FRAC_PI_2 * k as f32 / (AN_PHI - 1) as f32
+}
+fn aniso_grid_alpha(j: usize) -> f32 {
+    let s = j as f32 / (AN_A - 1) as f32;
+    MAX_ALPHA * s * s
+}
+
+/// Single-scattering albedo with F = 1 of anisotropic conductor facets per
+/// (NDF, alpha_x, alpha_y, azimuth, mu), by the same quadrature as the
+/// isotropic table (`AN_QUAD_N`^2 normals per entry).
+fn aniso_tables() {
+    let t0 = std::time::Instant::now();
+    let jobs: Vec<(usize, usize, usize)> = (0..2)
+        .flat_map(|n| (0..AN_A).flat_map(move |jx| (0..AN_A).map(move |jy| (n, jx, jy))))
+        .collect();
+    let total = jobs.len();
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    type Block = ((usize, usize, usize), Vec<Vec<f32>>);
+    let results: Vec<Vec<Block>> = std::thread::scope(|sc| {
+        let handles: Vec<_> = (0..2)
+            .map(|th| {
+                let jobs = &jobs;
+                let done = &done;
+                sc.spawn(move || {
+                    let mut out = Vec::new();
+                    for (idx, &(n, jx, jy)) in jobs.iter().enumerate() {
+                        if idx % 2 != th {
+                            continue;
+                        }
+                        let (ax, ay) = (aniso_grid_alpha(jx), aniso_grid_alpha(jy));
+                        let block: Vec<Vec<f32>> = (0..AN_PHI)
+                            .map(|k| {
+                                (0..AN_MU)
+                                    .map(|i| {
+                                        if ax == 0.0 || ay == 0.0 {
+                                            // A smooth axis: the quadrature's warp needs
+                                            // alpha > 0; use the smallest positive one.
+                                            return aniso_entry(
+                                                NDFS[n],
+                                                ax.max(1e-4),
+                                                ay.max(1e-4),
+                                                k,
+                                                i,
+                                            );
+                                        }
+                                        aniso_entry(NDFS[n], ax, ay, k, i)
+                                    })
+                                    .collect()
+                            })
+                            .collect();
+                        out.push(((n, jx, jy), block));
+                        let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+                        if d.is_multiple_of(16) || d == total {
+                            let el = t0.elapsed().as_secs_f32();
+                            eprintln!(
+                                "{d}/{total} (alpha_x, alpha_y) blocks, {el:.0} s, ETA {:.0} s",
+                                el / d as f32 * (total - d) as f32
+                            );
+                        }
+                    }
+                    out
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().expect("worker"))
+            .collect()
+    });
+    let mut table = vec![vec![vec![vec![vec![0f32; AN_MU]; AN_PHI]; AN_A]; AN_A]; 2];
+    for ((n, jx, jy), block) in results.into_iter().flatten() {
+        table[n][jx][jy] = block;
+    }
+    let mut s = String::new();
+    writeln!(
+        s,
+        "//! Generated by `cargo run --release --example gen_compensation -- --aniso`: do not edit.\n\
+         //! Single-scattering directional albedo with F = 1 (height-correlated Smith G2)\n\
+         //! of anisotropic conductor facets by quadrature on a {AN_QUAD_N} x {AN_QUAD_N} grid of\n\
+         //! normals per entry. Index order: [ndf: Beckmann, GGX][alpha_x][alpha_y][phi][mu]."
+    )
+    .ok();
+    writeln!(
+        s,
+        "#![allow(clippy::excessive_precision, clippy::approx_constant)]\n"
+    )
+    .ok();
+    writeln!(
+        s,
+        "/// Number of mu grid points.\npub const AN_MU: usize = {AN_MU};"
+    )
+    .ok();
+    writeln!(
+        s,
+        "/// Number of azimuth grid points on [0, pi/2].\npub const AN_PHI: usize = {AN_PHI};"
+    )
+    .ok();
+    writeln!(
+        s,
+        "/// Number of alpha grid points per axis.\npub const AN_A: usize = {AN_A};"
+    )
+    .ok();
+    writeln!(
+        s,
+        "/// Conductor albedo with F = 1.\npub static CONDUCTOR_E_ANISO: [[[[[f32; AN_MU]; AN_PHI]; AN_A]; AN_A]; 2] = ["
+    )
+    .ok();
+    for per_ndf in &table {
+        writeln!(s, "  [").ok();
+        for per_x in per_ndf {
+            writeln!(s, "    [").ok();
+            for per_y in per_x {
+                writeln!(s, "      [").ok();
+                for row in per_y {
+                    writeln!(s, "        {},", fmt_row(row)).ok();
+                }
+                writeln!(s, "      ],").ok();
+            }
+            writeln!(s, "    ],").ok();
+        }
+        writeln!(s, "  ],").ok();
+    }
+    writeln!(s, "];").ok();
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/src/multiple/compensation_aniso_tables.rs"
+    );
+    let mut f = std::fs::File::create(path).expect("create the tables file");
+    f.write_all(s.as_bytes()).expect("write the tables file");
+    eprintln!("wrote {path} in {:.0} s", t0.elapsed().as_secs_f32());
+}
+
+/// One entry of the anisotropic table (also used by the tests' recomputation).
+fn aniso_entry(kind: NdfKind, ax: f32, ay: f32, k: usize, i: usize) -> f32 {
+    let ndf = Ndf::new(kind, ax, ay);
+    let facet = Facet::Conductor {
+        eta: Vec3::ZERO,
+        k: Vec3::ONE,
+    };
+    let s = Single::new(ndf, facet, G2Form::HeightCorrelated);
+    let mu = aniso_grid_mu(i);
+    let phi = aniso_grid_phi(k);
+    let st = (1.0 - mu * mu).max(0.0).sqrt();
+    let wi = Vec3::new(st * phi.cos(), st * phi.sin(), mu);
+    single_albedo(
+        |a, b| s.eval(a, b, &mut Rng::new(0, 0)).x,
+        ax,
+        ay,
+        wi,
+        None,
+        AN_QUAD_N,
+    ) as f32
 }

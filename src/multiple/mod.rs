@@ -5,6 +5,8 @@ pub mod auto_table;
 pub mod bitterli_deon;
 pub mod compensation;
 #[doc(hidden)]
+pub mod compensation_aniso_tables;
+#[doc(hidden)]
 pub mod compensation_ms_tables;
 #[doc(hidden)]
 pub mod compensation_tables;
