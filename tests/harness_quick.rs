@@ -174,3 +174,73 @@ fn energy_compensated_metal_albedo_matches_heitz_reference() {
     );
     assert!(worst.0 <= 0.02, "{}", worst.1);
 }
+
+/// The chart writer (plotters' SVG backend) draws every series and legend
+/// entry of log-log and linear panels, skips points a log axis cannot show,
+/// and writes no NaN coordinates.
+#[test]
+fn charts_draw_every_series() {
+    use harness::svg::{Panel, Series, document};
+    let series = |label: &str, color, dashed, pts: Vec<(f64, f64)>| Series {
+        label: label.into(),
+        points: pts,
+        color,
+        dashed,
+        markers: true,
+    };
+    let loglog = Panel {
+        title: "error vs time".into(),
+        xlabel: "ns".into(),
+        ylabel: "error".into(),
+        logx: true,
+        logy: true,
+        series: vec![
+            series(
+                "alpha_curve",
+                0,
+                false,
+                vec![(10.0, 0.5), (100.0, 0.1), (1000.0, 0.02)],
+            ),
+            // A zero and a NaN: not drawable on log axes, skipped.
+            series(
+                "beta_curve",
+                1,
+                true,
+                vec![(20.0, 0.0), (200.0, f64::NAN), (2000.0, 0.05)],
+            ),
+        ],
+        xrange: None,
+        yrange: None,
+    };
+    let linear = Panel {
+        title: "lobe".into(),
+        xlabel: "theta".into(),
+        ylabel: "f".into(),
+        logx: false,
+        logy: false,
+        series: vec![series(
+            "gamma_curve",
+            2,
+            false,
+            (0..10).map(|i| (i as f64, 1e4 * i as f64)).collect(),
+        )],
+        xrange: Some((-90.0, 90.0)),
+        yrange: Some((0.0, 1.0)),
+    };
+    let svg = document(&[loglog, linear], 2);
+    assert!(svg.starts_with("<svg"), "not an SVG document");
+    for label in [
+        "alpha_curve",
+        "beta_curve",
+        "gamma_curve",
+        "error vs time",
+        "lobe",
+    ] {
+        assert!(svg.contains(label), "{label} missing");
+    }
+    // Three curves drawn as polylines; markers are circles, at least the 4
+    // drawable points of the log-log panel.
+    assert!(svg.matches("<polyline").count() >= 3, "curves missing");
+    assert!(svg.matches("<circle").count() >= 4, "markers missing");
+    assert!(!svg.contains("NaN"), "NaN coordinate written");
+}

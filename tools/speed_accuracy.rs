@@ -108,6 +108,7 @@ fn class_panels(rows: &[Row], k: usize, class: &str) -> (Panel, Panel) {
             logy: true,
             series: err_time,
             xrange: None,
+            yrange: None,
         },
         Panel {
             title: format!("{class}: convergence"),
@@ -117,6 +118,7 @@ fn class_panels(rows: &[Row], k: usize, class: &str) -> (Panel, Panel) {
             logy: true,
             series: conv,
             xrange: None,
+            yrange: None,
         },
     )
 }
@@ -242,7 +244,7 @@ fn lobes(r: &RefMaterial, theta_i: f32, transmit: bool, k: u32) -> (Panel, Panel
     let combos = discover(std::slice::from_ref(&r.mat));
     let ti = theta_i.to_radians();
     let wi = Vec3::new(ti.sin(), 0.0, ti.cos());
-    let mut brdf = Vec::new();
+    let mut brdf: Vec<Series> = Vec::new();
     let mut ineff = Vec::new();
     for (ci, c) in combos.iter().enumerate() {
         let Some(m) = CMaterial::new(&r.mat.c_desc(c.model, c.estimator)) else {
@@ -288,6 +290,22 @@ fn lobes(r: &RefMaterial, theta_i: f32, transmit: bool, k: u32) -> (Panel, Panel
             });
         }
     }
+    // The V-groove models peak at the mirror direction (their integrable
+    // 1 / sin(theta_h) focus, 10^4 times the rest of the lobe): scale the
+    // axis to the Smith-microsurface models and clip those peaks, saying so.
+    let peak = |s: &Series| s.points.iter().map(|p| p.1).fold(0.0f64, f64::max);
+    let ymax = brdf
+        .iter()
+        .filter(|s| !s.label.starts_with("VGROOVE"))
+        .map(peak)
+        .fold(0.0f64, f64::max);
+    let yrange = (ymax > 0.0).then_some((0.0, 1.3 * ymax));
+    for s in brdf.iter_mut() {
+        let p = peak(s);
+        if ymax > 0.0 && p > 1.3 * ymax {
+            s.label = format!("{} (clipped; peak {p:.3e})", s.label);
+        }
+    }
     let side = if transmit { "transmitted" } else { "reflected" };
     let title = format!("{}, theta_i {theta_i}, {side}", r.mat.name);
     (
@@ -299,6 +317,7 @@ fn lobes(r: &RefMaterial, theta_i: f32, transmit: bool, k: u32) -> (Panel, Panel
             logy: false,
             series: brdf,
             xrange: Some((-90.0, 90.0)),
+            yrange,
         },
         Panel {
             title: format!("inverse efficiency: {title}"),
@@ -308,6 +327,7 @@ fn lobes(r: &RefMaterial, theta_i: f32, transmit: bool, k: u32) -> (Panel, Panel
             logy: true,
             series: ineff,
             xrange: Some((-90.0, 90.0)),
+            yrange: None,
         },
     )
 }
