@@ -136,13 +136,14 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod dist;
+pub mod ftable;
 pub mod kaleido;
 
 use crate::bsdf::{Sample, ScatterModel};
 use crate::frame::flip_z;
-use crate::fresnel;
 use crate::rng::Rng;
 use dist::{Family, GrooveNdf};
+use ftable::FresnelTable;
 use glam::{DVec3, Vec3};
 use kaleido::Hit;
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -173,8 +174,8 @@ const GL8_W: [f64; 4] = [
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct VGroove {
     ndf: GrooveNdf,
-    eta: Vec3,
-    k: Vec3,
+    /// Conductor reflectance over the cosine (seed 002, eq. 11).
+    fresnel: FresnelTable,
     /// `eta = 0, k = 1`: every reflection has F = 1 (skips Fresnel).
     mirror: bool,
     n_max: u32,
@@ -215,8 +216,7 @@ impl VGroove {
         }
         VGroove {
             ndf,
-            eta,
-            k,
+            fresnel: FresnelTable::new(eta, k),
             mirror: eta == Vec3::ZERO && k == Vec3::ONE,
             n_max,
             symmetric,
@@ -236,6 +236,11 @@ impl VGroove {
     /// The facet distribution.
     pub fn ndf(&self) -> &GrooveNdf {
         &self.ndf
+    }
+
+    /// The per-material Fresnel table.
+    pub fn fresnel_table(&self) -> &FresnelTable {
+        &self.fresnel
     }
 
     /// `f(wi, wo; k) |wo.z|` (F included): the `k`-resolved BRDF of eq. (16)
@@ -264,9 +269,9 @@ impl VGroove {
         let two_c = 2.0 * hit.cos_tv;
         let mut s_prev = hit.sin_psi(0);
         let mut s_cur = hit.sin_psi(1);
-        prod *= fresnel::conductor_rgb((rho * s_prev) as f32, self.eta, self.k);
+        prod *= self.fresnel.eval((rho * s_prev) as f32);
         for _ in 1..k {
-            prod *= fresnel::conductor_rgb((rho * s_cur) as f32, self.eta, self.k);
+            prod *= self.fresnel.eval((rho * s_cur) as f32);
             let next = two_c * s_cur - s_prev;
             s_prev = s_cur;
             s_cur = next;
