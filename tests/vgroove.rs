@@ -828,7 +828,7 @@ fn vgroove_fresnel_table_matches_closed_form() {
         let n = 100_000;
         for j in 0..=n {
             let c = j as f32 / n as f32;
-            let got = t.eval(c);
+            let got = Vec3::from(t.eval(c));
             let rgb = fresnel::conductor_rgb(c, eta, k);
             let complex = fresnel::conductor(c, eta, k);
             worst = worst.max(rel(got, rgb));
@@ -841,5 +841,14 @@ fn vgroove_fresnel_table_matches_closed_form() {
             t.max_checked_error()
         );
         assert!(worst <= 2e-6, "{name}: relative deviation {worst}");
+    }
+    // A reflectance with a kink (k = 0, eta < 1: total reflection below the
+    // critical cosine) fails the check, and the table then is exact.
+    let (eta, k) = (Vec3::new(0.5, 1.0, 0.7), Vec3::new(0.0, 2.0, 0.0));
+    let t = FresnelTable::new(eta, k);
+    assert!(!t.uses_table(), "check passed: {}", t.max_checked_error());
+    for j in 0..=1000 {
+        let c = j as f32 / 1000.0;
+        assert_eq!(Vec3::from(t.eval(c)), fresnel::conductor_rgb(c, eta, k));
     }
 }

@@ -12,7 +12,7 @@
 //! through the four nearest nodes in `sqrt(c)` (one-sided at the ends). For
 //! a complex index with `k > 0`, `F` is a smooth (analytic) function of `c`
 //! on `[0, 1]`, so the interpolation error is `O(M^-4)`: about 1e-7 relative
-//! at `M = 128` for gold, silver, copper, aluminium and chromium (f32
+//! at `M = 120` for gold, silver, copper, aluminium and chromium (f32
 //! storage dominates).
 //!
 //! The error is not assumed: [`FresnelTable::new`] compares the
@@ -28,10 +28,10 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use crate::fresnel;
-use glam::{DVec3, Vec3};
+use glam::{DVec3, Vec3, Vec3A};
 
-/// Intervals of the table (`M`); `M + 1` nodes of 12 bytes.
-pub const TABLE_M: usize = 128;
+/// Intervals of the table (`M`); `M + 1` nodes of 16 bytes (SIMD `Vec3A`).
+pub const TABLE_M: usize = 120;
 
 /// Largest accepted relative deviation of the interpolant from the closed
 /// form at the check points (about ten `f32` ulps).
@@ -43,7 +43,7 @@ pub const TABLE_FLOOR: f64 = 1e-9;
 /// `F(c)` at `TABLE_M + 1` uniform cosines, or the exact fallback.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FresnelTable {
-    nodes: [Vec3; TABLE_M + 1],
+    nodes: [Vec3A; TABLE_M + 1],
     eta: Vec3,
     k: Vec3,
     /// False when the check failed: [`FresnelTable::eval`] is exact.
@@ -109,10 +109,10 @@ fn weights(t: f32) -> [f32; 4] {
 impl FresnelTable {
     /// Builds and checks the table for the complex index `eta + i k`.
     pub fn new(eta: Vec3, k: Vec3) -> Self {
-        let mut nodes = [Vec3::ZERO; TABLE_M + 1];
+        let mut nodes = [Vec3A::ZERO; TABLE_M + 1];
         for (j, n) in nodes.iter_mut().enumerate() {
             let u = j as f64 / TABLE_M as f64;
-            *n = conductor_rgb_f64(u * u, eta, k).as_vec3();
+            *n = Vec3A::from(conductor_rgb_f64(u * u, eta, k).as_vec3());
         }
         let mut t = FresnelTable {
             nodes,
@@ -127,7 +127,7 @@ impl FresnelTable {
                 let u = (j as f64 + q) / TABLE_M as f64;
                 let c = u * u;
                 let exact = conductor_rgb_f64(c, eta, k);
-                let got = t.interpolate(c as f32).as_dvec3();
+                let got = Vec3::from(t.interpolate(c as f32)).as_dvec3();
                 let err = (got - exact).abs();
                 for ch in 0..3 {
                     let scale = exact[ch].abs().max(TABLE_FLOOR / TABLE_TOL);
@@ -144,27 +144,28 @@ impl FresnelTable {
     }
 
     /// The table interpolant at `c` (clamped to `[0, 1]`), whether or not
-    /// the table passed its check.
+    /// the table passed its check. Not clamped: it may leave `[0, 1]` by
+    /// the interpolation error (callers clamp products).
     #[inline]
-    pub fn interpolate(&self, c: f32) -> Vec3 {
+    pub fn interpolate(&self, c: f32) -> Vec3A {
         let x = if c > 0.0 { c.min(1.0).sqrt() } else { 0.0 } * TABLE_M as f32;
         let (b, t) = stencil(x);
         let w = weights(t);
-        let v = self.nodes[b] * w[0]
+        self.nodes[b] * w[0]
             + self.nodes[b + 1] * w[1]
             + self.nodes[b + 2] * w[2]
-            + self.nodes[b + 3] * w[3];
-        v.clamp(Vec3::ZERO, Vec3::ONE)
+            + self.nodes[b + 3] * w[3]
     }
 
     /// `F(c)` per channel: the interpolant when the table passed its
-    /// check, else `crate::fresnel::conductor_rgb`.
+    /// check, else `crate::fresnel::conductor_rgb`. Within [`TABLE_TOL`]
+    /// (relative) of `[0, 1]`.
     #[inline]
-    pub fn eval(&self, c: f32) -> Vec3 {
+    pub fn eval(&self, c: f32) -> Vec3A {
         if self.use_table {
             self.interpolate(c)
         } else {
-            fresnel::conductor_rgb(c, self.eta, self.k)
+            fresnel::conductor_rgb(c, self.eta, self.k).into()
         }
     }
 

@@ -144,7 +144,7 @@ use crate::frame::flip_z;
 use crate::rng::Rng;
 use dist::{Family, GrooveNdf};
 use ftable::FresnelTable;
-use glam::{DVec3, Vec3};
+use glam::{DVec3, Vec3, Vec3A};
 use kaleido::Hit;
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -264,7 +264,7 @@ impl VGroove {
         if self.mirror {
             return DVec3::ONE;
         }
-        let mut prod = Vec3::ONE;
+        let mut prod = Vec3A::ONE;
         // sin(psi_a - j theta_v) by the Chebyshev recurrence.
         let two_c = 2.0 * hit.cos_tv;
         let mut s_prev = hit.sin_psi(0);
@@ -276,7 +276,7 @@ impl VGroove {
             s_prev = s_cur;
             s_cur = next;
         }
-        prod.as_dvec3()
+        Vec3::from(prod.clamp(Vec3A::ZERO, Vec3A::ONE)).as_dvec3()
     }
 
     /// `(f |o.z|, pdf)` for `wi.z > 0` (after the two-sided flip).
@@ -453,8 +453,20 @@ impl VGroove {
                 if !(x > 0.0) {
                     continue;
                 }
-                let mut k = if (k0 % 2 == 1) == odd { k0 } else { k0 + 1 };
-                while k <= k1 {
+                // Worth its division only when N is large (GGX, Phong).
+                let (r_lo, r_hi) = if k1 - k0 >= 8 {
+                    symmetric_k_range(ti, x, k1)
+                } else {
+                    (k0, k1)
+                };
+                let k_start = k0.max(r_lo);
+                let k_end = k1.min(r_hi);
+                let mut k = if (k_start % 2 == 1) == odd {
+                    k_start
+                } else {
+                    k_start + 1
+                };
+                while k <= k_end {
                     let kf = k as f64;
                     let tk = 2.0 * kf;
                     let eps = 1e-9 * tk;
@@ -667,6 +679,35 @@ fn symmetric_count_possible(ti: f64, a: f64, kf: f64) -> bool {
     (kf - 1.0) * tv <= psi_a - lo_ang + eps && kf * tv >= psi_a - hi_ang - eps
 }
 
+/// Counts `k` for which [`symmetric_count_possible`] can hold at the
+/// solution `a = pi/2 - x / 2k` of eq. (5) (`x > 0`): a superset, so that
+/// the exact test runs only on a few counts instead of every `k <= N`.
+///
+/// With `delta = x / 2k` (`a = pi/2 - delta`, `theta_v = 2 delta`,
+/// `psi_a = pi - delta - ti`), the conditions of that test read
+/// `0 < delta < min(pi/2, pi - ti)`, `delta > -ti` and
+/// `delta >= max((pi - 2 ti - x) / 2, x - pi + ti, (x - pi + 2 ti) / 2)`
+/// (the count bounds, each relaxed by at most its `eps <= 1e-9 k_max`), so
+/// `x / (2 delta_max) <= k <= x / (2 delta_min)`.
+#[inline]
+fn symmetric_k_range(ti: f64, x: f64, k_max: u32) -> (u32, u32) {
+    let d_max = FRAC_PI_2.min(PI - ti);
+    let k_lo = (x / (2.0 * d_max)) as u32; // floor: at or below the bound
+    let d_min = (-ti)
+        .max(0.5 * (PI - 2.0 * ti - x))
+        .max(x - PI + ti)
+        .max(0.5 * (x - PI + 2.0 * ti))
+        - 1e-9 * k_max as f64
+        - 1e-12;
+    let k_hi = if d_min > 0.0 {
+        // Saturating cast; +1 covers the rounding of `x / 2k`.
+        ((x / (2.0 * d_min)) as u32).saturating_add(1).min(k_max)
+    } else {
+        k_max
+    };
+    (k_lo, k_hi)
+}
+
 /// The `theta_r` interval of a line `a = a0 + a1 b` inside `a, b` in
 /// `(0, pi/2)` where `k` reflections are possible, `(k - 1) theta_v <= psi_a`
 /// (seed 002, eq. 7), and the first facet faces the light.
@@ -715,5 +756,53 @@ impl ScatterModel for VGroove {
             only_k: 0,
         };
         self.eval_pdf(wi, wo, want).1
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::Rng;
+
+    /// [`symmetric_k_range`] contains every count the exact test accepts
+    /// (brute force over all `k <= 256` on random `(ti, x)`, including `x`
+    /// near the mirror configuration `x = pi - 2 ti` where the range is
+    /// widest).
+    #[test]
+    fn symmetric_k_range_is_a_superset() {
+        let mut rng = Rng::new(11, 0);
+        let k_max = 256;
+        let mut accepted = 0u64;
+        let mut scanned = 0u64;
+        for n in 0..20_000 {
+            let ti = (rng.next_f64() - 0.5) * PI * 0.9999;
+            let x = if n % 4 == 0 {
+                PI - 2.0 * ti + (rng.next_f64() - 0.5) * 1e-3
+            } else {
+                rng.next_f64() * 2.0 * PI
+            };
+            if !(x > 0.0) {
+                continue;
+            }
+            let (lo, hi) = symmetric_k_range(ti, x, k_max);
+            for k in 1..=k_max {
+                let kf = k as f64;
+                let a = FRAC_PI_2 - x / (2.0 * kf);
+                if a > 0.0 && a < FRAC_PI_2 && symmetric_count_possible(ti, a, kf) {
+                    accepted += 1;
+                    assert!(
+                        lo <= k && k <= hi,
+                        "ti {ti} x {x}: k {k} outside [{lo}, {hi}]"
+                    );
+                }
+            }
+            scanned += (hi + 1).saturating_sub(lo) as u64;
+        }
+        assert!(accepted > 10_000, "{accepted}");
+        // The range is tight: at most a few counts beyond those accepted.
+        assert!(
+            scanned < 2 * accepted + 3 * 20_000,
+            "{scanned} vs {accepted}"
+        );
     }
 }
