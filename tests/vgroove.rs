@@ -852,3 +852,38 @@ fn vgroove_fresnel_table_matches_closed_form() {
         assert_eq!(Vec3::from(t.eval(c)), fresnel::conductor_rgb(c, eta, k));
     }
 }
+
+/// `Hit::g_sines` (the trig-free `G_k` of the symmetric eval) equals
+/// `Hit::g` when given the sines of the virtual-wall angles, on random
+/// symmetric and nonsymmetric grooves and counts up to 60.
+#[test]
+fn vgroove_g_sines_equals_g() {
+    let mut rng = Rng::new(21, 0);
+    let mut nonzero = 0;
+    for _ in 0..50_000 {
+        let ti = (rng.next_f64() - 0.5) * PI * 0.999;
+        let a = rng.next_f64() * FRAC_PI_2;
+        let b = if rng.next_f64() < 0.5 {
+            a
+        } else {
+            rng.next_f64() * FRAC_PI_2
+        };
+        let Some(hit) = Hit::new(ti, a, b) else {
+            continue;
+        };
+        for k in 1..=60u32 {
+            let s = |j: i64| (hit.psi_a - j as f64 * hit.theta_v).sin();
+            let kk = k as i64;
+            let got = hit.g_sines(k, [s(kk - 2), s(kk - 1), s(kk)]);
+            let want = hit.g(k);
+            assert!(
+                (got - want).abs() <= 1e-12,
+                "ti {ti} a {a} b {b} k {k}: {got} vs {want}"
+            );
+            if want > 0.0 {
+                nonzero += 1;
+            }
+        }
+    }
+    assert!(nonzero > 20_000, "{nonzero}");
+}

@@ -316,6 +316,7 @@ impl VGroove {
         let (ie0, oe0) = (i.dot(e), o.dot(e));
         let (ti0, to0) = (ie0.atan2(i.z), oe0.atan2(o.z));
         let rho = (ie0 * ie0 + i.z * i.z).sqrt();
+        let rho_o = (oe0 * oe0 + o.z * o.z).sqrt();
         // Grazing beyond what `ti = atan2(ie, i.z)` resolves in f64 (pi/2
         // has an ulp of 2.2e-16): the groove geometry then sees ti = pi/2
         // exactly, the lit fraction no longer vanishes with i.z, and the
@@ -334,6 +335,8 @@ impl VGroove {
                 cti: i.z / rho,
                 ti: sg * ti0,
                 to: sg * to0,
+                sto: sg * oe0 / rho_o,
+                cto: o.z / rho_o,
                 rho,
                 oh,
                 inv_sin_h,
@@ -453,6 +456,14 @@ impl VGroove {
                 if !(x > 0.0) {
                     continue;
                 }
+                // sin psi_{k-m} = sgn sin(u + (2m - 1) delta), see
+                // `symmetric_tail_sines`.
+                let parity = if j.rem_euclid(2) == 0 { 1.0 } else { -1.0 };
+                let (sgn, su) = if odd {
+                    (-parity, ctx.sto)
+                } else {
+                    (parity, -ctx.sto)
+                };
                 // Worth its division only when N is large (GGX, Phong).
                 let (r_lo, r_hi) = if k1 - k0 >= 8 {
                     symmetric_k_range(ti, x, k1)
@@ -481,7 +492,8 @@ impl VGroove {
                         && let Some(hit) =
                             Hit::with_trig(ti, ctx.sti, ctx.cti, a, sa, ca, a, sa, ca)
                     {
-                        let (df, dp) = self.contribution(ctx, &hit, (sa, ca), k, hit.g(k), kf, 1.0);
+                        let g = hit.g_sines(k, symmetric_tail_sines(sgn, su, ctx.cto, ca, sa));
+                        let (df, dp) = self.contribution(ctx, &hit, (sa, ca), k, g, kf, 1.0);
                         f += df;
                         p += dp;
                     }
@@ -649,6 +661,9 @@ struct Ctx {
     cti: f64,
     ti: f64,
     to: f64,
+    /// `sin` and `cos` of `to`.
+    sto: f64,
+    cto: f64,
     rho: f64,
     oh: f64,
     inv_sin_h: f64,
@@ -677,6 +692,25 @@ fn symmetric_count_possible(ti: f64, a: f64, kf: f64) -> bool {
     // k - 1 <= (psi_a - lo_ang) / tv and k >= (psi_a - hi_ang) / tv.
     let eps = 1e-9 * kf;
     (kf - 1.0) * tv <= psi_a - lo_ang + eps && kf * tv >= psi_a - hi_ang - eps
+}
+
+/// `[sin psi_{k-2}, sin psi_{k-1}, sin psi_k]` for the symmetric solution
+/// `a = pi/2 - delta` of eq. (5) with `2 k delta = x = pi j - base`,
+/// without trigonometry: `psi_{k-m} = psi_a - (k - m) theta_v` with
+/// `psi_a = pi - delta - ti`, `theta_v = 2 delta` is
+/// `pi (1 - j) + theta_o + (2m - 1) delta` (odd `k`) or
+/// `-pi j - theta_o + (2m - 1) delta` (even `k`), so
+/// `sin psi_{k-m} = sgn sin(u + (2m - 1) delta)` with `sgn = -(-1)^j`,
+/// `u = theta_o` (odd) or `sgn = (-1)^j`, `u = -theta_o` (even). Takes
+/// `sgn`, `sin u`, `cos u = cos theta_o`, `sin delta = cos a` and
+/// `cos delta = sin a`.
+#[inline]
+fn symmetric_tail_sines(sgn: f64, su: f64, cu: f64, sd: f64, cd: f64) -> [f64; 3] {
+    let (su, cu) = (sgn * su, sgn * cu);
+    // cos 3d = cos d (4 cos^2 d - 3), sin 3d = sin d (3 - 4 sin^2 d)
+    let c3 = cd * (4.0 * cd * cd - 3.0);
+    let s3 = sd * (3.0 - 4.0 * sd * sd);
+    [su * c3 + cu * s3, su * cd + cu * sd, su * cd - cu * sd]
 }
 
 /// Counts `k` for which [`symmetric_count_possible`] can hold at the
@@ -763,6 +797,47 @@ impl ScatterModel for VGroove {
 mod tests {
     use super::*;
     use crate::rng::Rng;
+
+    /// [`symmetric_tail_sines`] equals `sin(psi_a - m theta_v)` computed
+    /// from the angles, for the solutions the symmetric sum visits.
+    #[test]
+    fn symmetric_tail_sines_match_direct() {
+        let mut rng = Rng::new(12, 0);
+        let mut checked = 0;
+        for _ in 0..20_000 {
+            let ti = (rng.next_f64() - 0.5) * PI * 0.999;
+            let to = (rng.next_f64() - 0.5) * PI * 0.999;
+            let k = 1 + (rng.next_f64() * 60.0) as u32;
+            let odd = k % 2 == 1;
+            let base = if odd { ti + to } else { ti - to - PI };
+            let j = ((base + 1e-3) / PI).ceil() as i64 + (rng.next_f64() * 4.0) as i64;
+            if (j.rem_euclid(2) == 1) != odd {
+                continue;
+            }
+            let x = PI * j as f64 - base;
+            let delta = x / (2.0 * k as f64);
+            if !(x > 0.0 && delta < FRAC_PI_2) {
+                continue;
+            }
+            let a = FRAC_PI_2 - delta;
+            let (sa, ca) = a.sin_cos();
+            let parity = if j.rem_euclid(2) == 0 { 1.0 } else { -1.0 };
+            let (sgn, su) = if odd {
+                (-parity, to.sin())
+            } else {
+                (parity, -to.sin())
+            };
+            let got = symmetric_tail_sines(sgn, su, to.cos(), ca, sa);
+            let psi_a = a - ti + FRAC_PI_2;
+            let tv = PI - 2.0 * a;
+            for (m, g) in got.iter().enumerate() {
+                let want = (psi_a - (k as f64 - 2.0 + m as f64) * tv).sin();
+                assert!((g - want).abs() < 1e-12, "k {k} m {m}: {g} vs {want}");
+            }
+            checked += 1;
+        }
+        assert!(checked > 5000, "{checked}");
+    }
 
     /// [`symmetric_k_range`] contains every count the exact test accepts
     /// (brute force over all `k <= 256` on random `(ti, x)`, including `x`
