@@ -340,6 +340,8 @@ impl VGroove {
                 rho,
                 oh,
                 inv_sin_h,
+                sin_h,
+                cos_h: h.z,
                 sigma,
                 want,
             };
@@ -488,7 +490,15 @@ impl VGroove {
                     if a > 0.0
                         && a < FRAC_PI_2
                         && symmetric_count_possible(ti, a, kf)
-                        && let (sa, ca) = a.sin_cos()
+                        // k = 1: the facet is the half vector (eq. 25), its
+                        // angle is known; else sin a = cos delta and
+                        // cos a = sin delta, delta = x / 2k in (0, pi/2).
+                        && let (sa, ca) = if k == 1 {
+                            (ctx.sin_h, ctx.cos_h)
+                        } else {
+                            let (sd, cd) = sin_cos_quadrant(x / tk);
+                            (cd, sd)
+                        }
                         && let Some(hit) =
                             Hit::with_trig(ti, ctx.sti, ctx.cti, a, sa, ca, a, sa, ca)
                     {
@@ -667,6 +677,10 @@ struct Ctx {
     rho: f64,
     oh: f64,
     inv_sin_h: f64,
+    /// `sin` and `cos` of the half vector's polar angle (the facet of the
+    /// single-reflection solution).
+    sin_h: f64,
+    cos_h: f64,
     sigma: Option<f64>,
     want: Want,
 }
@@ -711,6 +725,49 @@ fn symmetric_tail_sines(sgn: f64, su: f64, cu: f64, sd: f64, cd: f64) -> [f64; 3
     let c3 = cd * (4.0 * cd * cd - 3.0);
     let s3 = sd * (3.0 - 4.0 * sd * sd);
     [su * c3 + cu * s3, su * cd + cu * sd, su * cd - cu * sd]
+}
+
+/// `(sin d, cos d)` for `d` in `[0, pi/2]` (any `d` in `[-pi/4, 3pi/4]`),
+/// without a libm call: Taylor polynomials of `sin` and `cos` about
+/// `pi/4` to degree 17 and 16 (truncation below `(pi/4)^18 / 18! < 3e-18`),
+/// then the rotation by `pi/4`. Within `4e-16` of `f64::sin_cos`
+/// (`sin_cos_quadrant_matches_libm`).
+#[inline]
+fn sin_cos_quadrant(d: f64) -> (f64, f64) {
+    const FRAC_1_SQRT_2: f64 = std::f64::consts::FRAC_1_SQRT_2;
+    let y = d - std::f64::consts::FRAC_PI_4;
+    let y2 = y * y;
+    // 1/n! for the odd (sin) and even (cos) terms.
+    const S: [f64; 9] = [
+        1.0,
+        -1.0 / 6.0,
+        1.0 / 120.0,
+        -1.0 / 5040.0,
+        1.0 / 362_880.0,
+        -1.0 / 39_916_800.0,
+        1.0 / 6_227_020_800.0,
+        -1.0 / 1_307_674_368_000.0,
+        1.0 / 355_687_428_096_000.0,
+    ];
+    const C: [f64; 9] = [
+        1.0,
+        -0.5,
+        1.0 / 24.0,
+        -1.0 / 720.0,
+        1.0 / 40_320.0,
+        -1.0 / 3_628_800.0,
+        1.0 / 479_001_600.0,
+        -1.0 / 87_178_291_200.0,
+        1.0 / 20_922_789_888_000.0,
+    ];
+    let mut sp = S[8];
+    let mut cp = C[8];
+    for n in (0..8).rev() {
+        sp = sp * y2 + S[n];
+        cp = cp * y2 + C[n];
+    }
+    let (sy, cy) = (sp * y, cp);
+    ((sy + cy) * FRAC_1_SQRT_2, (cy - sy) * FRAC_1_SQRT_2)
 }
 
 /// Counts `k` for which [`symmetric_count_possible`] can hold at the
@@ -797,6 +854,20 @@ impl ScatterModel for VGroove {
 mod tests {
     use super::*;
     use crate::rng::Rng;
+
+    /// [`sin_cos_quadrant`] agrees with libm on `[0, pi/2]`.
+    #[test]
+    fn sin_cos_quadrant_matches_libm() {
+        let n = 1_000_000;
+        let mut worst = 0.0f64;
+        for j in 0..=n {
+            let d = FRAC_PI_2 * j as f64 / n as f64;
+            let (s, c) = sin_cos_quadrant(d);
+            let (s0, c0) = d.sin_cos();
+            worst = worst.max((s - s0).abs()).max((c - c0).abs());
+        }
+        assert!(worst < 4e-16, "{worst}");
+    }
 
     /// [`symmetric_tail_sines`] equals `sin(psi_a - m theta_v)` computed
     /// from the angles, for the solutions the symmetric sum visits.
