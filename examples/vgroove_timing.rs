@@ -2,7 +2,7 @@
 //! material: `cargo run --release --example vgroove_timing [filter]`.
 //!
 //! Instruction counts (load-independent): `vgroove_timing ir MODEL NDF ALPHA
-//! OP CALLS` (MODEL `single`, `vgroove`, `vgroove_ns`; NDF `ggx`,
+//! OP CALLS [MAX_BOUNCES]` (MODEL `single`, `vgroove`, `vgroove_ns`; NDF `ggx`,
 //! `beckmann`, `phong`; OP `eval`, `sample`, `pdf`, or `dump` to print
 //! eval, pdf and a sample for each of the 1024 pairs) makes CALLS calls on
 //! 1024 fixed random pairs; run it under
@@ -53,7 +53,10 @@ fn ir_mode(args: &[String]) {
     let alpha: f32 = get(4).parse().unwrap_or(0.5);
     let op = get(5);
     let calls: usize = get(6).parse().unwrap_or(0);
-    let m = Material::new(&desc(model, ndf, alpha)).expect("material");
+    let mut d = desc(model, ndf, alpha);
+    // Optional MAX_BOUNCES (e.g. 1: the k = 1 term alone).
+    d.max_bounces = get(7).parse().unwrap_or(0);
+    let m = Material::new(&d).expect("material");
     let wi = dirs(1024, 1);
     let wo = dirs(1024, 2);
     let mut rng = Rng::new(5, 5);

@@ -9,6 +9,7 @@ set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$root"
 calls=${1:-4000}
+MAXB=${MAXB:-}  # MAXB=1: the k = 1 term alone
 models=${2:-"single vgroove"}
 ndfs=${3:-"ggx beckmann"}
 alphas=${4:-"0.2 0.5 1"}
@@ -18,7 +19,7 @@ bin=target/release/examples/vgroove_timing
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 total() {
-    valgrind --tool=callgrind --callgrind-out-file="$tmp/out" "$bin" ir "$@" >/dev/null 2>&1
+    valgrind --tool=callgrind --callgrind-out-file="$tmp/out" "$bin" ir "$@" $MAXB >/dev/null 2>&1
     awk '/^summary:/ {print $2}' "$tmp/out"
 }
 printf "%-12s %-9s %-5s %-7s %10s\n" model ndf alpha op "Ir/call"
