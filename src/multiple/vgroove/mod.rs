@@ -326,17 +326,20 @@ impl VGroove {
         if !(i.z > 1e-15 * rho) {
             return (Vec3::ZERO, 0.0);
         }
+        let (inv_rho, inv_rho_o) = (1.0 / rho, 1.0 / rho_o);
+        let (sti0, cti) = (ie0 * inv_rho, i.z * inv_rho);
+        let (sto0, cto) = (oe0 * inv_rho_o, o.z * inv_rho_o);
         for sg in [1.0f64, -1.0] {
             let ex = e * sg;
             let ctx = Ctx {
                 i,
                 ex,
-                sti: sg * ie0 / rho,
-                cti: i.z / rho,
+                sti: sg * sti0,
+                cti,
                 ti: sg * ti0,
                 to: sg * to0,
-                sto: sg * oe0 / rho_o,
-                cto: o.z / rho_o,
+                sto: sg * sto0,
+                cto,
                 rho,
                 oh,
                 inv_sin_h,
@@ -450,22 +453,19 @@ impl VGroove {
             // inside [lim_lo / 2, 2 lim_hi].
             let j_lo = ((base + 0.5 * lim_lo) / PI).ceil_i64();
             let j_hi = ((base + 2.0 * lim_hi) / PI).floor_i64();
-            for j in j_lo..=j_hi {
-                if (j.rem_euclid(2) == 1) != odd {
-                    continue;
-                }
+            // j has the parity of k.
+            let j_first = if (j_lo.rem_euclid(2) == 1) == odd {
+                j_lo
+            } else {
+                j_lo + 1
+            };
+            // sin u of `symmetric_tail_sines`.
+            let su = if odd { ctx.sto } else { -ctx.sto };
+            for j in (j_first..=j_hi).step_by(2) {
                 let x = PI * j as f64 - base;
                 if !(x > 0.0) {
                     continue;
                 }
-                // sin psi_{k-m} = sgn sin(u + (2m - 1) delta), see
-                // `symmetric_tail_sines`.
-                let parity = if j.rem_euclid(2) == 0 { 1.0 } else { -1.0 };
-                let (sgn, su) = if odd {
-                    (-parity, ctx.sto)
-                } else {
-                    (parity, -ctx.sto)
-                };
                 // Worth its division only when N is large (GGX, Phong).
                 let (r_lo, r_hi) = if k1 - k0 >= 8 {
                     symmetric_k_range(ti, x, k1)
@@ -502,7 +502,7 @@ impl VGroove {
                         && let Some(hit) =
                             Hit::with_trig(ti, ctx.sti, ctx.cti, a, sa, ca, a, sa, ca)
                     {
-                        let g = hit.g_sines(k, symmetric_tail_sines(sgn, su, ctx.cto, ca, sa));
+                        let g = hit.g_sines(k, symmetric_tail_sines(su, ctx.cto, ca, sa));
                         let (df, dp) = self.contribution(ctx, &hit, (sa, ca), k, g, kf, 1.0);
                         f += df;
                         p += dp;
@@ -713,14 +713,12 @@ fn symmetric_count_possible(ti: f64, a: f64, kf: f64) -> bool {
 /// without trigonometry: `psi_{k-m} = psi_a - (k - m) theta_v` with
 /// `psi_a = pi - delta - ti`, `theta_v = 2 delta` is
 /// `pi (1 - j) + theta_o + (2m - 1) delta` (odd `k`) or
-/// `-pi j - theta_o + (2m - 1) delta` (even `k`), so
-/// `sin psi_{k-m} = sgn sin(u + (2m - 1) delta)` with `sgn = -(-1)^j`,
-/// `u = theta_o` (odd) or `sgn = (-1)^j`, `u = -theta_o` (even). Takes
-/// `sgn`, `sin u`, `cos u = cos theta_o`, `sin delta = cos a` and
-/// `cos delta = sin a`.
+/// `-pi j - theta_o + (2m - 1) delta` (even `k`), and `j` has the parity of
+/// `k`, so `sin psi_{k-m} = sin(u + (2m - 1) delta)` with `u = theta_o`
+/// (odd `k`) or `u = -theta_o` (even `k`). Takes `sin u`,
+/// `cos u = cos theta_o`, `sin delta = cos a` and `cos delta = sin a`.
 #[inline]
-fn symmetric_tail_sines(sgn: f64, su: f64, cu: f64, sd: f64, cd: f64) -> [f64; 3] {
-    let (su, cu) = (sgn * su, sgn * cu);
+fn symmetric_tail_sines(su: f64, cu: f64, sd: f64, cd: f64) -> [f64; 3] {
     // cos 3d = cos d (4 cos^2 d - 3), sin 3d = sin d (3 - 4 sin^2 d)
     let c3 = cd * (4.0 * cd * cd - 3.0);
     let s3 = sd * (3.0 - 4.0 * sd * sd);
@@ -957,13 +955,8 @@ mod tests {
             }
             let a = FRAC_PI_2 - delta;
             let (sa, ca) = a.sin_cos();
-            let parity = if j.rem_euclid(2) == 0 { 1.0 } else { -1.0 };
-            let (sgn, su) = if odd {
-                (-parity, to.sin())
-            } else {
-                (parity, -to.sin())
-            };
-            let got = symmetric_tail_sines(sgn, su, to.cos(), ca, sa);
+            let su = if odd { to.sin() } else { -to.sin() };
+            let got = symmetric_tail_sines(su, to.cos(), ca, sa);
             let psi_a = a - ti + FRAC_PI_2;
             let tv = PI - 2.0 * a;
             for (m, g) in got.iter().enumerate() {
