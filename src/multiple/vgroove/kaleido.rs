@@ -147,12 +147,12 @@ impl Hit {
         if psi <= 0.0 {
             return 0.0;
         }
-        let l = if j.is_multiple_of(2) {
-            self.la
-        } else {
-            self.lb
-        };
-        l * psi.sin()
+        match j {
+            0 => self.la * self.sin_psi_a,
+            1 => self.lb * self.sin_psi1,
+            _ if j.is_multiple_of(2) => self.la * psi.sin(),
+            _ => self.lb * psi.sin(),
+        }
     }
 
     #[inline]

@@ -559,18 +559,19 @@ impl VGroove {
                             if !(0.0..FRAC_PI_2).contains(&a) {
                                 continue;
                             }
-                            let (sa, ca) = a.sin_cos();
-                            let (sb, cb) = b.sin_cos();
+                            // a, b in [0, pi/2]: no libm call.
+                            let (sa, ca) = sin_cos_quadrant(a);
+                            let (sb, cb) = sin_cos_quadrant(b);
                             let Some(hit) =
                                 Hit::with_trig(ti, ctx.sti, ctx.cti, a, sa, ca, b, sb, cb)
                             else {
                                 continue;
                             };
-                            let g = hit.g(k);
+                            let g = hit.g_sines(k, wall_sines(&hit, k));
                             if !(g > 0.0) {
                                 continue;
                             }
-                            let pb = self.ndf.partner_pdf_normed(b, shape, norm) * w * half;
+                            let pb = self.ndf.partner_pdf_trig(b, sb, cb, shape, norm) * w * half;
                             if !(pb > 0.0) {
                                 continue;
                             }
@@ -724,6 +725,27 @@ fn symmetric_tail_sines(su: f64, cu: f64, sd: f64, cd: f64) -> [f64; 3] {
     let c3 = cd * (4.0 * cd * cd - 3.0);
     let s3 = sd * (3.0 - 4.0 * sd * sd);
     [su * c3 + cu * s3, su * cd + cu * sd, su * cd - cu * sd]
+}
+
+/// `[sin psi_{k-2}, sin psi_{k-1}, sin psi_k]` of any groove by the
+/// Chebyshev recurrence `sin(x - t) = 2 cos t sin x - sin(x + t)` from
+/// `sin psi_0` and `sin psi_1` (`k` multiply-adds instead of three `sin`
+/// calls; entries with a negative index are not used by [`Hit::g_sines`]).
+#[inline]
+fn wall_sines(hit: &Hit, k: u32) -> [f64; 3] {
+    let two_c = 2.0 * hit.cos_tv;
+    let (mut s0, mut s1) = (0.0, hit.sin_psi_a); // psi_{-1} unused
+    let mut s2 = hit.sin_psi1;
+    if k <= 1 {
+        return [s0, s1, s2];
+    }
+    for _ in 2..=k {
+        let next = two_c * s2 - s1;
+        s0 = s1;
+        s1 = s2;
+        s2 = next;
+    }
+    [s0, s1, s2]
 }
 
 /// `atan(j / 8)`, `j = 0..=8`.
