@@ -847,7 +847,9 @@ fn sin_cos_quadrant(d: f64) -> (f64, f64) {
 #[inline]
 fn symmetric_k_range(ti: f64, x: f64, k_max: u32) -> (u32, u32) {
     let d_max = FRAC_PI_2.min(PI - ti);
-    let k_lo = (x / (2.0 * d_max)) as u32; // floor: at or below the bound
+    // k > x / (2 d_max); `ceil` of a slightly smaller value keeps an
+    // integer bound itself (rounding may let the exact test accept it).
+    let k_lo = (x / (2.0 * d_max) * (1.0 - 1e-9)).ceil_i64().max(0) as u32;
     let d_min = (-ti)
         .max(0.5 * (PI - 2.0 * ti - x))
         .max(x - PI + ti)
@@ -855,8 +857,8 @@ fn symmetric_k_range(ti: f64, x: f64, k_max: u32) -> (u32, u32) {
         - 1e-9 * k_max as f64
         - 1e-12;
     let k_hi = if d_min > 0.0 {
-        // Saturating cast; +1 covers the rounding of `x / 2k`.
-        ((x / (2.0 * d_min)) as u32).saturating_add(1).min(k_max)
+        // Saturating cast; the slack in `d_min` covers rounding.
+        ((x / (2.0 * d_min)) as u32).min(k_max)
     } else {
         k_max
     };
