@@ -88,7 +88,12 @@ fn conductor_rgb_f64(c: f64, eta: Vec3, k: Vec3) -> DVec3 {
 /// `[0, 3]`.
 #[inline]
 fn stencil(x: f32) -> (usize, f32) {
-    let j = (x as i32).clamp(1, TABLE_M as i32 - 2) - 1;
+    // floor(x) (up to ties) without the branches of a saturating cast:
+    // adding 1.5 * 2^23 rounds to an integer held in the low mantissa bits
+    // (x is in [0, M]).
+    const MAGIC: f32 = 12_582_912.0;
+    let r = ((x - 0.5 + MAGIC).to_bits() & 0x007f_ffff) as i32 - 0x0040_0000;
+    let j = r.clamp(1, TABLE_M as i32 - 2) - 1;
     (j as usize, x - j as f32)
 }
 
@@ -148,13 +153,14 @@ impl FresnelTable {
     /// the interpolation error (callers clamp products).
     #[inline]
     pub fn interpolate(&self, c: f32) -> Vec3A {
-        let x = if c > 0.0 { c.min(1.0).sqrt() } else { 0.0 } * TABLE_M as f32;
-        let (b, t) = stencil(x);
+        // Plain comparisons (one instruction each; NaN goes to 0).
+        let c = if c < 1.0 { c } else { 1.0 };
+        let c = if c > 0.0 { c } else { 0.0 };
+        let (b, t) = stencil(c.sqrt() * TABLE_M as f32);
         let w = weights(t);
-        self.nodes[b] * w[0]
-            + self.nodes[b + 1] * w[1]
-            + self.nodes[b + 2] * w[2]
-            + self.nodes[b + 3] * w[3]
+        // One bounds check for the four nodes.
+        let n = &self.nodes[b..b + 4];
+        n[0] * w[0] + n[1] * w[1] + n[2] * w[2] + n[3] * w[3]
     }
 
     /// `F(c)` per channel: the interpolant when the table passed its
