@@ -28,11 +28,12 @@
 //!
 //! `G_k` is the fraction of the first facet's projected width whose light
 //! leaves after exactly `k` reflections ([`kaleido::Hit::g`]); Fresnel is
-//! applied per reflection with the exact conductor reflectance at each
-//! reflection's own cosine (eq. 11): `crate::fresnel::conductor_rgb`, the
-//! closed form of `crate::fresnel::conductor` (complex IOR per RGB channel)
-//! for the three channels at once. `k = 1` is Cook-Torrance with the V-groove `G`
-//! (eq. 25).
+//! applied per reflection with the conductor reflectance at each
+//! reflection's own cosine (eq. 11; complex IOR per RGB channel), read from
+//! a per-material table ([`ftable`]: cubic interpolation in `sqrt(cos)`,
+//! checked against the closed form when the material is built, within
+//! 1e-6 relative of `crate::fresnel::conductor_rgb`, else that closed form
+//! is used). `k = 1` is Cook-Torrance with the V-groove `G` (eq. 25).
 //!
 //! With F = 1 the model conserves energy exactly when no count is dropped:
 //! the lit parts of the two walls of a groove fill its opening, so
@@ -236,6 +237,14 @@ impl VGroove {
     /// The facet distribution.
     pub fn ndf(&self) -> &GrooveNdf {
         &self.ndf
+    }
+
+    /// This BRDF with the Fresnel table bypassed (every reflection uses
+    /// `crate::fresnel::conductor_rgb`): the reference the table is tested
+    /// against.
+    pub fn with_exact_fresnel(mut self) -> Self {
+        self.fresnel = self.fresnel.exact();
+        self
     }
 
     /// The per-material Fresnel table.
