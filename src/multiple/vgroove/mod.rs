@@ -938,7 +938,7 @@ mod tests {
         let mut worst = 0.0f64;
         for n in 0..1_000_000 {
             let x = rng.next_f64() * 10f64.powi((n % 7) - 3) + 1e-300;
-            let y = (rng.next_f64() - 0.5) * 10f64.powi(((n / 7) % 9) as i32 - 4);
+            let y = (rng.next_f64() - 0.5) * 10f64.powi(((n / 7) % 9) - 4);
             worst = worst.max((atan2_pos(y, x) - y.atan2(x)).abs());
         }
         for (y, x) in [
