@@ -7,7 +7,8 @@
 //! eval, pdf and a sample for each of the 1024 pairs) makes CALLS calls on
 //! 1024 fixed random pairs; run it under
 //! `valgrind --tool=callgrind` with CALLS = 0 and CALLS = n and divide the
-//! difference of the totals by n (`scripts/vgroove_ir.sh` does this).
+//! difference of the totals by n (`scripts/vgroove_ir.sh` does this;
+//! `scripts/vgroove_frame.sh` measures whole frames with the Embree tracer).
 use glam::Vec3;
 use msbsdf::{Material, MaterialDesc, Model, NdfId, Rng};
 use std::hint::black_box;
@@ -93,6 +94,10 @@ fn main() {
     }
     // Optional filter: a substring of the printed material name.
     let filter = args.get(1).cloned().unwrap_or_default();
+    println!(
+        "msbsdf_material_size() = {} bytes",
+        msbsdf::capi::msbsdf_material_size()
+    );
     let n = 200_000;
     let wi = dirs(n, 1);
     let wo = dirs(n, 2);
