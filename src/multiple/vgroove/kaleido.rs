@@ -197,7 +197,7 @@ impl Hit {
 
     /// [`Hit::g`] without trigonometry: `sines = [sin psi_{k-2},
     /// sin psi_{k-1}, sin psi_k]` (`psi_j = psi_a - j theta_v`) supplied by
-    /// the caller (entries below index 2 are ignored where `k - 2 < 2`:
+    /// the caller (`k = 1` uses none of them, `k = 2` only `sin psi_2`:
     /// `sin psi_0` and `sin psi_1` are known).
     #[inline]
     pub fn g_sines(&self, k: u32, sines: [f64; 3]) -> f64 {

@@ -169,9 +169,13 @@
 //! time. The paper's 15-20% is the overhead on a whole frame, which
 //! `scripts/vgroove_frame.sh` measures with the Embree tracer
 //! (`c_examples/scenes/conductors.scene`, nine conductor spheres, 32 spp,
-//! one thread, CPU time, every material forced to the model): VGROOVE /
-//! SINGLE = 1.53 with Beckmann (1.80 before the optimisation) and 3.10
-//! with GGX (4.61 before).
+//! one thread, CPU time, minimum of 3 runs, every material forced to the
+//! model; two sessions): VGROOVE / SINGLE = 1.53 with Beckmann (1.62-1.80
+//! before the optimisation; also 1.53 with every sphere at alpha 0.2,
+//! `N = 2`, 1.64 before) and 3.1-3.2 with GGX (4.6-4.9 before). That scene
+//! is nine spheres under a sky: BSDF calls dominate its frame time, so the
+//! frame ratio stays close to the per-call ratio; a scene with more
+//! geometry and texturing per path vertex (the paper's) dilutes it.
 //!
 //! The nonsymmetric eval multiplies the solutions by its 16 quadrature
 //! nodes per `(k, X)`: per node it now pays Taylor `sin`/`cos` of both wall
