@@ -202,13 +202,19 @@ impl GrooveNdf {
     /// [`GrooveNdf::partner_norm`] precomputed.
     #[inline]
     pub fn partner_pdf_normed(&self, theta: f64, shape: f64, norm: f64) -> f64 {
-        if !(0.0..FRAC_PI_2).contains(&theta) {
+        let (s, c) = theta.sin_cos();
+        self.partner_pdf_trig(theta, s, c, shape, norm)
+    }
+
+    /// [`GrooveNdf::partner_pdf_normed`] given `sin theta` and `cos theta`.
+    #[inline]
+    pub fn partner_pdf_trig(&self, theta: f64, s: f64, c: f64, shape: f64, norm: f64) -> f64 {
+        if !(0.0..FRAC_PI_2).contains(&theta) || !(c > 0.0) {
             return 0.0;
         }
-        let c = theta.cos();
         match self.family {
             Family::Beckmann | Family::Ggx => {
-                let t = theta.tan() / shape;
+                let t = s / c / shape;
                 let pt = if self.family == Family::Beckmann {
                     4.0 * FRAC_1_SQRT_PI * t * t * (-t * t).exp()
                 } else {
@@ -217,10 +223,7 @@ impl GrooveNdf {
                 };
                 pt / (shape * c * c)
             }
-            Family::Phong => {
-                let s = theta.sin();
-                c.powf(shape) * s * s * norm
-            }
+            Family::Phong => c.powf(shape) * s * s * norm,
         }
     }
 

@@ -147,12 +147,12 @@ impl Hit {
         if psi <= 0.0 {
             return 0.0;
         }
-        let l = if j.is_multiple_of(2) {
-            self.la
-        } else {
-            self.lb
-        };
-        l * psi.sin()
+        match j {
+            0 => self.la * self.sin_psi_a,
+            1 => self.lb * self.sin_psi1,
+            _ if j.is_multiple_of(2) => self.la * psi.sin(),
+            _ => self.lb * psi.sin(),
+        }
     }
 
     #[inline]
@@ -193,6 +193,40 @@ impl Hit {
         let hi = self.clamp(self.big_t(k - 1));
         let lo = self.clamp(self.big_t(k));
         ((hi - lo) / self.f_a).max(0.0)
+    }
+
+    /// [`Hit::g`] without trigonometry: `sines = [sin psi_{k-2},
+    /// sin psi_{k-1}, sin psi_k]` (`psi_j = psi_a - j theta_v`) supplied by
+    /// the caller (`k = 1` uses none of them, `k = 2` only `sin psi_2`:
+    /// `sin psi_0` and `sin psi_1` are known).
+    #[inline]
+    pub fn g_sines(&self, k: u32, sines: [f64; 3]) -> f64 {
+        if k == 0 || self.f_a <= 0.0 || self.f_lo >= self.f_a {
+            return 0.0;
+        }
+        let t = |j: u32, sin_psi: f64| {
+            if self.psi_a - j as f64 * self.theta_v <= 0.0 {
+                0.0
+            } else if j.is_multiple_of(2) {
+                self.la * sin_psi
+            } else {
+                self.lb * sin_psi
+            }
+        };
+        // T_m = min(t_0, t_1, t_{m-1}, t_m) with t_0 = f_a (module docs).
+        let base = self.f_a.min(t(1, self.sin_psi1));
+        let (hi, lo) = match k {
+            1 => (self.f_a, base),
+            2 => (base, base.min(t(2, sines[2]))),
+            _ => {
+                let tk1 = t(k - 1, sines[1]);
+                (
+                    base.min(tk1).min(t(k - 2, sines[0])),
+                    base.min(tk1).min(t(k, sines[2])),
+                )
+            }
+        };
+        ((self.clamp(hi) - self.clamp(lo)) / self.f_a).max(0.0)
     }
 
     /// Largest reflection count any ray of this wall can reach,

@@ -28,11 +28,12 @@
 //!
 //! `G_k` is the fraction of the first facet's projected width whose light
 //! leaves after exactly `k` reflections ([`kaleido::Hit::g`]); Fresnel is
-//! applied per reflection with the exact conductor reflectance at each
-//! reflection's own cosine (eq. 11): `crate::fresnel::conductor_rgb`, the
-//! closed form of `crate::fresnel::conductor` (complex IOR per RGB channel)
-//! for the three channels at once. `k = 1` is Cook-Torrance with the V-groove `G`
-//! (eq. 25).
+//! applied per reflection with the conductor reflectance at each
+//! reflection's own cosine (eq. 11; complex IOR per RGB channel), read from
+//! a per-material table ([`ftable`]: cubic interpolation in `sqrt(cos)`,
+//! checked against the closed form when the material is built, within
+//! 1e-6 relative of `crate::fresnel::conductor_rgb`, else that closed form
+//! is used). `k = 1` is Cook-Torrance with the V-groove `G` (eq. 25).
 //!
 //! With F = 1 the model conserves energy exactly when no count is dropped:
 //! the lit parts of the two walls of a groove fill its opening, so
@@ -104,46 +105,102 @@
 //!
 //! # Cost
 //!
-//! The symmetric eval tests each count `k <= N` with a few multiplications
-//! (the solutions `a = pi/2 - X_j / 2k` of a handful of `X_j` serve all
-//! counts) and pays trigonometry, `D` and `k` Fresnel evaluations (SIMD over
-//! RGB) only for the solutions that exist: `O(N)` per call. The
-//! nonsymmetric eval multiplies the solutions by 16 quadrature nodes.
-//! Measured with `examples/vgroove_timing.rs` (release, random direction
-//! pairs, gold, the same material as SINGLE, minimum of 5 trials; the
-//! machine was shared, load 7-12 on 2 cores, so ratios vary by up to 2x
-//! between runs). SINGLE: 68 ns eval, 100 ns sample (GGX); 130-150 ns eval,
-//! 700-850 ns sample (Beckmann).
+//! The symmetric eval visits the two groove frames (`e`, `-e`) and the two
+//! parities of `k`; one or two `X_j` per parity serve every count, and the
+//! counts that can have a solution for an `X_j` come from a closed form
+//! (`symmetric_k_range`, used when `N >= 8`) or a scan that stops at the
+//! first count out of the window. Each solution then pays `D`, `G_k`
+//! without trigonometry ([`kaleido::Hit::g_sines`] with the wall sines in
+//! closed form, `symmetric_tail_sines`), a Taylor `sin`/`cos` of its facet
+//! angle (none for `k = 1`, whose facet is the half vector) and `k` lookups
+//! in the per-material Fresnel table ([`ftable`]). No libm call is left on
+//! the symmetric eval path but the `exp` (Beckmann) or `powf` (Phong) of
+//! `D`: the two in-plane angles use a table-reduced `atan2` (`atan2_pos`). Every replacement is tested
+//! against what it replaces: `atan2` and `sin_cos` within 5e-16 of libm,
+//! the wall sines within 1e-12 of `sin`, `g_sines` within 1e-12 of
+//! [`kaleido::Hit::g`], the count range against a brute-force scan of all
+//! counts, the Fresnel table within 2.5e-6 of `conductor_rgb` per
+//! reflection and within 1e-5 end to end (`tests/vgroove.rs`). Against the
+//! previous implementation (exact `conductor_rgb`, libm trigonometry, a
+//! scan of every `k <= N`) eval and sample weights differ by at most 1.3e-6
+//! relative on 1024 random pairs for GGX, Beckmann and Phong at alpha
+//! 0.05 to 2, both models; pdf values and sampled directions are identical.
 //!
-//! | NDF, alpha (N) | eval / SINGLE eval | sample / SINGLE sample | nonsymmetric eval / SINGLE eval |
+//! Measured on gold with the same material as SINGLE, random direction
+//! pairs (uniform over the hemisphere, `z >= 0.02`). Instructions per call
+//! from callgrind (`scripts/vgroove_ir.sh`; load-independent), before ->
+//! after the optimisation, and the ratio to SINGLE's same call (SINGLE: GGX
+//! eval 589, pdf 313, sample 731-819; Beckmann eval 1055-1184, pdf
+//! 518-581, sample 3538-3801):
+//!
+//! | NDF, alpha (N) | eval | pdf | sample |
 //! |---|---|---|---|
-//! | Beckmann 0.2 (2) | 2.1x | 1.5x | 32x |
-//! | Beckmann 0.5 (3) | 2.8x-3.6x | 1.6x-1.7x | 56x |
-//! | Beckmann 1 (5) | 3.5x-3.8x | 1.8x-1.9x | 86x |
-//! | GGX 0.2 (11) | 8.5x-9x | 11x | 250x |
-//! | GGX 0.5 (25) | 12x-17x | 15x-21x | 430x |
-//! | GGX 1 (50) | 18x-25x | 33x-46x | 700x |
+//! | GGX 0.2 (11) | 6299 (10.7x) -> 3421 (5.8x) | 4599 (14.7x) -> 2686 (8.6x) | 11960 (14.6x) -> 6816 (8.3x) |
+//! | GGX 0.5 (25) | 9497 (16.1x) -> 4325 (7.3x) | 6148 (19.6x) -> 2933 (9.4x) | 15851 (20.2x) -> 7980 (10.2x) |
+//! | GGX 1 (50) | 14224 (24.1x) -> 5538 (9.4x) | 8297 (26.5x) -> 3127 (10.0x) | 31867 (43.6x) -> 13935 (19.1x) |
+//! | Beckmann 0.2 (2) | 3020 (2.6x) -> 2228 (1.9x) | 2841 (4.9x) -> 2264 (3.9x) | 7933 (2.1x) -> 6471 (1.7x) |
+//! | Beckmann 0.5 (3) | 3935 (3.5x) -> 2677 (2.4x) | 3465 (6.3x) -> 2570 (4.7x) | 8533 (2.3x) -> 6834 (1.8x) |
+//! | Beckmann 1 (5) | 4834 (4.6x) -> 3146 (3.0x) | 4024 (7.8x) -> 2882 (5.6x) | 9882 (2.8x) -> 7500 (2.1x) |
 //!
-//! Phong costs like Beckmann at alpha <= 0.5 and like GGX at alpha 1
-//! (identical distributions). The paper's 15-20% is the overhead on a whole
-//! path-traced frame, not per BSDF call; the 1.25x goal per eval is not
-//! met: every existing solution costs trigonometry, `D` and `k` Fresnel
-//! evaluations, and GGX's heavy tail needs a large `N` for the 0.1% energy
-//! criterion (about half of a GGX eval is the per-reflection Fresnel: `pdf`,
-//! which has none, costs 0.5x-0.7x of `eval`).
+//! Nanoseconds (`examples/vgroove_timing.rs`, minimum of 5 trials, old and
+//! new binaries run alternately on 2 shared cores at load 3-6, so +-30%):
+//! eval GGX 0.2 / 0.5 / 1: 690-790 / 1140-1220 / 1640-1820 ns -> 410 / 490
+//! / 620-630 ns (SINGLE 50-55 ns: 7.5x / 9x / 12x); sample GGX 1: 4400 ->
+//! 1600-1700 ns (SINGLE 105 ns); eval Beckmann 0.2 / 0.5 / 1: 290-380 /
+//! 350-540 / 400-600 ns -> 260-340 / 290-375 / 350-490 ns (SINGLE 100-120
+//! ns: 2-3x / 2.6-3.5x / 3.3-4.6x). The Beckmann time gains less than its
+//! instruction count: part of the saving replaced libm `sin`/`atan2` by
+//! polynomials of similar latency.
+//!
+//! What is left, for GGX alpha 1 and random pairs: about 4 solutions and 35
+//! reflections per eval; the table lookups are about 40% of the
+//! instructions (~50 each), the scan over frames, parities and counts
+//! roughly a quarter. The `k = 1` term alone (`max_bounces = 1`) costs 1701
+//! instructions for GGX (2.9x SINGLE's whole eval) and 1775 for Beckmann
+//! (1.5x): the caller-side wrapper (119, as for SINGLE), the `f64` set-up
+//! of the groove frame with its two `atan2` (about 480), the two frames x
+//! two parities scan (about 800-900) and the term itself (about 200-300:
+//! `D`, the V-groove `G`, one Fresnel lookup). Sampled directions sit near
+//! the mirror direction, where many long paths exist: a GGX sample costs
+//! 2-2.5x an eval at random pairs.
+//! So the 1.25x goal per eval is not reached for any NDF or roughness:
+//! even for Beckmann at `N = 2`, where SINGLE's eval (two Smith `Lambda`
+//! with `erf`) is dearest, the ratio is 1.9x by instructions and 2-3x in
+//! time. The paper's 15-20% is the overhead on a whole frame, which
+//! `scripts/vgroove_frame.sh` measures with the Embree tracer
+//! (`c_examples/scenes/conductors.scene`, nine conductor spheres, 32 spp,
+//! one thread, CPU time, minimum of 3 runs, every material forced to the
+//! model; two sessions): VGROOVE / SINGLE = 1.53 with Beckmann (1.62-1.80
+//! before the optimisation; also 1.53 with every sphere at alpha 0.2,
+//! `N = 2`, 1.64 before) and 3.1-3.2 with GGX (4.6-4.9 before). That scene
+//! is nine spheres under a sky: BSDF calls dominate its frame time, so the
+//! frame ratio stays close to the per-call ratio; a scene with more
+//! geometry and texturing per path vertex (the paper's) dilutes it.
+//!
+//! The nonsymmetric eval multiplies the solutions by its 16 quadrature
+//! nodes per `(k, X)`: per node it now pays Taylor `sin`/`cos` of both wall
+//! angles, the partner density from them, `G_k` from the wall-sine
+//! recurrence and the Fresnel lookups. Instructions per eval: GGX 0.2 / 0.5
+//! / 1: 227k / 388k / 657k -> 97k / 180k / 366k (165x / 306x / 622x
+//! SINGLE); Beckmann: 61k / 98k / 142k -> 31k / 48k / 66k (27x / 43x /
+//! 63x).
+//!
+//! The material is larger for the table: `msbsdf_material_size()` is 1904
+//! bytes (200 before; `TABLE_M = 104`).
 
 // `!(x > 0.0)` is used on purpose: it is also true for NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod dist;
+pub mod ftable;
 pub mod kaleido;
 
 use crate::bsdf::{Sample, ScatterModel};
 use crate::frame::flip_z;
-use crate::fresnel;
 use crate::rng::Rng;
 use dist::{Family, GrooveNdf};
-use glam::{DVec3, Vec3};
+use ftable::FresnelTable;
+use glam::{DVec3, Vec3, Vec3A};
 use kaleido::Hit;
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -173,8 +230,8 @@ const GL8_W: [f64; 4] = [
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct VGroove {
     ndf: GrooveNdf,
-    eta: Vec3,
-    k: Vec3,
+    /// Conductor reflectance over the cosine (seed 002, eq. 11).
+    fresnel: FresnelTable,
     /// `eta = 0, k = 1`: every reflection has F = 1 (skips Fresnel).
     mirror: bool,
     n_max: u32,
@@ -215,8 +272,7 @@ impl VGroove {
         }
         VGroove {
             ndf,
-            eta,
-            k,
+            fresnel: FresnelTable::new(eta, k),
             mirror: eta == Vec3::ZERO && k == Vec3::ONE,
             n_max,
             symmetric,
@@ -236,6 +292,19 @@ impl VGroove {
     /// The facet distribution.
     pub fn ndf(&self) -> &GrooveNdf {
         &self.ndf
+    }
+
+    /// This BRDF with the Fresnel table bypassed (every reflection uses
+    /// `crate::fresnel::conductor_rgb`): the reference the table is tested
+    /// against.
+    pub fn with_exact_fresnel(mut self) -> Self {
+        self.fresnel = self.fresnel.exact();
+        self
+    }
+
+    /// The per-material Fresnel table.
+    pub fn fresnel_table(&self) -> &FresnelTable {
+        &self.fresnel
     }
 
     /// `f(wi, wo; k) |wo.z|` (F included): the `k`-resolved BRDF of eq. (16)
@@ -259,19 +328,19 @@ impl VGroove {
         if self.mirror {
             return DVec3::ONE;
         }
-        let mut prod = Vec3::ONE;
+        let mut prod = Vec3A::ONE;
         // sin(psi_a - j theta_v) by the Chebyshev recurrence.
         let two_c = 2.0 * hit.cos_tv;
         let mut s_prev = hit.sin_psi(0);
         let mut s_cur = hit.sin_psi(1);
-        prod *= fresnel::conductor_rgb((rho * s_prev) as f32, self.eta, self.k);
+        prod *= self.fresnel.eval((rho * s_prev) as f32);
         for _ in 1..k {
-            prod *= fresnel::conductor_rgb((rho * s_cur) as f32, self.eta, self.k);
+            prod *= self.fresnel.eval((rho * s_cur) as f32);
             let next = two_c * s_cur - s_prev;
             s_prev = s_cur;
             s_cur = next;
         }
-        prod.as_dvec3()
+        Vec3::from(prod.clamp(Vec3A::ZERO, Vec3A::ONE)).as_dvec3()
     }
 
     /// `(f |o.z|, pdf)` for `wi.z > 0` (after the two-sided flip).
@@ -309,8 +378,9 @@ impl VGroove {
         let mut pdf = 0.0f64;
         // In-plane angles for the frame `e`; the frame `-e` negates them.
         let (ie0, oe0) = (i.dot(e), o.dot(e));
-        let (ti0, to0) = (ie0.atan2(i.z), oe0.atan2(o.z));
+        let (ti0, to0) = (atan2_pos(ie0, i.z), atan2_pos(oe0, o.z));
         let rho = (ie0 * ie0 + i.z * i.z).sqrt();
+        let rho_o = (oe0 * oe0 + o.z * o.z).sqrt();
         // Grazing beyond what `ti = atan2(ie, i.z)` resolves in f64 (pi/2
         // has an ulp of 2.2e-16): the groove geometry then sees ti = pi/2
         // exactly, the lit fraction no longer vanishes with i.z, and the
@@ -320,18 +390,25 @@ impl VGroove {
         if !(i.z > 1e-15 * rho) {
             return (Vec3::ZERO, 0.0);
         }
+        let (inv_rho, inv_rho_o) = (1.0 / rho, 1.0 / rho_o);
+        let (sti0, cti) = (ie0 * inv_rho, i.z * inv_rho);
+        let (sto0, cto) = (oe0 * inv_rho_o, o.z * inv_rho_o);
         for sg in [1.0f64, -1.0] {
             let ex = e * sg;
             let ctx = Ctx {
                 i,
                 ex,
-                sti: sg * ie0 / rho,
-                cti: i.z / rho,
+                sti: sg * sti0,
+                cti,
                 ti: sg * ti0,
                 to: sg * to0,
+                sto: sg * sto0,
+                cto,
                 rho,
                 oh,
                 inv_sin_h,
+                sin_h,
+                cos_h: h.z,
                 sigma,
                 want,
             };
@@ -440,16 +517,33 @@ impl VGroove {
             // inside [lim_lo / 2, 2 lim_hi].
             let j_lo = ((base + 0.5 * lim_lo) / PI).ceil_i64();
             let j_hi = ((base + 2.0 * lim_hi) / PI).floor_i64();
-            for j in j_lo..=j_hi {
-                if (j.rem_euclid(2) == 1) != odd {
-                    continue;
-                }
+            // j has the parity of k.
+            let j_first = if (j_lo.rem_euclid(2) == 1) == odd {
+                j_lo
+            } else {
+                j_lo + 1
+            };
+            // sin u of `symmetric_tail_sines`.
+            let su = if odd { ctx.sto } else { -ctx.sto };
+            for j in (j_first..=j_hi).step_by(2) {
                 let x = PI * j as f64 - base;
                 if !(x > 0.0) {
                     continue;
                 }
-                let mut k = if (k0 % 2 == 1) == odd { k0 } else { k0 + 1 };
-                while k <= k1 {
+                // Worth its division only when N is large (GGX, Phong).
+                let (r_lo, r_hi) = if k1 - k0 >= 8 {
+                    symmetric_k_range(ti, x, k1)
+                } else {
+                    (k0, k1)
+                };
+                let k_start = k0.max(r_lo);
+                let k_end = k1.min(r_hi);
+                let mut k = if (k_start % 2 == 1) == odd {
+                    k_start
+                } else {
+                    k_start + 1
+                };
+                while k <= k_end {
                     let kf = k as f64;
                     let tk = 2.0 * kf;
                     let eps = 1e-9 * tk;
@@ -460,11 +554,20 @@ impl VGroove {
                     if a > 0.0
                         && a < FRAC_PI_2
                         && symmetric_count_possible(ti, a, kf)
-                        && let (sa, ca) = a.sin_cos()
+                        // k = 1: the facet is the half vector (eq. 25), its
+                        // angle is known; else sin a = cos delta and
+                        // cos a = sin delta, delta = x / 2k in (0, pi/2).
+                        && let (sa, ca) = if k == 1 {
+                            (ctx.sin_h, ctx.cos_h)
+                        } else {
+                            let (sd, cd) = sin_cos_quadrant(x / tk);
+                            (cd, sd)
+                        }
                         && let Some(hit) =
                             Hit::with_trig(ti, ctx.sti, ctx.cti, a, sa, ca, a, sa, ca)
                     {
-                        let (df, dp) = self.contribution(ctx, &hit, (sa, ca), k, hit.g(k), kf, 1.0);
+                        let g = hit.g_sines(k, symmetric_tail_sines(su, ctx.cto, ca, sa));
+                        let (df, dp) = self.contribution(ctx, &hit, (sa, ca), k, g, kf, 1.0);
                         f += df;
                         p += dp;
                     }
@@ -520,18 +623,19 @@ impl VGroove {
                             if !(0.0..FRAC_PI_2).contains(&a) {
                                 continue;
                             }
-                            let (sa, ca) = a.sin_cos();
-                            let (sb, cb) = b.sin_cos();
+                            // a, b in [0, pi/2]: no libm call.
+                            let (sa, ca) = sin_cos_quadrant(a);
+                            let (sb, cb) = sin_cos_quadrant(b);
                             let Some(hit) =
                                 Hit::with_trig(ti, ctx.sti, ctx.cti, a, sa, ca, b, sb, cb)
                             else {
                                 continue;
                             };
-                            let g = hit.g(k);
+                            let g = hit.g_sines(k, wall_sines(&hit, k));
                             if !(g > 0.0) {
                                 continue;
                             }
-                            let pb = self.ndf.partner_pdf_normed(b, shape, norm) * w * half;
+                            let pb = self.ndf.partner_pdf_trig(b, sb, cb, shape, norm) * w * half;
                             if !(pb > 0.0) {
                                 continue;
                             }
@@ -611,15 +715,16 @@ trait RoundI64 {
 }
 
 impl RoundI64 for f64 {
+    // Through i32 (the arguments are a few units): a cheaper saturating cast.
     #[inline]
     fn floor_i64(self) -> i64 {
-        let t = self as i64; // truncates towards zero
-        if (t as f64) > self { t - 1 } else { t }
+        let t = self as i32; // truncates towards zero
+        (if (t as f64) > self { t - 1 } else { t }) as i64
     }
     #[inline]
     fn ceil_i64(self) -> i64 {
-        let t = self as i64;
-        if (t as f64) < self { t + 1 } else { t }
+        let t = self as i32;
+        (if (t as f64) < self { t + 1 } else { t }) as i64
     }
 }
 
@@ -632,9 +737,16 @@ struct Ctx {
     cti: f64,
     ti: f64,
     to: f64,
+    /// `sin` and `cos` of `to`.
+    sto: f64,
+    cto: f64,
     rho: f64,
     oh: f64,
     inv_sin_h: f64,
+    /// `sin` and `cos` of the half vector's polar angle (the facet of the
+    /// single-reflection solution).
+    sin_h: f64,
+    cos_h: f64,
     sigma: Option<f64>,
     want: Want,
 }
@@ -660,6 +772,161 @@ fn symmetric_count_possible(ti: f64, a: f64, kf: f64) -> bool {
     // k - 1 <= (psi_a - lo_ang) / tv and k >= (psi_a - hi_ang) / tv.
     let eps = 1e-9 * kf;
     (kf - 1.0) * tv <= psi_a - lo_ang + eps && kf * tv >= psi_a - hi_ang - eps
+}
+
+/// `[sin psi_{k-2}, sin psi_{k-1}, sin psi_k]` for the symmetric solution
+/// `a = pi/2 - delta` of eq. (5) with `2 k delta = x = pi j - base`,
+/// without trigonometry: `psi_{k-m} = psi_a - (k - m) theta_v` with
+/// `psi_a = pi - delta - ti`, `theta_v = 2 delta` is
+/// `pi (1 - j) + theta_o + (2m - 1) delta` (odd `k`) or
+/// `-pi j - theta_o + (2m - 1) delta` (even `k`), and `j` has the parity of
+/// `k`, so `sin psi_{k-m} = sin(u + (2m - 1) delta)` with `u = theta_o`
+/// (odd `k`) or `u = -theta_o` (even `k`). Takes `sin u`,
+/// `cos u = cos theta_o`, `sin delta = cos a` and `cos delta = sin a`.
+#[inline]
+fn symmetric_tail_sines(su: f64, cu: f64, sd: f64, cd: f64) -> [f64; 3] {
+    // cos 3d = cos d (4 cos^2 d - 3), sin 3d = sin d (3 - 4 sin^2 d)
+    let c3 = cd * (4.0 * cd * cd - 3.0);
+    let s3 = sd * (3.0 - 4.0 * sd * sd);
+    [su * c3 + cu * s3, su * cd + cu * sd, su * cd - cu * sd]
+}
+
+/// `[sin psi_{k-2}, sin psi_{k-1}, sin psi_k]` of any groove by the
+/// Chebyshev recurrence `sin(x - t) = 2 cos t sin x - sin(x + t)` from
+/// `sin psi_0` and `sin psi_1` (`k` multiply-adds instead of three `sin`
+/// calls; entries with a negative index are not used by [`Hit::g_sines`]).
+#[inline]
+fn wall_sines(hit: &Hit, k: u32) -> [f64; 3] {
+    let two_c = 2.0 * hit.cos_tv;
+    let (mut s0, mut s1) = (0.0, hit.sin_psi_a); // psi_{-1} unused
+    let mut s2 = hit.sin_psi1;
+    if k <= 1 {
+        return [s0, s1, s2];
+    }
+    for _ in 2..=k {
+        let next = two_c * s2 - s1;
+        s0 = s1;
+        s1 = s2;
+        s2 = next;
+    }
+    [s0, s1, s2]
+}
+
+/// `atan(j / 8)`, `j = 0..=8`.
+const ATAN_EIGHTHS: [f64; 9] = [
+    0.0,
+    0.124_354_994_546_761_44,
+    0.244_978_663_126_864_14,
+    0.358_770_670_270_572_25,
+    0.463_647_609_000_806_1,
+    0.558_599_315_343_562_4,
+    0.643_501_108_793_284_4,
+    0.718_829_999_621_624_5,
+    std::f64::consts::FRAC_PI_4,
+];
+
+/// `atan2(y, x)` for `x > 0` (or `x = y = 0`), without a libm call: the
+/// ratio `r = min / max` of `|y|` and `x` in `[0, 1]` is reduced to
+/// `u = (r - c) / (1 + r c)`, `|u| <= 1/16`, about the nearest `c = j / 8`,
+/// `atan r = atan c + atan u`, and `atan u` is its Taylor series to `u^15`
+/// (truncation below `(1/16)^17 / 17 < 2e-22`). Within `5e-16` of
+/// `f64::atan2` (`atan2_pos_matches_libm`).
+#[inline]
+fn atan2_pos(y: f64, x: f64) -> f64 {
+    let ay = y.abs();
+    let swap = ay > x;
+    let (num, den) = if swap { (x, ay) } else { (ay, x) };
+    if !(den > 0.0) {
+        return 0.0;
+    }
+    let r = num / den;
+    // Nearest eighth, 0..=8 (an i32 cast is cheaper than a usize one).
+    let j = ((r * 8.0 + 0.5) as i32).clamp(0, 8) as usize;
+    let c = j as f64 * 0.125;
+    let u = (r - c) / (1.0 + r * c);
+    let u2 = u * u;
+    // u (1 - u^2/3 + u^4/5 - ... - u^14/15)
+    let mut p = -1.0 / 15.0;
+    for d in [13.0, -11.0, 9.0, -7.0, 5.0, -3.0] {
+        p = p * u2 + 1.0 / d;
+    }
+    let at = ATAN_EIGHTHS[j] + u * (p * u2 + 1.0);
+    let at = if swap { FRAC_PI_2 - at } else { at };
+    at.copysign(y)
+}
+
+/// `(sin d, cos d)` for `d` in `[0, pi/2]` (any `d` in `[-pi/4, 3pi/4]`),
+/// without a libm call: Taylor polynomials of `sin` and `cos` about
+/// `pi/4` to degree 17 and 16 (truncation below `(pi/4)^18 / 18! < 3e-18`),
+/// then the rotation by `pi/4`. Within `4e-16` of `f64::sin_cos`
+/// (`sin_cos_quadrant_matches_libm`).
+#[inline]
+fn sin_cos_quadrant(d: f64) -> (f64, f64) {
+    const FRAC_1_SQRT_2: f64 = std::f64::consts::FRAC_1_SQRT_2;
+    let y = d - std::f64::consts::FRAC_PI_4;
+    let y2 = y * y;
+    // 1/n! for the odd (sin) and even (cos) terms.
+    const S: [f64; 9] = [
+        1.0,
+        -1.0 / 6.0,
+        1.0 / 120.0,
+        -1.0 / 5040.0,
+        1.0 / 362_880.0,
+        -1.0 / 39_916_800.0,
+        1.0 / 6_227_020_800.0,
+        -1.0 / 1_307_674_368_000.0,
+        1.0 / 355_687_428_096_000.0,
+    ];
+    const C: [f64; 9] = [
+        1.0,
+        -0.5,
+        1.0 / 24.0,
+        -1.0 / 720.0,
+        1.0 / 40_320.0,
+        -1.0 / 3_628_800.0,
+        1.0 / 479_001_600.0,
+        -1.0 / 87_178_291_200.0,
+        1.0 / 20_922_789_888_000.0,
+    ];
+    let mut sp = S[8];
+    let mut cp = C[8];
+    for n in (0..8).rev() {
+        sp = sp * y2 + S[n];
+        cp = cp * y2 + C[n];
+    }
+    let (sy, cy) = (sp * y, cp);
+    ((sy + cy) * FRAC_1_SQRT_2, (cy - sy) * FRAC_1_SQRT_2)
+}
+
+/// Counts `k` for which [`symmetric_count_possible`] can hold at the
+/// solution `a = pi/2 - x / 2k` of eq. (5) (`x > 0`): a superset, so that
+/// the exact test runs only on a few counts instead of every `k <= N`.
+///
+/// With `delta = x / 2k` (`a = pi/2 - delta`, `theta_v = 2 delta`,
+/// `psi_a = pi - delta - ti`), the conditions of that test read
+/// `0 < delta < min(pi/2, pi - ti)`, `delta > -ti` and
+/// `delta >= max((pi - 2 ti - x) / 2, x - pi + ti, (x - pi + 2 ti) / 2)`
+/// (the count bounds, each relaxed by at most its `eps <= 1e-9 k_max`), so
+/// `x / (2 delta_max) <= k <= x / (2 delta_min)`.
+#[inline]
+fn symmetric_k_range(ti: f64, x: f64, k_max: u32) -> (u32, u32) {
+    let d_max = FRAC_PI_2.min(PI - ti);
+    // k > x / (2 d_max); `ceil` of a slightly smaller value keeps an
+    // integer bound itself (rounding may let the exact test accept it).
+    let k_lo = (x / (2.0 * d_max) * (1.0 - 1e-9)).ceil_i64().max(0) as u32;
+    let d_min = (-ti)
+        .max(0.5 * (PI - 2.0 * ti - x))
+        .max(x - PI + ti)
+        .max(0.5 * (x - PI + 2.0 * ti))
+        - 1e-9 * k_max as f64
+        - 1e-12;
+    let k_hi = if d_min > 0.0 {
+        // Saturating cast; the slack in `d_min` covers rounding.
+        ((x / (2.0 * d_min)) as u32).min(k_max)
+    } else {
+        k_max
+    };
+    (k_lo, k_hi)
 }
 
 /// The `theta_r` interval of a line `a = a0 + a1 b` inside `a, b` in
@@ -710,5 +977,126 @@ impl ScatterModel for VGroove {
             only_k: 0,
         };
         self.eval_pdf(wi, wo, want).1
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::Rng;
+
+    /// [`atan2_pos`] agrees with libm for `x > 0`, including the
+    /// extremes.
+    #[test]
+    fn atan2_pos_matches_libm() {
+        let mut rng = Rng::new(13, 0);
+        let mut worst = 0.0f64;
+        for n in 0..1_000_000 {
+            let x = rng.next_f64() * 10f64.powi((n % 7) - 3) + 1e-300;
+            let y = (rng.next_f64() - 0.5) * 10f64.powi(((n / 7) % 9) - 4);
+            worst = worst.max((atan2_pos(y, x) - y.atan2(x)).abs());
+        }
+        for (y, x) in [
+            (0.0, 1.0),
+            (1.0, 1.0),
+            (-1.0, 1.0),
+            (1.0, 1e-300),
+            (-1e-300, 1.0),
+        ] {
+            worst = worst.max((atan2_pos(y, x) - f64::atan2(y, x)).abs());
+        }
+        assert!(worst < 5e-16, "{worst}");
+    }
+
+    /// [`sin_cos_quadrant`] agrees with libm on `[0, pi/2]`.
+    #[test]
+    fn sin_cos_quadrant_matches_libm() {
+        let n = 1_000_000;
+        let mut worst = 0.0f64;
+        for j in 0..=n {
+            let d = FRAC_PI_2 * j as f64 / n as f64;
+            let (s, c) = sin_cos_quadrant(d);
+            let (s0, c0) = d.sin_cos();
+            worst = worst.max((s - s0).abs()).max((c - c0).abs());
+        }
+        assert!(worst < 4e-16, "{worst}");
+    }
+
+    /// [`symmetric_tail_sines`] equals `sin(psi_a - m theta_v)` computed
+    /// from the angles, for the solutions the symmetric sum visits.
+    #[test]
+    fn symmetric_tail_sines_match_direct() {
+        let mut rng = Rng::new(12, 0);
+        let mut checked = 0;
+        for _ in 0..20_000 {
+            let ti = (rng.next_f64() - 0.5) * PI * 0.999;
+            let to = (rng.next_f64() - 0.5) * PI * 0.999;
+            let k = 1 + (rng.next_f64() * 60.0) as u32;
+            let odd = k % 2 == 1;
+            let base = if odd { ti + to } else { ti - to - PI };
+            let j = ((base + 1e-3) / PI).ceil() as i64 + (rng.next_f64() * 4.0) as i64;
+            if (j.rem_euclid(2) == 1) != odd {
+                continue;
+            }
+            let x = PI * j as f64 - base;
+            let delta = x / (2.0 * k as f64);
+            if !(x > 0.0 && delta < FRAC_PI_2) {
+                continue;
+            }
+            let a = FRAC_PI_2 - delta;
+            let (sa, ca) = a.sin_cos();
+            let su = if odd { to.sin() } else { -to.sin() };
+            let got = symmetric_tail_sines(su, to.cos(), ca, sa);
+            let psi_a = a - ti + FRAC_PI_2;
+            let tv = PI - 2.0 * a;
+            for (m, g) in got.iter().enumerate() {
+                let want = (psi_a - (k as f64 - 2.0 + m as f64) * tv).sin();
+                assert!((g - want).abs() < 1e-12, "k {k} m {m}: {g} vs {want}");
+            }
+            checked += 1;
+        }
+        assert!(checked > 5000, "{checked}");
+    }
+
+    /// [`symmetric_k_range`] contains every count the exact test accepts
+    /// (brute force over all `k <= 256` on random `(ti, x)`, including `x`
+    /// near the mirror configuration `x = pi - 2 ti` where the range is
+    /// widest).
+    #[test]
+    fn symmetric_k_range_is_a_superset() {
+        let mut rng = Rng::new(11, 0);
+        let k_max = 256;
+        let mut accepted = 0u64;
+        let mut scanned = 0u64;
+        for n in 0..20_000 {
+            let ti = (rng.next_f64() - 0.5) * PI * 0.9999;
+            let x = if n % 4 == 0 {
+                PI - 2.0 * ti + (rng.next_f64() - 0.5) * 1e-3
+            } else {
+                rng.next_f64() * 2.0 * PI
+            };
+            if !(x > 0.0) {
+                continue;
+            }
+            let (lo, hi) = symmetric_k_range(ti, x, k_max);
+            for k in 1..=k_max {
+                let kf = k as f64;
+                let a = FRAC_PI_2 - x / (2.0 * kf);
+                if a > 0.0 && a < FRAC_PI_2 && symmetric_count_possible(ti, a, kf) {
+                    accepted += 1;
+                    assert!(
+                        lo <= k && k <= hi,
+                        "ti {ti} x {x}: k {k} outside [{lo}, {hi}]"
+                    );
+                }
+            }
+            scanned += (hi + 1).saturating_sub(lo) as u64;
+        }
+        assert!(accepted > 10_000, "{accepted}");
+        // The range is tight: at most a few counts beyond those accepted.
+        assert!(
+            scanned < 2 * accepted + 3 * 20_000,
+            "{scanned} vs {accepted}"
+        );
     }
 }
