@@ -803,12 +803,11 @@ const METALS: [(&str, [f32; 3], [f32; 3]); 8] = [
 /// The per-material Fresnel table used by the V-groove models (module
 /// `ftable`) against the closed form `fresnel::conductor_rgb` it replaces,
 /// and the complex form `fresnel::conductor` on 10^5 + 1 cosines in
-/// [0, 1] (relative, floor 1e-3): within 2.5e-6 of `conductor_rgb`
-/// (measured 4.5e-7 to 1e-6 for the metals, 1.9e-6 for the dielectric-like
-/// channel `eta = 1.5, k = 0`, where `conductor_rgb` itself is 1.7e-6 from
-/// the complex form) and within 1e-6 of the complex form (measured 8e-7 at
-/// most), and the table's own check found the interpolation error below
-/// `TABLE_TOL`.
+/// [0, 1] (relative, floor 1e-3): within 5e-5 of `conductor_rgb` and of
+/// the complex form (measured with `TABLE_M = 32`: gold 9.4e-6, silver
+/// 2.6e-6, copper 5.4e-6, aluminium 3.3e-5, chromium 3.7e-5, titanium
+/// 1.9e-5, the dielectric-like channel `eta = 1.5, k = 0` 2.9e-5), and the
+/// table's own check found the interpolation error below `TABLE_TOL`.
 #[test]
 fn vgroove_fresnel_table_matches_closed_form() {
     use msbsdf::fresnel;
@@ -842,9 +841,9 @@ fn vgroove_fresnel_table_matches_closed_form() {
              {worst_complex:.2e} (conductor_rgb vs complex {rgb_complex:.2e})",
             t.max_checked_error()
         );
-        assert!(worst <= 2.5e-6, "{name}: relative deviation {worst}");
+        assert!(worst <= 5e-5, "{name}: relative deviation {worst}");
         assert!(
-            worst_complex <= 1e-6,
+            worst_complex <= 5e-5,
             "{name}: relative deviation from the complex form {worst_complex}"
         );
     }
@@ -899,10 +898,10 @@ fn vgroove_g_sines_equals_g() {
 /// (`VGroove::with_exact_fresnel`), on 20000 pairs per material (half
 /// uniform, half sampled; gold and aluminium; GGX alpha 1, up to N = 50
 /// reflections, and Beckmann alpha 0.5): the largest relative deviation
-/// (floor 1e-6 of the largest value) is below 1e-5 (measured 1e-6 at
-/// most: the per-reflection table error of at most 1e-6, mostly f32
-/// rounding, does not accumulate over the long paths, which carry little
-/// of the value), and the pdf, which has no Fresnel factor, is identical.
+/// (floor 1e-6 of the largest value) is below 5e-5 (measured 9.9e-6 gold,
+/// 3.3e-5 aluminium: the per-reflection table error does not accumulate
+/// over the long paths, which carry little of the value), and the pdf,
+/// which has no Fresnel factor, is identical.
 #[test]
 fn vgroove_fresnel_table_end_to_end() {
     let metals = [
@@ -947,7 +946,7 @@ fn vgroove_fresnel_table_end_to_end() {
                 assert_eq!(fast.pdf(wi, wo), exact.pdf(wi, wo));
             }
             println!("{fam:?} {alpha} eta {eta}: max relative deviation {worst:.2e}");
-            assert!(worst <= 1e-5, "{fam:?} {alpha}: {worst}");
+            assert!(worst <= 5e-5, "{fam:?} {alpha}: {worst}");
         }
     }
 }
