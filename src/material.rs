@@ -296,12 +296,9 @@ impl Material {
                 ModelImpl::Single(Single::new(ndf, facet, G2Form::HeightCorrelated))
             }
             Model::Invariance | Model::BitterliDeon => {
+                // Beckmann, GGX and Student-T: the walks use only the generic
+                // Smith API (tests/invariance.rs checks Student-T too).
                 let kind = ndf_kind.ok_or(Error::Unsupported)?;
-                if kind == NdfKind::StudentT {
-                    // Not validated with Student-T yet (furnace and agreement
-                    // tests cover Beckmann and GGX only).
-                    return Err(Error::Unsupported);
-                }
                 if !matches!(facet, Facet::Conductor { .. }) {
                     return Err(Error::Unsupported);
                 }
@@ -365,12 +362,8 @@ impl Material {
                 ModelImpl::Heitz(Heitz::new(ndf, facet, d.max_bounces))
             }
             Model::PositionFree => {
+                // Beckmann, GGX and Student-T (tests/position_free.rs).
                 let kind = ndf_kind.ok_or(Error::Unsupported)?;
-                if kind == NdfKind::StudentT {
-                    // Not validated with Student-T yet (tests/position_free.rs
-                    // pins Unsupported); its walk would take the shape as is.
-                    return Err(Error::Unsupported);
-                }
                 if matches!(facet, Facet::Diffuse { .. }) {
                     return Err(Error::Unsupported);
                 }

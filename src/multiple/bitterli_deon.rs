@@ -36,7 +36,7 @@ use crate::facet::Facet;
 use crate::frame::flip_z;
 use crate::material::MAX_BOUNCES;
 use crate::multiple::invariance::{
-    CAP_MAX, CAP_SMALL, ExitState, RR_DEPTH, RR_MIN_Q, default_max_bounces, lambda_signed,
+    CAP_MAX, CAP_SMALL, ExitState, RR_DEPTH, RR_MIN_Q, default_max_bounces_for, lambda_signed,
     sample_walk, scatter, two_sided_hapke_pdf,
 };
 use crate::ndf::Ndf;
@@ -161,7 +161,7 @@ impl BitterliDeon {
     /// (0: the same default as INVARIANCE).
     pub fn new(ndf: Ndf, facet: Facet, max_bounces: u32) -> Self {
         let max_bounces = if max_bounces == 0 {
-            default_max_bounces(ndf.alpha_x, ndf.alpha_y)
+            default_max_bounces_for(&ndf)
         } else {
             max_bounces.min(MAX_BOUNCES)
         };

@@ -51,7 +51,8 @@
 //!   The mixture of eq. (16) is divided by `1 + M(mu_i)`, `M` the lobe's
 //!   integral (8-point Gauss-Legendre), so that `pdf` integrates to at most 1.
 //!
-//! `max_bounces` default: see [`default_max_bounces`].
+//! `max_bounces` default: see [`default_max_bounces`] and, for heavy-tailed
+//! NDFs (Student-T with shape below 2), [`default_max_bounces_for`].
 //!
 //! # Measured cost and variance (`examples/invariance_efficiency.rs`)
 //! GGX gold (eta (0.143, 0.374, 1.442), k (3.983, 2.385, 1.603)), variance of
@@ -265,6 +266,68 @@ pub fn default_max_bounces(alpha_x: f32, alpha_y: f32) -> u32 {
     }
 }
 
+/// Roughness scale and bounce floor that carry the bounce limits measured
+/// for GGX over to heavier-tailed NDFs (Student-T with shape `gamma < 2`),
+/// from the generic Smith API only: `r = sigma_1(x) / sigma_GGX,1(x)`, the
+/// projected area at the horizon of the NDF at unit roughness relative to
+/// GGX's (`1/2`; `sigma = (1 + Lambda) z` there is the limit of `Lambda z`).
+/// `r = 1` for GGX and Student-T `gamma = 2`, `1 / sqrt(pi)` for Beckmann and
+/// below 1 for every Student-T `gamma > 2`: these keep the GGX rules
+/// unchanged (scale 1, floor 10). Above 1 (Student-T `gamma < 2`:
+/// `r = 1.11, 1.30, 1.67, 2.79, 5.04, 23.0` for
+/// `gamma = 1.9, 1.8, 1.7, 1.6, 1.55, 1.51`; it diverges like
+/// `1 / (2 gamma - 3)` because the mean slope does), the rules are applied
+/// to the roughness `alpha r^1.5`, with at least `10 + floor(2.8 (r - 1))`
+/// bounces.
+///
+/// Why: the walks' path length grows as the tail gets heavier. Fraction of
+/// white-furnace walks (INVARIANCE, exact-exit `sample`, F = 1, 20k walks
+/// per incidence, worst of theta_i = 0, 30, 60, 80, 89) still inside after
+/// K bounces (the HEITZ walk loses the same: gamma 1.6, alpha 1: 9.3% at
+/// K = 10, 1.2% at 16, 0.06% at 24):
+///
+/// | gamma | alpha | K = 10 | 16 | 24 | 32 | 64 | 128 | 256 |
+/// |---|---|---|---|---|---|---|---|---|
+/// | 1.9 | 1.5 | 0.21% | 0 | | | | | |
+/// | 1.8 | 1 | 0.07% | 0 | | | | | |
+/// | 1.8 | 1.5 | 1.1% | 0.005% | 0 | | | | |
+/// | 1.8 | 3 | 30% | 3.6% | 0.06% | 0 | | | |
+/// | 1.7 | 1 | 0.84% | 0.015% | 0 | | | | |
+/// | 1.7 | 3 | 48% | 14% | 1.2% | 0.06% | 0 | | |
+/// | 1.6 | 0.3 | 0.16% | 0.005% | 0 | | | | |
+/// | 1.6 | 1 | 9.3% | 1.3% | 0.07% | 0 | | | |
+/// | 1.6 | 3 | 75% | 50% | 21% | 6.4% | 0.005% | 0 | |
+/// | 1.55 | 0.1 | 0.46% | 0.01% | 0 | | | | |
+/// | 1.55 | 1 | 32% | 14% | 3.5% | 0.78% | 0.005% | 0 | |
+/// | 1.51 | 0.1 | 30% | 15% | 6.1% | 2.5% | 0.08% | 0 | |
+/// | 1.51 | 1 | 81% | 70% | 58% | 47% | 18% | 2.0% | 0 |
+/// | 1.51 | 3 | 98% | 97% | 95% | 93% | 81% | 48% | 0.11% |
+///
+/// Over gamma = 1.51 .. 2 and alpha = 0.1 .. 3 the rule gives at least the
+/// K that keeps the loss below 0.1% (interpolated in log loss between the
+/// measured K), except where no limit can: gamma 1.51 from alpha 3 on needs
+/// more than [`MAX_BOUNCES`].
+pub fn heavy_tail_bounce_scale(ndf: &Ndf) -> (f32, u32) {
+    let unit = Ndf::with_shape(ndf.kind, 1.0, 1.0, ndf.shape);
+    let r = 2.0 * unit.sigma(Vec3::X);
+    if !(r > 1.001) || !r.is_finite() {
+        return (1.0, 10);
+    }
+    let floor = (10.0 + (2.8 * (r - 1.0)).floor()).min(MAX_BOUNCES as f32);
+    (r.powf(1.5), floor as u32)
+}
+
+/// [`default_max_bounces`] for an NDF: the roughness scaled and the limit
+/// floored by [`heavy_tail_bounce_scale`] (the same as
+/// `default_max_bounces(alpha_x, alpha_y)` for Beckmann, GGX and Student-T
+/// with `gamma >= 2`).
+pub fn default_max_bounces_for(ndf: &Ndf) -> u32 {
+    let (scale, floor) = heavy_tail_bounce_scale(ndf);
+    default_max_bounces(ndf.alpha_x * scale, ndf.alpha_y * scale)
+        .max(floor)
+        .min(MAX_BOUNCES)
+}
+
 /// [`hapke_pdf`] for a two-sided conductor: `wi` below mirrors both
 /// directions; transmission has density 0.
 pub(crate) fn two_sided_hapke_pdf(ndf: &Ndf, wi: Vec3, wo: Vec3) -> f32 {
@@ -332,10 +395,10 @@ pub struct Invariance {
 
 impl Invariance {
     /// A model with the given NDF, conductor facet, estimator and bounce
-    /// limit (0: [`default_max_bounces`]; at most [`MAX_BOUNCES`]).
+    /// limit (0: [`default_max_bounces_for`]; at most [`MAX_BOUNCES`]).
     pub fn new(ndf: Ndf, facet: Facet, estimator: Estimator, max_bounces: u32) -> Self {
         let max_bounces = if max_bounces == 0 {
-            default_max_bounces(ndf.alpha_x, ndf.alpha_y)
+            default_max_bounces_for(&ndf)
         } else {
             max_bounces.min(MAX_BOUNCES)
         };
