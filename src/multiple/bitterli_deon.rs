@@ -30,6 +30,11 @@
 //! cluster of several near-equal poles can lose precision but never gives
 //! NaN, Inf or a negative value. INVARIANCE's segment term has no such
 //! denominator.
+//!
+//! NDFs: Beckmann, GGX and Student-T, through the generic Smith API only
+//! (the walk, exit probability and bounce limit are INVARIANCE's; see
+//! [`crate::multiple::invariance`] for the Student-T measurements). The
+//! BDPT estimator is INVARIANCE's alone: refused here.
 
 use crate::bsdf::{Sample, ScatterModel};
 use crate::facet::Facet;
