@@ -8,7 +8,7 @@ use crate::multiple::auto;
 use crate::multiple::bitterli_deon::BitterliDeon;
 use crate::multiple::compensation::{self, Compensated};
 use crate::multiple::heitz::Heitz;
-use crate::multiple::invariance::Invariance;
+use crate::multiple::invariance::{self, Invariance};
 use crate::multiple::null_scattering::{self, NullNdf, NullNdfKind, NullScattering};
 use crate::multiple::position_free::PositionFree;
 use crate::multiple::vgroove::{VGroove, dist::Family};
@@ -303,6 +303,11 @@ impl Material {
                     return Err(Error::Unsupported);
                 }
                 let ndf = smith_ndf(kind);
+                // Heavy Student-T tails at large roughness need walks too long
+                // for these estimators' f64 arithmetic (MAX_DEFAULT_BOUNCES).
+                if invariance::default_max_bounces_for(&ndf) > invariance::MAX_DEFAULT_BOUNCES {
+                    return Err(Error::Unsupported);
+                }
                 if d.model == Model::Invariance {
                     ModelImpl::Invariance(Invariance::new(ndf, facet, d.estimator, d.max_bounces))
                 } else {

@@ -1047,12 +1047,14 @@ fn invariance_student_t_equals_heitz() {
 }
 
 /// The three walks accept exactly the documented Student-T combinations:
-/// conductor facets, shape in (1.5, 1e4]; INVARIANCE with both estimators,
-/// BITTERLI_DEON with PT only, POSITION_FREE with conductor and dielectric
-/// facets; no NaN, Inf or negative value over shapes down to 1.51 and
-/// grazing directions.
+/// shape in (1.5, 1e4]; INVARIANCE (both estimators) and BITTERLI_DEON (PT
+/// only) with conductor facets, unless the tail and the roughness need a
+/// default bounce limit above `MAX_DEFAULT_BOUNCES` (80); POSITION_FREE
+/// with conductor and dielectric facets, any roughness. No NaN, Inf or
+/// negative value over shapes down to 1.51 and grazing directions.
 #[test]
 fn student_t_combinations_and_stability() {
+    use msbsdf::multiple::invariance::{MAX_DEFAULT_BOUNCES, default_max_bounces_for};
     use msbsdf::{Error, FacetKind};
     let desc = |model, est, shape, facet| MaterialDesc {
         model,
@@ -1074,8 +1076,28 @@ fn student_t_combinations_and_stability() {
         (Model::PositionFree, Estimator::Pt),
         (Model::PositionFree, Estimator::Bdpt),
     ] {
-        for shape in [1.51f32, 2.0, 1e4] {
+        for shape in [1.6f32, 2.0, 1e4] {
             assert!(Material::new(&desc(model, est, shape, FacetKind::Conductor)).is_ok());
+        }
+        // Heavy tail and large roughness: only POSITION_FREE (default
+        // limits 256 and 238 > 80).
+        for (shape, a) in [(1.51f32, 0.5f32), (1.6, 10.0)] {
+            let d = MaterialDesc {
+                alpha_x: a,
+                alpha_y: a,
+                ..desc(model, est, shape, FacetKind::Conductor)
+            };
+            let ndf = Ndf::with_shape(NdfKind::StudentT, a, a, shape);
+            assert!(default_max_bounces_for(&ndf) > MAX_DEFAULT_BOUNCES);
+            if model == Model::PositionFree {
+                assert!(Material::new(&d).is_ok(), "{model:?} {shape} {a}");
+            } else {
+                assert_eq!(
+                    Material::new(&d),
+                    Err(Error::Unsupported),
+                    "{model:?} {shape} {a}"
+                );
+            }
         }
         for shape in [1.5f32, 1.0, 1.1e4, f32::NAN] {
             assert_eq!(
@@ -1116,7 +1138,7 @@ fn student_t_combinations_and_stability() {
         } else {
             10f32.powf(-3.0 + 3.301 * rng.next_f32()).min(2.0)
         };
-        let m = Material::new(&MaterialDesc {
+        let made = Material::new(&MaterialDesc {
             model,
             estimator: est,
             ndf: NdfId::StudentT,
@@ -1126,8 +1148,13 @@ fn student_t_combinations_and_stability() {
             eta: Vec3::from_array(GOLD_ETA),
             k: Vec3::from_array(GOLD_K),
             ..MaterialDesc::default()
-        })
-        .unwrap();
+        });
+        let ndf = Ndf::with_shape(NdfKind::StudentT, ax.max(1e-4), ay.max(1e-4), shape);
+        if default_max_bounces_for(&ndf) > MAX_DEFAULT_BOUNCES {
+            assert_eq!(made, Err(Error::Unsupported));
+            continue;
+        }
+        let m = made.unwrap();
         let t = |r: &mut Rng| {
             if r.next_f32() < 0.3 {
                 89.0 + 0.99 * r.next_f64()

@@ -33,8 +33,11 @@
 //!
 //! NDFs: Beckmann, GGX and Student-T, through the generic Smith API only
 //! (the walk, exit probability and bounce limit are INVARIANCE's; see
-//! [`crate::multiple::invariance`] for the Student-T measurements). The
-//! BDPT estimator is INVARIANCE's alone: refused here.
+//! [`crate::multiple::invariance`] for the Student-T measurements, and
+//! [`crate::multiple::invariance::MAX_DEFAULT_BOUNCES`] for the heavy-tailed,
+//! very rough Student-T surfaces refused, where the partial fractions of
+//! eq. 6 lose their precision). The BDPT estimator is INVARIANCE's alone:
+//! refused here.
 
 use crate::bsdf::{Sample, ScatterModel};
 use crate::facet::Facet;
