@@ -8,7 +8,7 @@ use crate::multiple::auto;
 use crate::multiple::bitterli_deon::BitterliDeon;
 use crate::multiple::compensation::{self, Compensated};
 use crate::multiple::heitz::Heitz;
-use crate::multiple::invariance::Invariance;
+use crate::multiple::invariance::{self, Invariance};
 use crate::multiple::null_scattering::{self, NullNdf, NullNdfKind, NullScattering};
 use crate::multiple::position_free::PositionFree;
 use crate::multiple::vgroove::{VGroove, dist::Family};
@@ -296,16 +296,18 @@ impl Material {
                 ModelImpl::Single(Single::new(ndf, facet, G2Form::HeightCorrelated))
             }
             Model::Invariance | Model::BitterliDeon => {
+                // Beckmann, GGX and Student-T: the walks use only the generic
+                // Smith API (tests/invariance.rs checks Student-T too).
                 let kind = ndf_kind.ok_or(Error::Unsupported)?;
-                if kind == NdfKind::StudentT {
-                    // Not validated with Student-T yet (furnace and agreement
-                    // tests cover Beckmann and GGX only).
-                    return Err(Error::Unsupported);
-                }
                 if !matches!(facet, Facet::Conductor { .. }) {
                     return Err(Error::Unsupported);
                 }
                 let ndf = smith_ndf(kind);
+                // Heavy Student-T tails at large roughness need walks too long
+                // for these estimators' f64 arithmetic (MAX_DEFAULT_BOUNCES).
+                if invariance::default_max_bounces_for(&ndf) > invariance::MAX_DEFAULT_BOUNCES {
+                    return Err(Error::Unsupported);
+                }
                 if d.model == Model::Invariance {
                     ModelImpl::Invariance(Invariance::new(ndf, facet, d.estimator, d.max_bounces))
                 } else {
@@ -365,12 +367,8 @@ impl Material {
                 ModelImpl::Heitz(Heitz::new(ndf, facet, d.max_bounces))
             }
             Model::PositionFree => {
+                // Beckmann, GGX and Student-T (tests/position_free.rs).
                 let kind = ndf_kind.ok_or(Error::Unsupported)?;
-                if kind == NdfKind::StudentT {
-                    // Not validated with Student-T yet (tests/position_free.rs
-                    // pins Unsupported); its walk would take the shape as is.
-                    return Err(Error::Unsupported);
-                }
                 if matches!(facet, Facet::Diffuse { .. }) {
                     return Err(Error::Unsupported);
                 }

@@ -43,6 +43,7 @@ fn gold(desc: MaterialDesc) -> MaterialDesc {
 fn ndf_kind(id: NdfId) -> NdfKind {
     match id {
         NdfId::Beckmann => NdfKind::Beckmann,
+        NdfId::StudentT => NdfKind::StudentT,
         _ => NdfKind::Ggx,
     }
 }
@@ -87,7 +88,7 @@ fn albedo_by_eval_until(
     };
     let is_diel = desc.facet == FacetKind::Dielectric;
     let single = Single::new(
-        Ndf::new(ndf_kind(desc.ndf), desc.alpha_x, desc.alpha_y),
+        Ndf::with_shape(ndf_kind(desc.ndf), desc.alpha_x, desc.alpha_y, desc.shape),
         facet,
         G2Form::HeightCorrelated,
     );
@@ -324,12 +325,18 @@ fn single_bounce_equals_uncorrelated_single() {
     let mut rng = Rng::new(99, 1);
     let mut worst = 0.0f32;
     let mut max_corr_gap = 0.0f32;
-    for ndf in [NdfId::Ggx, NdfId::Beckmann] {
+    for (ndf, shape) in [
+        (NdfId::Ggx, 2.0f32),
+        (NdfId::Beckmann, 2.0),
+        (NdfId::StudentT, 1.8),
+        (NdfId::StudentT, 20.0),
+    ] {
         for (ax, ay) in [(0.2, 0.2), (0.7, 0.7), (0.3, 1.2)] {
             for (facet, eta) in [(0, 0.0), (1, 1.5), (1, 1.0 / 1.5)] {
                 for est in [Estimator::Pt, Estimator::Bdpt] {
                     let base = MaterialDesc {
                         max_bounces: 1,
+                        shape,
                         ..pf(ndf, ax, ay, est)
                     };
                     let (desc, f) = if facet == 0 {
@@ -344,7 +351,7 @@ fn single_bounce_equals_uncorrelated_single() {
                         (dielectric(base, eta), Facet::Dielectric { eta })
                     };
                     let m = Material::new(&desc).unwrap();
-                    let n = Ndf::new(ndf_kind(ndf), ax, ay);
+                    let n = Ndf::with_shape(ndf_kind(ndf), ax, ay, shape);
                     let unc = Single::new(n, f, G2Form::Uncorrelated);
                     let cor = Single::new(n, f, G2Form::HeightCorrelated);
                     for _ in 0..300 {
@@ -678,8 +685,17 @@ fn material_validation() {
         ..pf(NdfId::Ggx, 0.5, 0.5, Estimator::Pt)
     };
     assert_eq!(Material::new(&d), Err(Error::Unsupported));
+    // Student-T: accepted for shapes in (1.5, 1e4] (tests below), refused
+    // outside that range like every model.
     let d = pf(NdfId::StudentT, 0.5, 0.5, Estimator::Pt);
-    assert_eq!(Material::new(&d), Err(Error::Unsupported));
+    assert!(Material::new(&d).is_ok());
+    for shape in [1.5, 1.1e4] {
+        let d = MaterialDesc {
+            shape,
+            ..pf(NdfId::StudentT, 0.5, 0.5, Estimator::Bdpt)
+        };
+        assert_eq!(Material::new(&d), Err(Error::InvalidArgument));
+    }
     let d = MaterialDesc {
         max_bounces: 257,
         ..pf(NdfId::Ggx, 0.5, 0.5, Estimator::Pt)
@@ -835,4 +851,147 @@ fn pdf_integrates_to_at_most_one() {
             "{desc:?} {th}: {mean} +- {err}"
         );
     }
+}
+
+/// Student-T (seed 001) white conductor, shapes 1.8 (heavier-tailed than
+/// GGX), 3 and 20, alpha 0.3 and 1, incidences 0, 60 and 89 degrees: the
+/// same claims and tolerances as `furnace_conductor_white_eval_within_1_percent`
+/// (PT; eval integral within 4 sigma + 0.1% and 1% of 1, sample albedo
+/// above 0.999 with the default bounce limit, which scales with the tail
+/// for shapes below 2), and BDPT on a subset (as `furnace_bdpt_eval_within_1_percent`).
+#[test]
+fn furnace_student_t_conductor_white_eval_within_1_percent() {
+    let mut configs = Vec::new();
+    for g in [1.8f32, 3.0, 20.0] {
+        for a in [0.3f32, 1.0] {
+            for th in [0.0, 60.0, 89.0] {
+                configs.push((g, a, th, Estimator::Pt));
+            }
+        }
+    }
+    for (g, a, th) in [
+        (1.8f32, 1.0f32, 0.0),
+        (1.8, 0.3, 89.0),
+        (3.0, 1.0, 60.0),
+        (20.0, 0.3, 0.0),
+        (20.0, 1.0, 89.0),
+    ] {
+        configs.push((g, a, th, Estimator::Bdpt));
+    }
+    let results = par_map(&configs, |&(g, a, th, est)| {
+        let desc = MaterialDesc {
+            shape: g,
+            ..pf(NdfId::StudentT, a, a, est)
+        };
+        let seed = 300 + th as u64 + (100.0 * a) as u64 + (10.0 * g) as u64;
+        let (e, err) = if est == Estimator::Pt {
+            albedo_by_eval_until(&desc, dir_deg(th), 20_000, 600_000, 0.0024, seed)
+        } else {
+            albedo_by_eval(&desc, dir_deg(th), 20_000, seed)
+        };
+        let (es, _) = albedo_by_sample(&desc, dir_deg(th), 20_000, seed);
+        (e.x as f64, err, es.x as f64)
+    });
+    let mut fails = Vec::new();
+    for (&(g, a, th, est), &(e, err, es)) in configs.iter().zip(&results) {
+        println!(
+            "Student-T {g} alpha {a} theta {th} {est:?}: eval {e:.4} +- {err:.4}  sample {es:.5}"
+        );
+        // PT: 4 sigma plus the truncation, resolving 1%; BDPT (20k evals):
+        // 4 sigma plus the truncation and within 1%.
+        let resolved = est == Estimator::Bdpt || 4.0 * err <= 0.01;
+        if (e - 1.0).abs() > 4.0 * err + 1e-3 || !resolved || (e - 1.0).abs() > 0.01 {
+            fails.push(format!(
+                "Student-T {g} alpha {a} {th} {est:?}: {e} +- {err}"
+            ));
+        }
+        if !(es > 0.999 && es <= 1.0 + 1e-6) {
+            fails.push(format!("Student-T {g} alpha {a} {th}: sample albedo {es}"));
+        }
+    }
+    assert!(fails.is_empty(), "{fails:#?}");
+}
+
+/// Student-T glass (eta 1.5, shape 1.8 and 20) from both sides, BDPT:
+/// reflected plus transmitted albedo 1 within 4 sigma + 0.1% and 1%.
+#[test]
+fn furnace_student_t_dielectric_both_sides() {
+    let mut configs = Vec::new();
+    for (g, a, th) in [(1.8f32, 0.5f32, 30.0), (20.0, 1.0, 60.0)] {
+        for side in [1.0f32, -1.0] {
+            configs.push((g, a, th, side));
+        }
+    }
+    let results = par_map(&configs, |&(g, a, th, side)| {
+        let desc = dielectric(
+            MaterialDesc {
+                shape: g,
+                ..pf(NdfId::StudentT, a, a, Estimator::Bdpt)
+            },
+            1.5,
+        );
+        let mut wi = dir_deg(th);
+        wi.z *= side;
+        let seed = 400 + (10.0 * g) as u64 + (side > 0.0) as u64;
+        let (e, err) = albedo_by_eval_until(&desc, wi, 10_000, 200_000, 0.0024, seed);
+        let (es, _) = albedo_by_sample(&desc, wi, 20_000, seed);
+        (e.x as f64, err, es.x as f64)
+    });
+    for (&(g, a, th, side), &(e, err, es)) in configs.iter().zip(&results) {
+        println!(
+            "Student-T {g} glass alpha {a} theta {th} side {side}: eval {e:.4} +- {err:.4} sample {es:.5}"
+        );
+        assert!(
+            (e - 1.0).abs() <= 4.0 * err + 1e-3 && (e - 1.0).abs() < 0.01,
+            "Student-T {g} {a} {th} {side}: {e} +- {err}"
+        );
+        assert!(es > 0.999, "Student-T {g} {a} {th} {side}: sample {es}");
+    }
+}
+
+/// No NaN, Inf or negative values with Student-T shapes down to 1.51,
+/// roughness 1e-3 .. 3, conductor and glass, grazing directions.
+#[test]
+fn student_t_stability_sweep() {
+    let mut rng = Rng::new(2025, 9);
+    let mut n = 0;
+    for est in [Estimator::Pt, Estimator::Bdpt] {
+        for shape in [1.51f32, 1.7, 2.5, 20.0, 1e4] {
+            for &ax in &[1e-3f32, 0.1, 1.0, 3.0] {
+                let base = MaterialDesc {
+                    shape,
+                    ..pf(NdfId::StudentT, ax, ax.min(0.5), est)
+                };
+                for desc in [gold(base), dielectric(base, 1.5)] {
+                    let m = Material::new(&desc).unwrap();
+                    for _ in 0..12 {
+                        let th = if rng.next_f32() < 0.3 {
+                            89.0 + 0.99 * rng.next_f32()
+                        } else {
+                            180.0 * rng.next_f32()
+                        };
+                        let ph = 360.0 * rng.next_f32();
+                        let (t, p) = (th.to_radians(), ph.to_radians());
+                        let wi = Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos());
+                        let side = if rng.next_f32() < 0.5 { 1.0 } else { -1.0 };
+                        let wo = cosine_dir(rng.next_f32(), rng.next_f32(), side);
+                        let v = m.eval(wi, wo, &mut rng);
+                        assert!(
+                            v.is_finite() && v.min_element() >= 0.0,
+                            "{desc:?} {wi} {wo}"
+                        );
+                        let p = m.pdf(wi, wo);
+                        assert!(p.is_finite() && p >= 0.0, "{desc:?} {wi} {wo}");
+                        let s = m.sample(wi, &mut rng);
+                        assert!(s.weight.is_finite() && s.weight.min_element() >= 0.0);
+                        if s.flags & msbsdf::SAMPLE_ABSORBED == 0 {
+                            assert!(s.pdf > 0.0 && m.pdf(wi, s.wo) > 0.0, "{desc:?} {wi} {s:?}");
+                        }
+                        n += 1;
+                    }
+                }
+            }
+        }
+    }
+    assert_eq!(n, 2 * 5 * 4 * 2 * 12);
 }

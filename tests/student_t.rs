@@ -625,13 +625,20 @@ fn single_model_with_student_t_shape_2_equals_ggx() {
     );
 }
 
-/// HEITZ_RANDOM_WALK takes the shape: over Student-T (its up-welling
-/// visible normals through the exact sampler) it conserves energy with
-/// F = 1 facets (no path is lost to a failed visible-normal sample).
+/// The walks take the shape: over Student-T (its up-welling visible
+/// normals through the exact sampler) HEITZ_RANDOM_WALK, INVARIANCE,
+/// BITTERLI_DEON and POSITION_FREE conserve energy with F = 1 facets (no
+/// path is lost to a failed visible-normal sample; the last three are
+/// checked in depth in tests/invariance.rs and tests/position_free.rs).
 #[test]
 fn walk_models_accept_student_t() {
     let mut rng = Rng::new(4, 4);
-    for (model, tol) in [(Model::HeitzRandomWalk, 0.005)] {
+    for (model, tol) in [
+        (Model::HeitzRandomWalk, 0.005),
+        (Model::Invariance, 0.001),
+        (Model::BitterliDeon, 0.001),
+        (Model::PositionFree, 0.001),
+    ] {
         let m = Material::new(&MaterialDesc {
             model,
             ndf: NdfId::StudentT,

@@ -30,13 +30,21 @@
 //! cluster of several near-equal poles can lose precision but never gives
 //! NaN, Inf or a negative value. INVARIANCE's segment term has no such
 //! denominator.
+//!
+//! NDFs: Beckmann, GGX and Student-T, through the generic Smith API only
+//! (the walk, exit probability and bounce limit are INVARIANCE's; see
+//! [`crate::multiple::invariance`] for the Student-T measurements, and
+//! [`crate::multiple::invariance::MAX_DEFAULT_BOUNCES`] for the heavy-tailed,
+//! very rough Student-T surfaces refused, where the partial fractions of
+//! eq. 6 lose their precision). The BDPT estimator is INVARIANCE's alone:
+//! refused here.
 
 use crate::bsdf::{Sample, ScatterModel};
 use crate::facet::Facet;
 use crate::frame::flip_z;
 use crate::material::MAX_BOUNCES;
 use crate::multiple::invariance::{
-    CAP_MAX, CAP_SMALL, ExitState, RR_DEPTH, RR_MIN_Q, default_max_bounces, lambda_signed,
+    CAP_MAX, CAP_SMALL, ExitState, RR_DEPTH, RR_MIN_Q, default_max_bounces_for, lambda_signed,
     sample_walk, scatter, two_sided_hapke_pdf,
 };
 use crate::ndf::Ndf;
@@ -161,7 +169,7 @@ impl BitterliDeon {
     /// (0: the same default as INVARIANCE).
     pub fn new(ndf: Ndf, facet: Facet, max_bounces: u32) -> Self {
         let max_bounces = if max_bounces == 0 {
-            default_max_bounces(ndf.alpha_x, ndf.alpha_y)
+            default_max_bounces_for(&ndf)
         } else {
             max_bounces.min(MAX_BOUNCES)
         };
