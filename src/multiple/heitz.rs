@@ -87,7 +87,10 @@ use std::f32::consts::PI;
 /// - diffuse facets (Lambert lobes send light down into the surface, a long
 ///   tail): `max(10, ceil(16 alpha^1.4))` (16 at alpha 1, 43 at alpha 2);
 ///
-/// all capped at [`MAX_BOUNCES`].
+/// all capped at [`MAX_BOUNCES`]. [`Heitz::new`] applies it to the roughness
+/// scaled by the NDF's tail (`invariance::heavy_tail_bounce_scale`: 1 for
+/// Beckmann, GGX and Student-T with shape >= 2; e.g. 28 bounces instead of
+/// 10 for Student-T shape 1.6 at alpha 1, whose furnace was 0.917).
 pub fn default_max_bounces(alpha_x: f32, alpha_y: f32, facet: &Facet) -> u32 {
     let a = alpha_x.max(alpha_y);
     let n = match facet {
@@ -175,7 +178,14 @@ impl Heitz {
     /// [`default_max_bounces`], larger values are capped at [`MAX_BOUNCES`].
     pub fn new(ndf: Ndf, facet: Facet, max_bounces: u32) -> Self {
         let max_bounces = if max_bounces == 0 {
-            default_max_bounces(ndf.alpha_x, ndf.alpha_y, &facet)
+            // Heavy-tailed NDFs (Student-T with shape below 2) keep light
+            // longer: the roughness is scaled and the limit floored as for
+            // INVARIANCE (`invariance::heavy_tail_bounce_scale`); Beckmann,
+            // GGX and Student-T with shape >= 2 are unchanged.
+            let (scale, floor) = crate::multiple::invariance::heavy_tail_bounce_scale(&ndf);
+            default_max_bounces(ndf.alpha_x * scale, ndf.alpha_y * scale, &facet)
+                .max(floor)
+                .min(MAX_BOUNCES)
         } else {
             max_bounces.min(MAX_BOUNCES)
         };
