@@ -239,6 +239,10 @@ pub struct VGroove {
     mirror: bool,
     n_max: u32,
     symmetric: bool,
+    /// Symmetric eval by the groove-frame scan for every count, `k = 1`
+    /// included, with no pre-test (the reference for tests:
+    /// [`VGroove::with_full_scan`]).
+    full_scan: bool,
 }
 
 /// What one evaluation accumulates.
@@ -279,6 +283,7 @@ impl VGroove {
             mirror: eta == Vec3::ZERO && k == Vec3::ONE,
             n_max,
             symmetric,
+            full_scan: false,
         }
     }
 
@@ -303,6 +308,49 @@ impl VGroove {
     pub fn with_exact_fresnel(mut self) -> Self {
         self.fresnel = self.fresnel.exact();
         self
+    }
+
+    /// This BRDF evaluated as before the `k = 1` closed form and the
+    /// `k >= 2` pre-test: every count, `k = 1` included, by the scan over
+    /// the two groove frames and the two parities of `k`, for every pair
+    /// (the reference the fast path is tested against; same values within
+    /// rounding).
+    pub fn with_full_scan(mut self) -> Self {
+        self.full_scan = true;
+        self
+    }
+
+    /// False when the pre-test of the symmetric eval proves that no count
+    /// `k >= 2` has a solution for `(wi, wo)` (the eval is then the `k = 1`
+    /// closed form alone); true otherwise, and always for the nonsymmetric
+    /// model. For tests and analysis.
+    pub fn multiple_possible(&self, wi: Vec3, wo: Vec3) -> bool {
+        if !self.symmetric {
+            return true;
+        }
+        let (wi, wo) = if wi.z < 0.0 {
+            (flip_z(wi), flip_z(wo))
+        } else {
+            (wi, wo)
+        };
+        let i = wi.as_dvec3().normalize();
+        let o = wo.as_dvec3().normalize();
+        let h = (i + o).normalize();
+        let sin_h = (h.x * h.x + h.y * h.y).sqrt();
+        let e = if sin_h > 1e-300 {
+            DVec3::new(h.x / sin_h, h.y / sin_h, 0.0)
+        } else {
+            DVec3::X
+        };
+        let ti0 = atan2_pos(i.dot(e), i.z);
+        let to0 = atan2_pos(o.dot(e), o.z);
+        let (k0, k1) = (2, self.n_max);
+        [1.0f64, -1.0].iter().any(|&sg| {
+            let (ti, to) = (sg * ti0, sg * to0);
+            [true, false]
+                .iter()
+                .any(|&odd| symmetric_tail_x(ti, to, odd, k0, k1).is_some())
+        })
     }
 
     /// The per-material Fresnel table.
@@ -381,9 +429,7 @@ impl VGroove {
         let mut pdf = 0.0f64;
         // In-plane angles for the frame `e`; the frame `-e` negates them.
         let (ie0, oe0) = (i.dot(e), o.dot(e));
-        let (ti0, to0) = (atan2_pos(ie0, i.z), atan2_pos(oe0, o.z));
         let rho = (ie0 * ie0 + i.z * i.z).sqrt();
-        let rho_o = (oe0 * oe0 + o.z * o.z).sqrt();
         // Grazing beyond what `ti = atan2(ie, i.z)` resolves in f64 (pi/2
         // has an ulp of 2.2e-16): the groove geometry then sees ti = pi/2
         // exactly, the lit fraction no longer vanishes with i.z, and the
@@ -393,10 +439,41 @@ impl VGroove {
         if !(i.z > 1e-15 * rho) {
             return (Vec3::ZERO, 0.0);
         }
+        let (k0, k1) = self.k_range(want);
+        let fast = self.symmetric && !self.full_scan;
+        if fast && k0 == 1 {
+            let (df, dp) = self.symmetric_k1(i, o, h, oh, sigma, want);
+            f += df;
+            pdf += dp;
+        }
+        if fast && k1 < 2 {
+            return self.finish(f, pdf);
+        }
+        let (ti0, to0) = (atan2_pos(ie0, i.z), atan2_pos(oe0, o.z));
+        // Symmetric, k >= 2: the one `X` per frame and parity that can
+        // have solutions, if the pre-test lets it through.
+        let mut xs = [[None; 2]; 2];
+        if fast {
+            let mut any = false;
+            for (fr, sg) in [1.0f64, -1.0].iter().enumerate() {
+                for (par, odd) in [true, false].iter().enumerate() {
+                    let x = symmetric_tail_x(sg * ti0, sg * to0, *odd, k0.max(2), k1);
+                    any |= x.is_some();
+                    xs[fr][par] = x;
+                }
+            }
+            if !any {
+                return self.finish(f, pdf);
+            }
+        }
+        let rho_o = (oe0 * oe0 + o.z * o.z).sqrt();
         let (inv_rho, inv_rho_o) = (1.0 / rho, 1.0 / rho_o);
         let (sti0, cti) = (ie0 * inv_rho, i.z * inv_rho);
         let (sto0, cto) = (oe0 * inv_rho_o, o.z * inv_rho_o);
-        for sg in [1.0f64, -1.0] {
+        for (fr, sg) in [1.0f64, -1.0].iter().copied().enumerate() {
+            if fast && xs[fr] == [None, None] {
+                continue;
+            }
             let ex = e * sg;
             let ctx = Ctx {
                 i,
@@ -415,7 +492,9 @@ impl VGroove {
                 sigma,
                 want,
             };
-            let (df, dp) = if self.symmetric {
+            let (df, dp) = if fast {
+                self.sum_symmetric_tail(&ctx, xs[fr], k0.max(2), k1)
+            } else if self.symmetric {
                 self.sum_symmetric(&ctx)
             } else {
                 self.sum_nonsymmetric(&ctx)
@@ -423,6 +502,13 @@ impl VGroove {
             f += df;
             pdf += dp;
         }
+        self.finish(f, pdf)
+    }
+
+    /// `(f |o.z|, pdf)` in the output precision, non-finite and negative
+    /// values to 0.
+    #[inline]
+    fn finish(&self, f: DVec3, pdf: f64) -> (Vec3, f32) {
         let f = f.as_vec3();
         let f = if f.is_finite() {
             f.max(Vec3::ZERO)
@@ -496,6 +582,54 @@ impl VGroove {
         (f, p)
     }
 
+    /// Symmetric grooves, `k = 1` in 3D, without the groove frame: the
+    /// facet is the half vector and the term is Cook-Torrance with the
+    /// V-groove shadowing and masking, seed 002, eq. (25):
+    /// `f |o.z| = F(i.h) D(h) G / (4 i.z)`,
+    /// `G = min(1, 2 h.z i.z / (i.h), 2 h.z o.z / (o.h))`, the first two
+    /// terms being the lit fraction of the facet ([`Hit::lit`]). Written
+    /// as [`VGroove::contribution`] writes it (`i.h / o.h = 1`).
+    #[inline]
+    fn symmetric_k1(
+        &self,
+        i: DVec3,
+        o: DVec3,
+        h: DVec3,
+        oh: f64,
+        sigma: Option<f64>,
+        want: Want,
+    ) -> (DVec3, f64) {
+        let ih = i.dot(h);
+        if !(ih > 0.0 && h.z > 0.0) {
+            return (DVec3::ZERO, 0.0);
+        }
+        let two_hz = 2.0 * h.z;
+        let lit = (two_hz * i.z / ih).min(1.0);
+        let g = lit.min(two_hz * o.z / oh);
+        if !(g > 0.0) {
+            return (DVec3::ZERO, 0.0);
+        }
+        let d = self.ndf.d(h);
+        let jac = 1.0 / (4.0 * oh);
+        let mut f = DVec3::ZERO;
+        let mut p = 0.0;
+        if want.f {
+            let v = ih * d * g * jac / i.z;
+            if v > 0.0 {
+                f = if self.mirror {
+                    DVec3::splat(v)
+                } else {
+                    let fr = self.fresnel.eval(ih as f32);
+                    Vec3::from(fr.clamp(Vec3A::ZERO, Vec3A::ONE)).as_dvec3() * v
+                };
+            }
+        }
+        if want.pdf {
+            p = dist::first_pdf_from(ih, h.z, d, sigma) * (g / lit) * jac;
+        }
+        (f, p)
+    }
+
     /// Symmetric grooves: the facet solutions of eq. (5) per count.
     ///
     /// Writing the first facet as `a = pi/2 - delta`, the solutions of eq.
@@ -526,59 +660,95 @@ impl VGroove {
             } else {
                 j_lo + 1
             };
-            // sin u of `symmetric_tail_sines`.
-            let su = if odd { ctx.sto } else { -ctx.sto };
             for j in (j_first..=j_hi).step_by(2) {
                 let x = PI * j as f64 - base;
                 if !(x > 0.0) {
                     continue;
                 }
-                // Worth its division only when N is large (GGX, Phong).
-                let (r_lo, r_hi) = if k1 - k0 >= 8 {
-                    symmetric_k_range(ti, x, k1)
-                } else {
-                    (k0, k1)
-                };
-                let k_start = k0.max(r_lo);
-                let k_end = k1.min(r_hi);
-                let mut k = if (k_start % 2 == 1) == odd {
-                    k_start
-                } else {
-                    k_start + 1
-                };
-                while k <= k_end {
-                    let kf = k as f64;
-                    let tk = 2.0 * kf;
-                    let eps = 1e-9 * tk;
-                    if x * (tk + 1.0) < lim_lo * tk - eps || x * (tk - 1.0) > lim_hi * tk + eps {
-                        break; // L_k only grows and U_k only shrinks with k
-                    }
-                    let a = FRAC_PI_2 - x / tk;
-                    if a > 0.0
-                        && a < FRAC_PI_2
-                        && symmetric_count_possible(ti, a, kf)
-                        // k = 1: the facet is the half vector (eq. 25), its
-                        // angle is known; else sin a = cos delta and
-                        // cos a = sin delta, delta = x / 2k in (0, pi/2).
-                        && let (sa, ca) = if k == 1 {
-                            (ctx.sin_h, ctx.cos_h)
-                        } else {
-                            let (sd, cd) = sin_cos_quadrant(x / tk);
-                            (cd, sd)
-                        }
-                        && let Some(hit) =
-                            Hit::with_trig(ti, ctx.sti, ctx.cti, a, sa, ca, a, sa, ca)
-                    {
-                        let g = hit.g_sines(k, symmetric_tail_sines(su, ctx.cto, ca, sa));
-                        let (df, dp) = self.contribution(ctx, &hit, (sa, ca), k, g, kf, 1.0);
-                        f += df;
-                        p += dp;
-                    }
-                    k += 2;
-                }
+                self.symmetric_solutions(ctx, x, odd, (k0, k1), (&mut f, &mut p));
             }
         }
         (f, p)
+    }
+
+    /// Symmetric grooves, counts `k >= 2` only, after the pre-test: the
+    /// `X` of each parity that passed it ([`symmetric_tail_x`]; `None`
+    /// for a parity without solutions), `k0 >= 2`.
+    fn sum_symmetric_tail(
+        &self,
+        ctx: &Ctx,
+        xs: [Option<f64>; 2],
+        k0: u32,
+        k1: u32,
+    ) -> (DVec3, f64) {
+        let mut f = DVec3::ZERO;
+        let mut p = 0.0;
+        for (x, odd) in xs.into_iter().zip([true, false]) {
+            if let Some(x) = x {
+                self.symmetric_solutions(ctx, x, odd, (k0, k1), (&mut f, &mut p));
+            }
+        }
+        (f, p)
+    }
+
+    /// The solutions `a = pi/2 - x / 2k` of eq. (5) for one `X_j = x > 0`
+    /// and the counts `k` in `k0..=k1` of its parity, added to `acc`.
+    #[inline]
+    fn symmetric_solutions(
+        &self,
+        ctx: &Ctx,
+        x: f64,
+        odd: bool,
+        (k0, k1): (u32, u32),
+        acc: (&mut DVec3, &mut f64),
+    ) {
+        let ti = ctx.ti;
+        let lim_lo = FRAC_PI_2 - ti;
+        let lim_hi = PI - ti;
+        // sin u of `symmetric_tail_sines`.
+        let su = if odd { ctx.sto } else { -ctx.sto };
+        // Worth its division only when N is large (GGX, Phong).
+        let (r_lo, r_hi) = if k1 - k0 >= 8 {
+            symmetric_k_range(ti, x, k1)
+        } else {
+            (k0, k1)
+        };
+        let k_start = k0.max(r_lo);
+        let k_end = k1.min(r_hi);
+        let mut k = if (k_start % 2 == 1) == odd {
+            k_start
+        } else {
+            k_start + 1
+        };
+        while k <= k_end {
+            let kf = k as f64;
+            let tk = 2.0 * kf;
+            let eps = 1e-9 * tk;
+            if x * (tk + 1.0) < lim_lo * tk - eps || x * (tk - 1.0) > lim_hi * tk + eps {
+                break; // L_k only grows and U_k only shrinks with k
+            }
+            let a = FRAC_PI_2 - x / tk;
+            if a > 0.0
+                && a < FRAC_PI_2
+                && symmetric_count_possible(ti, a, kf)
+                // k = 1: the facet is the half vector (eq. 25), its
+                // angle is known; else sin a = cos delta and
+                // cos a = sin delta, delta = x / 2k in (0, pi/2).
+                && let (sa, ca) = if k == 1 {
+                    (ctx.sin_h, ctx.cos_h)
+                } else {
+                    let (sd, cd) = sin_cos_quadrant(x / tk);
+                    (cd, sd)
+                }
+                && let Some(hit) = Hit::with_trig(ti, ctx.sti, ctx.cti, a, sa, ca, a, sa, ca)
+            {
+                let g = hit.g_sines(k, symmetric_tail_sines(su, ctx.cto, ca, sa));
+                let (df, dp) = self.contribution(ctx, &hit, (sa, ca), k, g, kf, 1.0);
+                *acc.0 += df;
+                *acc.1 += dp;
+            }
+            k += 2;
+        }
     }
 
     /// Nonsymmetric grooves: eq. (23), the `theta_r` integral by quadrature.
@@ -775,6 +945,49 @@ fn symmetric_count_possible(ti: f64, a: f64, kf: f64) -> bool {
     // k - 1 <= (psi_a - lo_ang) / tv and k >= (psi_a - hi_ang) / tv.
     let eps = 1e-9 * kf;
     (kf - 1.0) * tv <= psi_a - lo_ang + eps && kf * tv >= psi_a - hi_ang - eps
+}
+
+/// Pre-test of the symmetric counts `k >= 2` (`2 <= k0 <= k`, `k <= k1`)
+/// of one parity in one groove frame: the only `X_j` of eq. (5) they can
+/// use, or `None` when no count can have a solution there.
+///
+/// With `a = pi/2 - delta`, `2 k delta = X`, the conditions of
+/// [`symmetric_count_possible`] read (`psi_a = pi - delta - ti`,
+/// `theta_v = 2 delta`, `asin f_lo = max(0, ti - delta)`,
+/// `asin f_a = min(psi_a, pi - psi_a)`): `delta > -ti`,
+/// `X - delta <= pi - ti`, `X - 2 delta <= pi - 2 ti` (eq. 4, `k - 1`
+/// reflections fit) and `X + 2 delta >= pi - 2 ti` (the `k`-th one
+/// happens), and `0 < delta < pi/2`. At fixed `X`, `delta` falls with `k`,
+/// so each of the first four holds on a prefix of the counts: some count
+/// of the parity has a solution only if they hold at its smallest count
+/// `k_min` (2 or 3 from `k0`). Over `k >= 2`, `X` lies in
+/// `[0, 4 (pi - ti) / 3] ⊂ (0, 2 pi)`, which holds one `X_j = pi j - base`
+/// of each parity: `j = 1` for odd counts (`X = pi - ti - to`) and `j = 0`
+/// for even ones (`X = pi - ti + to`). Each bound is relaxed by
+/// `1e-9 k1 + 1e-12`, more than the `eps` of the exact test, so the test
+/// lets through every pair that test accepts (checked by brute force in
+/// `tests/vgroove.rs`); a few flops, no trigonometry.
+#[inline]
+fn symmetric_tail_x(ti: f64, to: f64, odd: bool, k0: u32, k1: u32) -> Option<f64> {
+    let k_min = if (k0 % 2 == 1) == odd { k0 } else { k0 + 1 };
+    if k_min > k1 {
+        return None;
+    }
+    // The same expressions as `sum_symmetric` (`PI * j - base`).
+    let x = if odd { PI - (ti + to) } else { -(ti - to - PI) };
+    let d0 = x / (2 * k_min) as f64;
+    let slack = 1e-9 * k1 as f64 + 1e-12;
+    let b = PI - 2.0 * ti;
+    if x > 0.0
+        && d0 + ti > -slack
+        && x - d0 <= PI - ti + slack
+        && x - 2.0 * d0 <= b + slack
+        && x + 2.0 * d0 >= b - slack
+    {
+        Some(x)
+    } else {
+        None
+    }
 }
 
 /// `[sin psi_{k-2}, sin psi_{k-1}, sin psi_k]` for the symmetric solution
