@@ -342,9 +342,20 @@ impl VGroove {
         } else {
             DVec3::X
         };
-        let ti0 = atan2_pos(i.dot(e), i.z);
-        let to0 = atan2_pos(o.dot(e), o.z);
+        let (ie, oe) = (i.dot(e), o.dot(e));
         let (k0, k1) = (2, self.n_max);
+        if k1 < 2 {
+            return false;
+        }
+        if k1 == 2 {
+            let rho = (ie * ie + i.z * i.z).sqrt();
+            let rho_o = (oe * oe + o.z * o.z).sqrt();
+            if !two_reflections_possible(ie, i.z, rho, oe, o.z, rho_o) {
+                return false;
+            }
+        }
+        let ti0 = atan2_pos(ie, i.z);
+        let to0 = atan2_pos(oe, o.z);
         [1.0f64, -1.0].iter().any(|&sg| {
             let (ti, to) = (sg * ti0, sg * to0);
             [true, false]
@@ -449,6 +460,11 @@ impl VGroove {
         if fast && k1 < 2 {
             return self.finish(f, pdf);
         }
+        let rho_o = (oe0 * oe0 + o.z * o.z).sqrt();
+        if fast && k1 == 2 && !two_reflections_possible(ie0, i.z, rho, oe0, o.z, rho_o) {
+            // Only k = 2 is summed and it has no solution: no atan2 needed.
+            return self.finish(f, pdf);
+        }
         let (ti0, to0) = (atan2_pos(ie0, i.z), atan2_pos(oe0, o.z));
         // Symmetric, k >= 2: the one `X` per frame and parity that can
         // have solutions, if the pre-test lets it through.
@@ -466,7 +482,6 @@ impl VGroove {
                 return self.finish(f, pdf);
             }
         }
-        let rho_o = (oe0 * oe0 + o.z * o.z).sqrt();
         let (inv_rho, inv_rho_o) = (1.0 / rho, 1.0 / rho_o);
         let (sti0, cti) = (ie0 * inv_rho, i.z * inv_rho);
         let (sto0, cto) = (oe0 * inv_rho_o, o.z * inv_rho_o);
@@ -988,6 +1003,28 @@ fn symmetric_tail_x(ti: f64, to: f64, odd: bool, k0: u32, k1: u32) -> Option<f64
     } else {
         None
     }
+}
+
+/// [`symmetric_tail_x`] for `k = 2` alone without the in-plane angles: in
+/// either frame, with `ti`, `to` in `(-pi/2, pi/2)`, its conditions at
+/// `k_min = 2` (`X = pi - ti + to`) read `-pi < 3 ti + to <= pi` and
+/// `-pi <= ti + 3 to <= pi`, i.e. `cos(3 alpha + beta) >= 0` and
+/// `cos(alpha + 3 beta) >= 0` with the half angles `alpha = ti / 2`,
+/// `beta = to / 2` (the arguments stay in `(-pi, pi)`). Divided by the
+/// positive `cos^3 alpha cos beta`, the first is
+/// `1 - 3 u^2 - u (3 - u^2) v >= 0` in `u = tan alpha`, `v = tan beta`,
+/// and `tan(ti / 2) = sin ti / (1 + cos ti) = ie / (rho + i.z)`. False only
+/// when one of them fails by more than 1e-6 (the quotient by
+/// `cos^3 alpha cos beta >= 1/4` keeps that a superset of the relaxed
+/// bounds of [`symmetric_tail_x`]; checked by brute force in
+/// `tests/vgroove.rs`).
+#[inline]
+fn two_reflections_possible(ie: f64, iz: f64, rho: f64, oe: f64, oz: f64, rho_o: f64) -> bool {
+    let u = ie / (rho + iz);
+    let v = oe / (rho_o + oz);
+    let c1 = 1.0 - 3.0 * u * u - u * (3.0 - u * u) * v;
+    let c2 = 1.0 - 3.0 * v * v - v * (3.0 - v * v) * u;
+    c1 >= -1e-6 && c2 >= -1e-6
 }
 
 /// `[sin psi_{k-2}, sin psi_{k-1}, sin psi_k]` for the symmetric solution
