@@ -460,8 +460,8 @@ impl VGroove {
         if fast && k1 < 2 {
             return self.finish(f, pdf);
         }
-        let rho_o = (oe0 * oe0 + o.z * o.z).sqrt();
-        if fast && k1 == 2 && !two_reflections_possible(ie0, i.z, rho, oe0, o.z, rho_o) {
+        let rho_o = || (oe0 * oe0 + o.z * o.z).sqrt();
+        if fast && k1 == 2 && !two_reflections_possible(ie0, i.z, rho, oe0, o.z, rho_o()) {
             // Only k = 2 is summed and it has no solution: no atan2 needed.
             return self.finish(f, pdf);
         }
@@ -482,7 +482,7 @@ impl VGroove {
                 return self.finish(f, pdf);
             }
         }
-        let (inv_rho, inv_rho_o) = (1.0 / rho, 1.0 / rho_o);
+        let (inv_rho, inv_rho_o) = (1.0 / rho, 1.0 / rho_o());
         let (sti0, cti) = (ie0 * inv_rho, i.z * inv_rho);
         let (sto0, cto) = (oe0 * inv_rho_o, o.z * inv_rho_o);
         for (fr, sg) in [1.0f64, -1.0].iter().copied().enumerate() {
