@@ -1014,7 +1014,7 @@ fn vgroove_fast_path_matches_full_scan() {
                     }
                     _ => {
                         let wi = random_dir(&mut rng, 1e-4);
-                        let d = 10f32.powi(-(1 + (n / 4 % 6) as i32));
+                        let d = 10f32.powi(-(1 + n / 4 % 6));
                         let j = Vec3::new(
                             rng.next_f32() - 0.5,
                             rng.next_f32() - 0.5,
@@ -1029,7 +1029,7 @@ fn vgroove_fast_path_matches_full_scan() {
                         (wi, wo.normalize_or_zero())
                     }
                 };
-                if !(wo.z > 0.0) || !wo.is_finite() {
+                if wo.z <= 0.0 || !wo.is_finite() {
                     continue;
                 }
                 let ef = fast.eval(wi, wo, &mut rng);

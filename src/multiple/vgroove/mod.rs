@@ -33,7 +33,8 @@
 //! a per-material table ([`ftable`]: cubic interpolation in `sqrt(cos)`,
 //! checked against the closed form when the material is built, within
 //! 1e-6 relative of `crate::fresnel::conductor_rgb`, else that closed form
-//! is used). `k = 1` is Cook-Torrance with the V-groove `G` (eq. 25).
+//! is used). `k = 1` is Cook-Torrance with the V-groove `G` (eq. 25), and
+//! the symmetric eval computes it that way (see Cost).
 //!
 //! With F = 1 the model conserves energy exactly when no count is dropped:
 //! the lit parts of the two walls of a groove fill its opening, so
@@ -105,77 +106,113 @@
 //!
 //! # Cost
 //!
-//! The symmetric eval visits the two groove frames (`e`, `-e`) and the two
-//! parities of `k`; one or two `X_j` per parity serve every count, and the
-//! counts that can have a solution for an `X_j` come from a closed form
-//! (`symmetric_k_range`, used when `N >= 8`) or a scan that stops at the
-//! first count out of the window. Each solution then pays `D`, `G_k`
-//! without trigonometry ([`kaleido::Hit::g_sines`] with the wall sines in
-//! closed form, `symmetric_tail_sines`), a Taylor `sin`/`cos` of its facet
-//! angle (none for `k = 1`, whose facet is the half vector) and `k` lookups
-//! in the per-material Fresnel table ([`ftable`]). No libm call is left on
-//! the symmetric eval path but the `exp` (Beckmann) or `powf` (Phong) of
-//! `D`: the two in-plane angles use a table-reduced `atan2` (`atan2_pos`). Every replacement is tested
-//! against what it replaces: `atan2` and `sin_cos` within 5e-16 of libm,
-//! the wall sines within 1e-12 of `sin`, `g_sines` within 1e-12 of
+//! The symmetric eval (second round) computes the `k = 1` term in 3D as
+//! Cook-Torrance with the V-groove `G` (eq. 25; `symmetric_k1`: no groove
+//! frame, no `atan2`), then runs an exact pre-test of the counts `k >= 2`
+//! (`symmetric_tail_x`) for each of the two groove frames (`e`, `-e`) and
+//! the two parities of `k`: over `k >= 2` only one `X_j` per frame and
+//! parity can have solutions (`X = pi - ti - to` odd, `pi - ti + to`
+//! even), and the conditions of eq. (4) at fixed `X` hold on a prefix of
+//! the counts, so testing them at the smallest count (2 or 3) decides
+//! whether any count of that parity has a solution (a few flops on the two
+//! in-plane angles). Only the frames and parities that pass are scanned as
+//! before: the counts that can have a solution for that `X` from a closed
+//! form (`symmetric_k_range`, when `N >= 10`) or a scan that stops at the
+//! first count out of the window, and per solution `D`, `G_k` without
+//! trigonometry ([`kaleido::Hit::g_sines`] with the wall sines in closed
+//! form, `symmetric_tail_sines`), a Taylor `sin`/`cos` of its facet angle
+//! and `k` lookups in the per-material Fresnel table ([`ftable`]). When
+//! `N = 2` (Beckmann and Phong at low roughness) the pre-test is done
+//! before the in-plane angles are computed, from the half-angle tangents
+//! (`two_reflections_possible`: `k = 2` has a solution iff
+//! `|3 ti + to| <= pi` and `|ti + 3 to| <= pi`), so a pair without one
+//! pays no `atan2` at all. The pre-test lets through every pair with a
+//! `k >= 2` solution and, for GGX and Phong, only those (Beckmann: it
+//! also lets through pairs whose `k >= 2` facets have `D` underflowing to
+//! 0, e.g. 44% skipped of 99% without a `k >= 2` term at alpha 0.05).
+//! Fraction of pairs skipping the `k >= 2` scan, cosine-distributed `wi`
+//! and `wo` (`tests/vgroove.rs`, 2000 pairs): 0.44-0.47 for `N = 2`
+//! (Beckmann, Phong alpha <= 0.2), 0.27-0.29 otherwise (GGX at every
+//! roughness, Beckmann and Phong from alpha 0.5); for the timing pairs
+//! below (uniform over the hemisphere): 0.69 for `N = 2`, 0.50 otherwise.
+//!
+//! Every replacement is tested against what it replaces:
+//! [`VGroove::with_full_scan`] keeps the first round's path (every count,
+//! `k = 1` included, through the groove frames, no pre-test) and
+//! `vgroove_fast_path_matches_full_scan` checks eval and pdf within 1e-6
+//! relative (measured <= 1.2e-7) on 8000 pairs per material (uniform,
+//! cosine, sampled, near mirror / normal / grazing) for Beckmann, GGX and
+//! Phong at alpha 0.05 to 2 and anisotropic, gold and F = 1, and, by brute
+//! force, that every skipped pair has no `k >= 2` contribution in the full
+//! scan. On the 1024 timing pairs below, eval, pdf and sample outputs are
+//! bit-identical to the first round for all nine materials. From the first
+//! round: `atan2_pos` and `sin_cos_quadrant` within 5e-16 of libm, the
+//! wall sines within 1e-12 of `sin`, `g_sines` within 1e-12 of
 //! [`kaleido::Hit::g`], the count range against a brute-force scan of all
 //! counts, the Fresnel table within 2.5e-6 of `conductor_rgb` per
-//! reflection and within 1e-5 end to end (`tests/vgroove.rs`). Against the
-//! previous implementation (exact `conductor_rgb`, libm trigonometry, a
-//! scan of every `k <= N`) eval and sample weights differ by at most 1.3e-6
-//! relative on 1024 random pairs for GGX, Beckmann and Phong at alpha
-//! 0.05 to 2, both models; pdf values and sampled directions are identical.
+//! reflection and within 1e-5 end to end; that round itself changed eval
+//! by at most 1.3e-6 relative from the original implementation (exact
+//! `conductor_rgb`, libm trigonometry, a scan of every `k <= N`).
 //!
-//! Measured on gold with the same material as SINGLE, random direction
+//! Measured on gold with the same material as SINGLE, 1024 random direction
 //! pairs (uniform over the hemisphere, `z >= 0.02`). Instructions per call
-//! from callgrind (`scripts/vgroove_ir.sh`; load-independent), before ->
-//! after the optimisation, and the ratio to SINGLE's same call (SINGLE: GGX
-//! eval 589, pdf 313, sample 731-819; Beckmann eval 1055-1184, pdf
-//! 518-581, sample 3538-3801):
+//! from callgrind (`scripts/vgroove_ir.sh`; load-independent): original ->
+//! first round -> second round (ratio to SINGLE's same call; SINGLE: GGX
+//! eval 589, pdf 313, sample 820 / 786 / 732 at alpha 0.2 / 0.5 / 1;
+//! Beckmann eval 1184 / 1117 / 1055, pdf 581 / 549 / 518, sample 3802 /
+//! 3746 / 3543; SINGLE has no Phong):
 //!
 //! | NDF, alpha (N) | eval | pdf | sample |
 //! |---|---|---|---|
-//! | GGX 0.2 (11) | 6299 (10.7x) -> 3421 (5.8x) | 4599 (14.7x) -> 2686 (8.6x) | 11960 (14.6x) -> 6816 (8.3x) |
-//! | GGX 0.5 (25) | 9497 (16.1x) -> 4325 (7.3x) | 6148 (19.6x) -> 2933 (9.4x) | 15851 (20.2x) -> 7980 (10.2x) |
-//! | GGX 1 (50) | 14224 (24.1x) -> 5538 (9.4x) | 8297 (26.5x) -> 3127 (10.0x) | 31867 (43.6x) -> 13935 (19.1x) |
-//! | Beckmann 0.2 (2) | 3020 (2.6x) -> 2228 (1.9x) | 2841 (4.9x) -> 2264 (3.9x) | 7933 (2.1x) -> 6471 (1.7x) |
-//! | Beckmann 0.5 (3) | 3935 (3.5x) -> 2677 (2.4x) | 3465 (6.3x) -> 2570 (4.7x) | 8533 (2.3x) -> 6834 (1.8x) |
-//! | Beckmann 1 (5) | 4834 (4.6x) -> 3146 (3.0x) | 4024 (7.8x) -> 2882 (5.6x) | 9882 (2.8x) -> 7500 (2.1x) |
+//! | GGX 0.2 (11) | 6299 -> 3420 -> 2763 (4.7x) | 4599 -> 2684 -> 2024 (6.5x) | 11960 -> 6820 -> 6466 (7.9x) |
+//! | GGX 0.5 (25) | 9497 -> 4328 -> 3685 (6.3x) | 6148 -> 2931 -> 2285 (7.3x) | 15851 -> 7969 -> 7545 (9.6x) |
+//! | GGX 1 (50) | 14224 -> 5529 -> 4895 (8.3x) | 8297 -> 3122 -> 2485 (7.9x) | 31867 -> 13896 -> 13528 (18.5x) |
+//! | Beckmann 0.2 (2) | 3020 -> 2228 -> 1380 (1.17x) | 2841 -> 2263 -> 1415 (2.4x) | 7933 -> 6468 -> 6075 (1.6x) |
+//! | Beckmann 0.5 (3) | 3935 -> 2676 -> 2001 (1.8x) | 3465 -> 2569 -> 1894 (3.5x) | 8533 -> 6835 -> 6329 (1.7x) |
+//! | Beckmann 1 (5) | 4834 -> 3145 -> 2378 (2.3x) | 4024 -> 2880 -> 2113 (4.1x) | 9882 -> 7514 -> 6864 (1.9x) |
+//! | Phong 0.2 (2) | 2350 -> 1497 | 2104 -> 1247 | 4616 -> 4284 |
+//! | Phong 0.5 (4) | 3004 -> 2281 | 2612 -> 1885 | 5085 -> 4697 |
+//! | Phong 1 (50) | 5825 -> 5182 | 3369 -> 2721 | 11444 -> 11223 |
 //!
-//! Nanoseconds (`examples/vgroove_timing.rs`, minimum of 5 trials, old and
-//! new binaries run alternately on 2 shared cores at load 3-6, so +-30%):
-//! eval GGX 0.2 / 0.5 / 1: 690-790 / 1140-1220 / 1640-1820 ns -> 410 / 490
-//! / 620-630 ns (SINGLE 50-55 ns: 7.5x / 9x / 12x); sample GGX 1: 4400 ->
-//! 1600-1700 ns (SINGLE 105 ns); eval Beckmann 0.2 / 0.5 / 1: 290-380 /
-//! 350-540 / 400-600 ns -> 260-340 / 290-375 / 350-490 ns (SINGLE 100-120
-//! ns: 2-3x / 2.6-3.5x / 3.3-4.6x). The Beckmann time gains less than its
-//! instruction count: part of the saving replaced libm `sin`/`atan2` by
-//! polynomials of similar latency.
+//! (Phong: first -> second round only.) The `k = 1` term alone
+//! (`max_bounces = 1`, `MAXB=1 scripts/vgroove_ir.sh`) went from 1701 /
+//! 1775 / 1850 instructions (GGX / Beckmann / Phong) to 641 / 710 /
+//! 706-780: 1.09x SINGLE's whole eval for GGX, 0.6-0.67x for Beckmann.
 //!
-//! What is left, for GGX alpha 1 and random pairs: about 4 solutions and 35
-//! reflections per eval; the table lookups are about 40% of the
-//! instructions (~50 each), the scan over frames, parities and counts
-//! roughly a quarter. The `k = 1` term alone (`max_bounces = 1`) costs 1701
-//! instructions for GGX (2.9x SINGLE's whole eval) and 1775 for Beckmann
-//! (1.5x): the caller-side wrapper (119, as for SINGLE), the `f64` set-up
-//! of the groove frame with its two `atan2` (about 480), the two frames x
-//! two parities scan (about 800-900) and the term itself (about 200-300:
-//! `D`, the V-groove `G`, one Fresnel lookup). Sampled directions sit near
-//! the mirror direction, where many long paths exist: a GGX sample costs
-//! 2-2.5x an eval at random pairs.
-//! So the 1.25x goal per eval is not reached for any NDF or roughness:
-//! even for Beckmann at `N = 2`, where SINGLE's eval (two Smith `Lambda`
-//! with `erf`) is dearest, the ratio is 1.9x by instructions and 2-3x in
-//! time. The paper's 15-20% is the overhead on a whole frame, which
-//! `scripts/vgroove_frame.sh` measures with the Embree tracer
-//! (`c_examples/scenes/conductors.scene`, nine conductor spheres, 32 spp,
-//! one thread, CPU time, minimum of 3 runs, every material forced to the
-//! model; two sessions): VGROOVE / SINGLE = 1.53 with Beckmann (1.62-1.80
-//! before the optimisation; also 1.53 with every sphere at alpha 0.2,
-//! `N = 2`, 1.64 before) and 3.1-3.2 with GGX (4.6-4.9 before). That scene
-//! is nine spheres under a sky: BSDF calls dominate its frame time, so the
-//! frame ratio stays close to the per-call ratio; a scene with more
-//! geometry and texturing per path vertex (the paper's) dilutes it.
+//! Nanoseconds (`examples/vgroove_timing.rs`, minimum of 5 trials, first-
+//! and second-round binaries run alternately on 2 shared cores at load
+//! ~4, so +-20%): eval GGX 0.2 / 0.5 / 1: 420 / 514 / 623 -> 318 / 425 /
+//! 556 ns (SINGLE 54-56 ns: 5.8x / 7.7x / 9.9x); Beckmann 0.2 / 0.5 / 1:
+//! 259 / 315 / 362 -> 159 / 233 / 271 ns (SINGLE 129 / 118 / 109 ns:
+//! 1.24x / 2.0x / 2.5x); Phong 0.2 / 0.5 / 1: 275 / 342 / 653 -> 160 /
+//! 259 / 569 ns; pdf GGX 0.2 / 1: 342 / 357 -> 240 / 295 ns; sample GGX 1:
+//! about 1600 ns either way (SINGLE 110 ns).
+//!
+//! So the 1.25x goal per eval is reached for Beckmann at alpha 0.2
+//! (`N = 2`): 1.17x by instructions, 1.24x in time (one quiet session),
+//! and by no other measured material: Beckmann 0.5 / 1 are at 1.8x / 2.3x,
+//! GGX at 4.7x-8.3x. What is left is the multiple scattering itself: for
+//! GGX, 50-73% of the pairs (uniform / cosine) have `k >= 2` solutions
+//! (the fraction barely depends on the roughness: GGX's `D` is nonzero at
+//! every facet angle, so it is the groove geometry that decides), about 3
+//! solutions per eval at alpha 1 (6 per pair that has any), each paying `k` Fresnel lookups
+//! (about 50 instructions each, ~35 per eval at alpha 1: 40% of the
+//! eval), `D`, `G_k`, the Taylor `sin`/`cos` (~45) and the groove set-up
+//! (~50); the pre-test and the two `atan2` cost about 150 per pair. Even
+//! the `k = 1` term alone is 1.09x SINGLE's GGX eval (Cook-Torrance with
+//! an `f64` half vector and a table Fresnel against SINGLE's `f32`
+//! Smith-GGX). Sampled directions sit near the mirror direction, where
+//! every pair has long paths, so sample gains little (3-9%). The paper's
+//! 15-20% is the overhead on a whole frame, which `scripts/vgroove_frame.sh`
+//! measures with the Embree tracer (`c_examples/scenes/conductors.scene`,
+//! nine conductor spheres, 32 spp, one thread, CPU time, minimum of 3
+//! runs, every material forced to the model; first round, two sessions):
+//! VGROOVE / SINGLE = 1.53 with Beckmann (1.62-1.80 originally; also 1.53
+//! with every sphere at alpha 0.2, `N = 2`, 1.64 originally) and 3.1-3.2
+//! with GGX (4.6-4.9 originally). That scene is nine spheres under a sky:
+//! BSDF calls dominate its frame time, so the frame ratio stays close to
+//! the per-call ratio; a scene with more geometry and texturing per path
+//! vertex (the paper's) dilutes it.
 //!
 //! The nonsymmetric eval multiplies the solutions by its 16 quadrature
 //! nodes per `(k, X)`: per node it now pays Taylor `sin`/`cos` of both wall
@@ -188,8 +225,10 @@
 //! The material is larger for the table (33 nodes of 16 bytes,
 //! `ftable::TABLE_M = 32`): `size_of::<Material>()` is 736 bytes, the
 //! largest model (ENERGY_COMPENSATED's tint table makes it 544; 192 before
-//! both). The instruction counts above were taken with `TABLE_M = 104`
-//! (1904-byte materials); the lookup cost does not depend on `TABLE_M`.
+//! both). The original instruction counts above were taken with
+//! `TABLE_M = 104` (1904-byte materials); re-measured at `TABLE_M = 32`,
+//! the first round's agree within 10 instructions (the lookup cost does
+//! not depend on `TABLE_M`).
 
 // `!(x > 0.0)` is used on purpose: it is also true for NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
