@@ -189,7 +189,7 @@
 //! about 1600 ns either way (SINGLE 110 ns).
 //!
 //! So the 1.25x goal per eval is reached for Beckmann at alpha 0.2
-//! (`N = 2`): 1.17x by instructions, 1.24x in time (one quiet session),
+//! (`N = 2`): 1.17x by instructions, 1.22x-1.24x in time (three runs),
 //! and by no other measured material: Beckmann 0.5 / 1 are at 1.8x / 2.3x,
 //! GGX at 4.7x-8.3x. What is left is the multiple scattering itself: for
 //! GGX, 50-73% of the pairs (uniform / cosine) have `k >= 2` solutions
