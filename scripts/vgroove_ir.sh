@@ -4,6 +4,7 @@
 # examples/vgroove_timing.rs: (Ir(CALLS) - Ir(0)) / CALLS.
 # Usage: scripts/vgroove_ir.sh [CALLS] [MODELS] [NDFS] [ALPHAS] [OPS]
 #   e.g. scripts/vgroove_ir.sh 4000 "single vgroove" "ggx beckmann" "0.2 0.5 1" "eval pdf sample"
+# MAXB=n: max_bounces n; BIN=path: that binary instead of building one.
 # Needs valgrind. Not part of the test suite.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -14,8 +15,13 @@ models=${2:-"single vgroove"}
 ndfs=${3:-"ggx beckmann"}
 alphas=${4:-"0.2 0.5 1"}
 ops=${5:-"eval pdf sample"}
-cargo build --release --example vgroove_timing >&2
-bin=target/release/examples/vgroove_timing
+# BIN=path: a previously built vgroove_timing (e.g. of another commit).
+if [ -n "${BIN:-}" ]; then
+    bin=$BIN
+else
+    cargo build --release --example vgroove_timing >&2
+    bin=target/release/examples/vgroove_timing
+fi
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 total() {

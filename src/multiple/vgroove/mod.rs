@@ -33,7 +33,8 @@
 //! a per-material table ([`ftable`]: cubic interpolation in `sqrt(cos)`,
 //! checked against the closed form when the material is built, within
 //! 1e-6 relative of `crate::fresnel::conductor_rgb`, else that closed form
-//! is used). `k = 1` is Cook-Torrance with the V-groove `G` (eq. 25).
+//! is used). `k = 1` is Cook-Torrance with the V-groove `G` (eq. 25), and
+//! the symmetric eval computes it that way (see Cost).
 //!
 //! With F = 1 the model conserves energy exactly when no count is dropped:
 //! the lit parts of the two walls of a groove fill its opening, so
@@ -105,77 +106,113 @@
 //!
 //! # Cost
 //!
-//! The symmetric eval visits the two groove frames (`e`, `-e`) and the two
-//! parities of `k`; one or two `X_j` per parity serve every count, and the
-//! counts that can have a solution for an `X_j` come from a closed form
-//! (`symmetric_k_range`, used when `N >= 8`) or a scan that stops at the
-//! first count out of the window. Each solution then pays `D`, `G_k`
-//! without trigonometry ([`kaleido::Hit::g_sines`] with the wall sines in
-//! closed form, `symmetric_tail_sines`), a Taylor `sin`/`cos` of its facet
-//! angle (none for `k = 1`, whose facet is the half vector) and `k` lookups
-//! in the per-material Fresnel table ([`ftable`]). No libm call is left on
-//! the symmetric eval path but the `exp` (Beckmann) or `powf` (Phong) of
-//! `D`: the two in-plane angles use a table-reduced `atan2` (`atan2_pos`). Every replacement is tested
-//! against what it replaces: `atan2` and `sin_cos` within 5e-16 of libm,
-//! the wall sines within 1e-12 of `sin`, `g_sines` within 1e-12 of
+//! The symmetric eval (second round) computes the `k = 1` term in 3D as
+//! Cook-Torrance with the V-groove `G` (eq. 25; `symmetric_k1`: no groove
+//! frame, no `atan2`), then runs an exact pre-test of the counts `k >= 2`
+//! (`symmetric_tail_x`) for each of the two groove frames (`e`, `-e`) and
+//! the two parities of `k`: over `k >= 2` only one `X_j` per frame and
+//! parity can have solutions (`X = pi - ti - to` odd, `pi - ti + to`
+//! even), and the conditions of eq. (4) at fixed `X` hold on a prefix of
+//! the counts, so testing them at the smallest count (2 or 3) decides
+//! whether any count of that parity has a solution (a few flops on the two
+//! in-plane angles). Only the frames and parities that pass are scanned as
+//! before: the counts that can have a solution for that `X` from a closed
+//! form (`symmetric_k_range`, when `N >= 10`) or a scan that stops at the
+//! first count out of the window, and per solution `D`, `G_k` without
+//! trigonometry ([`kaleido::Hit::g_sines`] with the wall sines in closed
+//! form, `symmetric_tail_sines`), a Taylor `sin`/`cos` of its facet angle
+//! and `k` lookups in the per-material Fresnel table ([`ftable`]). When
+//! `N = 2` (Beckmann and Phong at low roughness) the pre-test is done
+//! before the in-plane angles are computed, from the half-angle tangents
+//! (`two_reflections_possible`: `k = 2` has a solution iff
+//! `|3 ti + to| <= pi` and `|ti + 3 to| <= pi`), so a pair without one
+//! pays no `atan2` at all. The pre-test lets through every pair with a
+//! `k >= 2` solution and, for GGX and Phong, only those (Beckmann: it
+//! also lets through pairs whose `k >= 2` facets have `D` underflowing to
+//! 0, e.g. 44% skipped of 99% without a `k >= 2` term at alpha 0.05).
+//! Fraction of pairs skipping the `k >= 2` scan, cosine-distributed `wi`
+//! and `wo` (`tests/vgroove.rs`, 2000 pairs): 0.44-0.47 for `N = 2`
+//! (Beckmann, Phong alpha <= 0.2), 0.27-0.29 otherwise (GGX at every
+//! roughness, Beckmann and Phong from alpha 0.5); for the timing pairs
+//! below (uniform over the hemisphere): 0.69 for `N = 2`, 0.50 otherwise.
+//!
+//! Every replacement is tested against what it replaces:
+//! [`VGroove::with_full_scan`] keeps the first round's path (every count,
+//! `k = 1` included, through the groove frames, no pre-test) and
+//! `vgroove_fast_path_matches_full_scan` checks eval and pdf within 1e-6
+//! relative (measured <= 1.2e-7) on 8000 pairs per material (uniform,
+//! cosine, sampled, near mirror / normal / grazing) for Beckmann, GGX and
+//! Phong at alpha 0.05 to 2 and anisotropic, gold and F = 1, and, by brute
+//! force, that every skipped pair has no `k >= 2` contribution in the full
+//! scan. On the 1024 timing pairs below, eval, pdf and sample outputs are
+//! bit-identical to the first round for all nine materials. From the first
+//! round: `atan2_pos` and `sin_cos_quadrant` within 5e-16 of libm, the
+//! wall sines within 1e-12 of `sin`, `g_sines` within 1e-12 of
 //! [`kaleido::Hit::g`], the count range against a brute-force scan of all
 //! counts, the Fresnel table within 2.5e-6 of `conductor_rgb` per
-//! reflection and within 1e-5 end to end (`tests/vgroove.rs`). Against the
-//! previous implementation (exact `conductor_rgb`, libm trigonometry, a
-//! scan of every `k <= N`) eval and sample weights differ by at most 1.3e-6
-//! relative on 1024 random pairs for GGX, Beckmann and Phong at alpha
-//! 0.05 to 2, both models; pdf values and sampled directions are identical.
+//! reflection and within 1e-5 end to end; that round itself changed eval
+//! by at most 1.3e-6 relative from the original implementation (exact
+//! `conductor_rgb`, libm trigonometry, a scan of every `k <= N`).
 //!
-//! Measured on gold with the same material as SINGLE, random direction
+//! Measured on gold with the same material as SINGLE, 1024 random direction
 //! pairs (uniform over the hemisphere, `z >= 0.02`). Instructions per call
-//! from callgrind (`scripts/vgroove_ir.sh`; load-independent), before ->
-//! after the optimisation, and the ratio to SINGLE's same call (SINGLE: GGX
-//! eval 589, pdf 313, sample 731-819; Beckmann eval 1055-1184, pdf
-//! 518-581, sample 3538-3801):
+//! from callgrind (`scripts/vgroove_ir.sh`; load-independent): original ->
+//! first round -> second round (ratio to SINGLE's same call; SINGLE: GGX
+//! eval 589, pdf 313, sample 820 / 786 / 732 at alpha 0.2 / 0.5 / 1;
+//! Beckmann eval 1184 / 1117 / 1055, pdf 581 / 549 / 518, sample 3802 /
+//! 3746 / 3543; SINGLE has no Phong):
 //!
 //! | NDF, alpha (N) | eval | pdf | sample |
 //! |---|---|---|---|
-//! | GGX 0.2 (11) | 6299 (10.7x) -> 3421 (5.8x) | 4599 (14.7x) -> 2686 (8.6x) | 11960 (14.6x) -> 6816 (8.3x) |
-//! | GGX 0.5 (25) | 9497 (16.1x) -> 4325 (7.3x) | 6148 (19.6x) -> 2933 (9.4x) | 15851 (20.2x) -> 7980 (10.2x) |
-//! | GGX 1 (50) | 14224 (24.1x) -> 5538 (9.4x) | 8297 (26.5x) -> 3127 (10.0x) | 31867 (43.6x) -> 13935 (19.1x) |
-//! | Beckmann 0.2 (2) | 3020 (2.6x) -> 2228 (1.9x) | 2841 (4.9x) -> 2264 (3.9x) | 7933 (2.1x) -> 6471 (1.7x) |
-//! | Beckmann 0.5 (3) | 3935 (3.5x) -> 2677 (2.4x) | 3465 (6.3x) -> 2570 (4.7x) | 8533 (2.3x) -> 6834 (1.8x) |
-//! | Beckmann 1 (5) | 4834 (4.6x) -> 3146 (3.0x) | 4024 (7.8x) -> 2882 (5.6x) | 9882 (2.8x) -> 7500 (2.1x) |
+//! | GGX 0.2 (11) | 6299 -> 3420 -> 2763 (4.7x) | 4599 -> 2684 -> 2024 (6.5x) | 11960 -> 6820 -> 6466 (7.9x) |
+//! | GGX 0.5 (25) | 9497 -> 4328 -> 3685 (6.3x) | 6148 -> 2931 -> 2285 (7.3x) | 15851 -> 7969 -> 7545 (9.6x) |
+//! | GGX 1 (50) | 14224 -> 5529 -> 4895 (8.3x) | 8297 -> 3122 -> 2485 (7.9x) | 31867 -> 13896 -> 13528 (18.5x) |
+//! | Beckmann 0.2 (2) | 3020 -> 2228 -> 1380 (1.17x) | 2841 -> 2263 -> 1415 (2.4x) | 7933 -> 6468 -> 6075 (1.6x) |
+//! | Beckmann 0.5 (3) | 3935 -> 2676 -> 2001 (1.8x) | 3465 -> 2569 -> 1894 (3.5x) | 8533 -> 6835 -> 6329 (1.7x) |
+//! | Beckmann 1 (5) | 4834 -> 3145 -> 2378 (2.3x) | 4024 -> 2880 -> 2113 (4.1x) | 9882 -> 7514 -> 6864 (1.9x) |
+//! | Phong 0.2 (2) | 2350 -> 1497 | 2104 -> 1247 | 4616 -> 4284 |
+//! | Phong 0.5 (4) | 3004 -> 2281 | 2612 -> 1885 | 5085 -> 4697 |
+//! | Phong 1 (50) | 5825 -> 5182 | 3369 -> 2721 | 11444 -> 11223 |
 //!
-//! Nanoseconds (`examples/vgroove_timing.rs`, minimum of 5 trials, old and
-//! new binaries run alternately on 2 shared cores at load 3-6, so +-30%):
-//! eval GGX 0.2 / 0.5 / 1: 690-790 / 1140-1220 / 1640-1820 ns -> 410 / 490
-//! / 620-630 ns (SINGLE 50-55 ns: 7.5x / 9x / 12x); sample GGX 1: 4400 ->
-//! 1600-1700 ns (SINGLE 105 ns); eval Beckmann 0.2 / 0.5 / 1: 290-380 /
-//! 350-540 / 400-600 ns -> 260-340 / 290-375 / 350-490 ns (SINGLE 100-120
-//! ns: 2-3x / 2.6-3.5x / 3.3-4.6x). The Beckmann time gains less than its
-//! instruction count: part of the saving replaced libm `sin`/`atan2` by
-//! polynomials of similar latency.
+//! (Phong: first -> second round only.) The `k = 1` term alone
+//! (`max_bounces = 1`, `MAXB=1 scripts/vgroove_ir.sh`) went from 1701 /
+//! 1775 / 1850 instructions (GGX / Beckmann / Phong) to 641 / 710 /
+//! 706-780: 1.09x SINGLE's whole eval for GGX, 0.6-0.67x for Beckmann.
 //!
-//! What is left, for GGX alpha 1 and random pairs: about 4 solutions and 35
-//! reflections per eval; the table lookups are about 40% of the
-//! instructions (~50 each), the scan over frames, parities and counts
-//! roughly a quarter. The `k = 1` term alone (`max_bounces = 1`) costs 1701
-//! instructions for GGX (2.9x SINGLE's whole eval) and 1775 for Beckmann
-//! (1.5x): the caller-side wrapper (119, as for SINGLE), the `f64` set-up
-//! of the groove frame with its two `atan2` (about 480), the two frames x
-//! two parities scan (about 800-900) and the term itself (about 200-300:
-//! `D`, the V-groove `G`, one Fresnel lookup). Sampled directions sit near
-//! the mirror direction, where many long paths exist: a GGX sample costs
-//! 2-2.5x an eval at random pairs.
-//! So the 1.25x goal per eval is not reached for any NDF or roughness:
-//! even for Beckmann at `N = 2`, where SINGLE's eval (two Smith `Lambda`
-//! with `erf`) is dearest, the ratio is 1.9x by instructions and 2-3x in
-//! time. The paper's 15-20% is the overhead on a whole frame, which
-//! `scripts/vgroove_frame.sh` measures with the Embree tracer
-//! (`c_examples/scenes/conductors.scene`, nine conductor spheres, 32 spp,
-//! one thread, CPU time, minimum of 3 runs, every material forced to the
-//! model; two sessions): VGROOVE / SINGLE = 1.53 with Beckmann (1.62-1.80
-//! before the optimisation; also 1.53 with every sphere at alpha 0.2,
-//! `N = 2`, 1.64 before) and 3.1-3.2 with GGX (4.6-4.9 before). That scene
-//! is nine spheres under a sky: BSDF calls dominate its frame time, so the
-//! frame ratio stays close to the per-call ratio; a scene with more
-//! geometry and texturing per path vertex (the paper's) dilutes it.
+//! Nanoseconds (`examples/vgroove_timing.rs`, minimum of 5 trials, first-
+//! and second-round binaries run alternately on 2 shared cores at load
+//! ~4, so +-20%): eval GGX 0.2 / 0.5 / 1: 420 / 514 / 623 -> 318 / 425 /
+//! 556 ns (SINGLE 54-56 ns: 5.8x / 7.7x / 9.9x); Beckmann 0.2 / 0.5 / 1:
+//! 259 / 315 / 362 -> 159 / 233 / 271 ns (SINGLE 129 / 118 / 109 ns:
+//! 1.24x / 2.0x / 2.5x); Phong 0.2 / 0.5 / 1: 275 / 342 / 653 -> 160 /
+//! 259 / 569 ns; pdf GGX 0.2 / 1: 342 / 357 -> 240 / 295 ns; sample GGX 1:
+//! about 1600 ns either way (SINGLE 110 ns).
+//!
+//! So the 1.25x goal per eval is reached for Beckmann at alpha 0.2
+//! (`N = 2`): 1.17x by instructions, 1.22x-1.24x in time (three runs),
+//! and by no other measured material: Beckmann 0.5 / 1 are at 1.8x / 2.3x,
+//! GGX at 4.7x-8.3x. What is left is the multiple scattering itself: for
+//! GGX, 50-73% of the pairs (uniform / cosine) have `k >= 2` solutions
+//! (the fraction barely depends on the roughness: GGX's `D` is nonzero at
+//! every facet angle, so it is the groove geometry that decides), about 3
+//! solutions per eval at alpha 1 (6 per pair that has any), each paying `k` Fresnel lookups
+//! (about 50 instructions each, ~35 per eval at alpha 1: 40% of the
+//! eval), `D`, `G_k`, the Taylor `sin`/`cos` (~45) and the groove set-up
+//! (~50); the pre-test and the two `atan2` cost about 150 per pair. Even
+//! the `k = 1` term alone is 1.09x SINGLE's GGX eval (Cook-Torrance with
+//! an `f64` half vector and a table Fresnel against SINGLE's `f32`
+//! Smith-GGX). Sampled directions sit near the mirror direction, where
+//! every pair has long paths, so sample gains little (3-9%). The paper's
+//! 15-20% is the overhead on a whole frame, which `scripts/vgroove_frame.sh`
+//! measures with the Embree tracer (`c_examples/scenes/conductors.scene`,
+//! nine conductor spheres, 32 spp, one thread, CPU time, minimum of 3
+//! runs, every material forced to the model; first round, two sessions):
+//! VGROOVE / SINGLE = 1.53 with Beckmann (1.62-1.80 originally; also 1.53
+//! with every sphere at alpha 0.2, `N = 2`, 1.64 originally) and 3.1-3.2
+//! with GGX (4.6-4.9 originally). That scene is nine spheres under a sky:
+//! BSDF calls dominate its frame time, so the frame ratio stays close to
+//! the per-call ratio; a scene with more geometry and texturing per path
+//! vertex (the paper's) dilutes it.
 //!
 //! The nonsymmetric eval multiplies the solutions by its 16 quadrature
 //! nodes per `(k, X)`: per node it now pays Taylor `sin`/`cos` of both wall
@@ -188,8 +225,10 @@
 //! The material is larger for the table (33 nodes of 16 bytes,
 //! `ftable::TABLE_M = 32`): `size_of::<Material>()` is 736 bytes, the
 //! largest model (ENERGY_COMPENSATED's tint table makes it 544; 192 before
-//! both). The instruction counts above were taken with `TABLE_M = 104`
-//! (1904-byte materials); the lookup cost does not depend on `TABLE_M`.
+//! both). The original instruction counts above were taken with
+//! `TABLE_M = 104` (1904-byte materials); re-measured at `TABLE_M = 32`,
+//! the first round's agree within 10 instructions (the lookup cost does
+//! not depend on `TABLE_M`).
 
 // `!(x > 0.0)` is used on purpose: it is also true for NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -239,6 +278,10 @@ pub struct VGroove {
     mirror: bool,
     n_max: u32,
     symmetric: bool,
+    /// Symmetric eval by the groove-frame scan for every count, `k = 1`
+    /// included, with no pre-test (the reference for tests:
+    /// [`VGroove::with_full_scan`]).
+    full_scan: bool,
 }
 
 /// What one evaluation accumulates.
@@ -279,6 +322,7 @@ impl VGroove {
             mirror: eta == Vec3::ZERO && k == Vec3::ONE,
             n_max,
             symmetric,
+            full_scan: false,
         }
     }
 
@@ -303,6 +347,60 @@ impl VGroove {
     pub fn with_exact_fresnel(mut self) -> Self {
         self.fresnel = self.fresnel.exact();
         self
+    }
+
+    /// This BRDF evaluated as before the `k = 1` closed form and the
+    /// `k >= 2` pre-test: every count, `k = 1` included, by the scan over
+    /// the two groove frames and the two parities of `k`, for every pair
+    /// (the reference the fast path is tested against; same values within
+    /// rounding).
+    pub fn with_full_scan(mut self) -> Self {
+        self.full_scan = true;
+        self
+    }
+
+    /// False when the pre-test of the symmetric eval proves that no count
+    /// `k >= 2` has a solution for `(wi, wo)` (the eval is then the `k = 1`
+    /// closed form alone); true otherwise, and always for the nonsymmetric
+    /// model. For tests and analysis.
+    pub fn multiple_possible(&self, wi: Vec3, wo: Vec3) -> bool {
+        if !self.symmetric {
+            return true;
+        }
+        let (wi, wo) = if wi.z < 0.0 {
+            (flip_z(wi), flip_z(wo))
+        } else {
+            (wi, wo)
+        };
+        let i = wi.as_dvec3().normalize();
+        let o = wo.as_dvec3().normalize();
+        let h = (i + o).normalize();
+        let sin_h = (h.x * h.x + h.y * h.y).sqrt();
+        let e = if sin_h > 1e-300 {
+            DVec3::new(h.x / sin_h, h.y / sin_h, 0.0)
+        } else {
+            DVec3::X
+        };
+        let (ie, oe) = (i.dot(e), o.dot(e));
+        let (k0, k1) = (2, self.n_max);
+        if k1 < 2 {
+            return false;
+        }
+        if k1 == 2 {
+            let rho = (ie * ie + i.z * i.z).sqrt();
+            let rho_o = (oe * oe + o.z * o.z).sqrt();
+            if !two_reflections_possible(ie, i.z, rho, oe, o.z, rho_o) {
+                return false;
+            }
+        }
+        let ti0 = atan2_pos(ie, i.z);
+        let to0 = atan2_pos(oe, o.z);
+        [1.0f64, -1.0].iter().any(|&sg| {
+            let (ti, to) = (sg * ti0, sg * to0);
+            [true, false]
+                .iter()
+                .any(|&odd| symmetric_tail_x(ti, to, odd, k0, k1).is_some())
+        })
     }
 
     /// The per-material Fresnel table.
@@ -381,9 +479,7 @@ impl VGroove {
         let mut pdf = 0.0f64;
         // In-plane angles for the frame `e`; the frame `-e` negates them.
         let (ie0, oe0) = (i.dot(e), o.dot(e));
-        let (ti0, to0) = (atan2_pos(ie0, i.z), atan2_pos(oe0, o.z));
         let rho = (ie0 * ie0 + i.z * i.z).sqrt();
-        let rho_o = (oe0 * oe0 + o.z * o.z).sqrt();
         // Grazing beyond what `ti = atan2(ie, i.z)` resolves in f64 (pi/2
         // has an ulp of 2.2e-16): the groove geometry then sees ti = pi/2
         // exactly, the lit fraction no longer vanishes with i.z, and the
@@ -393,10 +489,45 @@ impl VGroove {
         if !(i.z > 1e-15 * rho) {
             return (Vec3::ZERO, 0.0);
         }
-        let (inv_rho, inv_rho_o) = (1.0 / rho, 1.0 / rho_o);
+        let (k0, k1) = self.k_range(want);
+        let fast = self.symmetric && !self.full_scan;
+        if fast && k0 == 1 {
+            let (df, dp) = self.symmetric_k1(i, o, h, oh, sigma, want);
+            f += df;
+            pdf += dp;
+        }
+        if fast && k1 < 2 {
+            return self.finish(f, pdf);
+        }
+        let rho_o = || (oe0 * oe0 + o.z * o.z).sqrt();
+        if fast && k1 == 2 && !two_reflections_possible(ie0, i.z, rho, oe0, o.z, rho_o()) {
+            // Only k = 2 is summed and it has no solution: no atan2 needed.
+            return self.finish(f, pdf);
+        }
+        let (ti0, to0) = (atan2_pos(ie0, i.z), atan2_pos(oe0, o.z));
+        // Symmetric, k >= 2: the one `X` per frame and parity that can
+        // have solutions, if the pre-test lets it through.
+        let mut xs = [[None; 2]; 2];
+        if fast {
+            let mut any = false;
+            for (fr, sg) in [1.0f64, -1.0].iter().enumerate() {
+                for (par, odd) in [true, false].iter().enumerate() {
+                    let x = symmetric_tail_x(sg * ti0, sg * to0, *odd, k0.max(2), k1);
+                    any |= x.is_some();
+                    xs[fr][par] = x;
+                }
+            }
+            if !any {
+                return self.finish(f, pdf);
+            }
+        }
+        let (inv_rho, inv_rho_o) = (1.0 / rho, 1.0 / rho_o());
         let (sti0, cti) = (ie0 * inv_rho, i.z * inv_rho);
         let (sto0, cto) = (oe0 * inv_rho_o, o.z * inv_rho_o);
-        for sg in [1.0f64, -1.0] {
+        for (fr, sg) in [1.0f64, -1.0].iter().copied().enumerate() {
+            if fast && xs[fr] == [None, None] {
+                continue;
+            }
             let ex = e * sg;
             let ctx = Ctx {
                 i,
@@ -415,7 +546,9 @@ impl VGroove {
                 sigma,
                 want,
             };
-            let (df, dp) = if self.symmetric {
+            let (df, dp) = if fast {
+                self.sum_symmetric_tail(&ctx, xs[fr], k0.max(2), k1)
+            } else if self.symmetric {
                 self.sum_symmetric(&ctx)
             } else {
                 self.sum_nonsymmetric(&ctx)
@@ -423,6 +556,13 @@ impl VGroove {
             f += df;
             pdf += dp;
         }
+        self.finish(f, pdf)
+    }
+
+    /// `(f |o.z|, pdf)` in the output precision, non-finite and negative
+    /// values to 0.
+    #[inline]
+    fn finish(&self, f: DVec3, pdf: f64) -> (Vec3, f32) {
         let f = f.as_vec3();
         let f = if f.is_finite() {
             f.max(Vec3::ZERO)
@@ -496,6 +636,54 @@ impl VGroove {
         (f, p)
     }
 
+    /// Symmetric grooves, `k = 1` in 3D, without the groove frame: the
+    /// facet is the half vector and the term is Cook-Torrance with the
+    /// V-groove shadowing and masking, seed 002, eq. (25):
+    /// `f |o.z| = F(i.h) D(h) G / (4 i.z)`,
+    /// `G = min(1, 2 h.z i.z / (i.h), 2 h.z o.z / (o.h))`, the first two
+    /// terms being the lit fraction of the facet ([`Hit::lit`]). Written
+    /// as [`VGroove::contribution`] writes it (`i.h / o.h = 1`).
+    #[inline]
+    fn symmetric_k1(
+        &self,
+        i: DVec3,
+        o: DVec3,
+        h: DVec3,
+        oh: f64,
+        sigma: Option<f64>,
+        want: Want,
+    ) -> (DVec3, f64) {
+        let ih = i.dot(h);
+        if !(ih > 0.0 && h.z > 0.0) {
+            return (DVec3::ZERO, 0.0);
+        }
+        let two_hz = 2.0 * h.z;
+        let lit = (two_hz * i.z / ih).min(1.0);
+        let g = lit.min(two_hz * o.z / oh);
+        if !(g > 0.0) {
+            return (DVec3::ZERO, 0.0);
+        }
+        let d = self.ndf.d(h);
+        let jac = 1.0 / (4.0 * oh);
+        let mut f = DVec3::ZERO;
+        let mut p = 0.0;
+        if want.f {
+            let v = ih * d * g * jac / i.z;
+            if v > 0.0 {
+                f = if self.mirror {
+                    DVec3::splat(v)
+                } else {
+                    let fr = self.fresnel.eval(ih as f32);
+                    Vec3::from(fr.clamp(Vec3A::ZERO, Vec3A::ONE)).as_dvec3() * v
+                };
+            }
+        }
+        if want.pdf {
+            p = dist::first_pdf_from(ih, h.z, d, sigma) * (g / lit) * jac;
+        }
+        (f, p)
+    }
+
     /// Symmetric grooves: the facet solutions of eq. (5) per count.
     ///
     /// Writing the first facet as `a = pi/2 - delta`, the solutions of eq.
@@ -526,59 +714,95 @@ impl VGroove {
             } else {
                 j_lo + 1
             };
-            // sin u of `symmetric_tail_sines`.
-            let su = if odd { ctx.sto } else { -ctx.sto };
             for j in (j_first..=j_hi).step_by(2) {
                 let x = PI * j as f64 - base;
                 if !(x > 0.0) {
                     continue;
                 }
-                // Worth its division only when N is large (GGX, Phong).
-                let (r_lo, r_hi) = if k1 - k0 >= 8 {
-                    symmetric_k_range(ti, x, k1)
-                } else {
-                    (k0, k1)
-                };
-                let k_start = k0.max(r_lo);
-                let k_end = k1.min(r_hi);
-                let mut k = if (k_start % 2 == 1) == odd {
-                    k_start
-                } else {
-                    k_start + 1
-                };
-                while k <= k_end {
-                    let kf = k as f64;
-                    let tk = 2.0 * kf;
-                    let eps = 1e-9 * tk;
-                    if x * (tk + 1.0) < lim_lo * tk - eps || x * (tk - 1.0) > lim_hi * tk + eps {
-                        break; // L_k only grows and U_k only shrinks with k
-                    }
-                    let a = FRAC_PI_2 - x / tk;
-                    if a > 0.0
-                        && a < FRAC_PI_2
-                        && symmetric_count_possible(ti, a, kf)
-                        // k = 1: the facet is the half vector (eq. 25), its
-                        // angle is known; else sin a = cos delta and
-                        // cos a = sin delta, delta = x / 2k in (0, pi/2).
-                        && let (sa, ca) = if k == 1 {
-                            (ctx.sin_h, ctx.cos_h)
-                        } else {
-                            let (sd, cd) = sin_cos_quadrant(x / tk);
-                            (cd, sd)
-                        }
-                        && let Some(hit) =
-                            Hit::with_trig(ti, ctx.sti, ctx.cti, a, sa, ca, a, sa, ca)
-                    {
-                        let g = hit.g_sines(k, symmetric_tail_sines(su, ctx.cto, ca, sa));
-                        let (df, dp) = self.contribution(ctx, &hit, (sa, ca), k, g, kf, 1.0);
-                        f += df;
-                        p += dp;
-                    }
-                    k += 2;
-                }
+                self.symmetric_solutions(ctx, x, odd, (k0, k1), (&mut f, &mut p));
             }
         }
         (f, p)
+    }
+
+    /// Symmetric grooves, counts `k >= 2` only, after the pre-test: the
+    /// `X` of each parity that passed it ([`symmetric_tail_x`]; `None`
+    /// for a parity without solutions), `k0 >= 2`.
+    fn sum_symmetric_tail(
+        &self,
+        ctx: &Ctx,
+        xs: [Option<f64>; 2],
+        k0: u32,
+        k1: u32,
+    ) -> (DVec3, f64) {
+        let mut f = DVec3::ZERO;
+        let mut p = 0.0;
+        for (x, odd) in xs.into_iter().zip([true, false]) {
+            if let Some(x) = x {
+                self.symmetric_solutions(ctx, x, odd, (k0, k1), (&mut f, &mut p));
+            }
+        }
+        (f, p)
+    }
+
+    /// The solutions `a = pi/2 - x / 2k` of eq. (5) for one `X_j = x > 0`
+    /// and the counts `k` in `k0..=k1` of its parity, added to `acc`.
+    #[inline]
+    fn symmetric_solutions(
+        &self,
+        ctx: &Ctx,
+        x: f64,
+        odd: bool,
+        (k0, k1): (u32, u32),
+        acc: (&mut DVec3, &mut f64),
+    ) {
+        let ti = ctx.ti;
+        let lim_lo = FRAC_PI_2 - ti;
+        let lim_hi = PI - ti;
+        // sin u of `symmetric_tail_sines`.
+        let su = if odd { ctx.sto } else { -ctx.sto };
+        // Worth its division only when N is large (GGX, Phong).
+        let (r_lo, r_hi) = if k1 - k0 >= 8 {
+            symmetric_k_range(ti, x, k1)
+        } else {
+            (k0, k1)
+        };
+        let k_start = k0.max(r_lo);
+        let k_end = k1.min(r_hi);
+        let mut k = if (k_start % 2 == 1) == odd {
+            k_start
+        } else {
+            k_start + 1
+        };
+        while k <= k_end {
+            let kf = k as f64;
+            let tk = 2.0 * kf;
+            let eps = 1e-9 * tk;
+            if x * (tk + 1.0) < lim_lo * tk - eps || x * (tk - 1.0) > lim_hi * tk + eps {
+                break; // L_k only grows and U_k only shrinks with k
+            }
+            let a = FRAC_PI_2 - x / tk;
+            if a > 0.0
+                && a < FRAC_PI_2
+                && symmetric_count_possible(ti, a, kf)
+                // k = 1: the facet is the half vector (eq. 25), its
+                // angle is known; else sin a = cos delta and
+                // cos a = sin delta, delta = x / 2k in (0, pi/2).
+                && let (sa, ca) = if k == 1 {
+                    (ctx.sin_h, ctx.cos_h)
+                } else {
+                    let (sd, cd) = sin_cos_quadrant(x / tk);
+                    (cd, sd)
+                }
+                && let Some(hit) = Hit::with_trig(ti, ctx.sti, ctx.cti, a, sa, ca, a, sa, ca)
+            {
+                let g = hit.g_sines(k, symmetric_tail_sines(su, ctx.cto, ca, sa));
+                let (df, dp) = self.contribution(ctx, &hit, (sa, ca), k, g, kf, 1.0);
+                *acc.0 += df;
+                *acc.1 += dp;
+            }
+            k += 2;
+        }
     }
 
     /// Nonsymmetric grooves: eq. (23), the `theta_r` integral by quadrature.
@@ -775,6 +999,71 @@ fn symmetric_count_possible(ti: f64, a: f64, kf: f64) -> bool {
     // k - 1 <= (psi_a - lo_ang) / tv and k >= (psi_a - hi_ang) / tv.
     let eps = 1e-9 * kf;
     (kf - 1.0) * tv <= psi_a - lo_ang + eps && kf * tv >= psi_a - hi_ang - eps
+}
+
+/// Pre-test of the symmetric counts `k >= 2` (`2 <= k0 <= k`, `k <= k1`)
+/// of one parity in one groove frame: the only `X_j` of eq. (5) they can
+/// use, or `None` when no count can have a solution there.
+///
+/// With `a = pi/2 - delta`, `2 k delta = X`, the conditions of
+/// [`symmetric_count_possible`] read (`psi_a = pi - delta - ti`,
+/// `theta_v = 2 delta`, `asin f_lo = max(0, ti - delta)`,
+/// `asin f_a = min(psi_a, pi - psi_a)`): `delta > -ti`,
+/// `X - delta <= pi - ti`, `X - 2 delta <= pi - 2 ti` (eq. 4, `k - 1`
+/// reflections fit) and `X + 2 delta >= pi - 2 ti` (the `k`-th one
+/// happens), and `0 < delta < pi/2`. At fixed `X`, `delta` falls with `k`,
+/// so each of the first four holds on a prefix of the counts: some count
+/// of the parity has a solution only if they hold at its smallest count
+/// `k_min` (2 or 3 from `k0`). Over `k >= 2`, `X` lies in
+/// `[0, 4 (pi - ti) / 3] ⊂ (0, 2 pi)`, which holds one `X_j = pi j - base`
+/// of each parity: `j = 1` for odd counts (`X = pi - ti - to`) and `j = 0`
+/// for even ones (`X = pi - ti + to`). Each bound is relaxed by
+/// `1e-9 k1 + 1e-12`, more than the `eps` of the exact test, so the test
+/// lets through every pair that test accepts (checked by brute force in
+/// `tests/vgroove.rs`); a few flops, no trigonometry.
+#[inline]
+fn symmetric_tail_x(ti: f64, to: f64, odd: bool, k0: u32, k1: u32) -> Option<f64> {
+    let k_min = if (k0 % 2 == 1) == odd { k0 } else { k0 + 1 };
+    if k_min > k1 {
+        return None;
+    }
+    // The same expressions as `sum_symmetric` (`PI * j - base`).
+    let x = if odd { PI - (ti + to) } else { -(ti - to - PI) };
+    let d0 = x / (2 * k_min) as f64;
+    let slack = 1e-9 * k1 as f64 + 1e-12;
+    let b = PI - 2.0 * ti;
+    if x > 0.0
+        && d0 + ti > -slack
+        && x - d0 <= PI - ti + slack
+        && x - 2.0 * d0 <= b + slack
+        && x + 2.0 * d0 >= b - slack
+    {
+        Some(x)
+    } else {
+        None
+    }
+}
+
+/// [`symmetric_tail_x`] for `k = 2` alone without the in-plane angles: in
+/// either frame, with `ti`, `to` in `(-pi/2, pi/2)`, its conditions at
+/// `k_min = 2` (`X = pi - ti + to`) read `-pi < 3 ti + to <= pi` and
+/// `-pi <= ti + 3 to <= pi`, i.e. `cos(3 alpha + beta) >= 0` and
+/// `cos(alpha + 3 beta) >= 0` with the half angles `alpha = ti / 2`,
+/// `beta = to / 2` (the arguments stay in `(-pi, pi)`). Divided by the
+/// positive `cos^3 alpha cos beta`, the first is
+/// `1 - 3 u^2 - u (3 - u^2) v >= 0` in `u = tan alpha`, `v = tan beta`,
+/// and `tan(ti / 2) = sin ti / (1 + cos ti) = ie / (rho + i.z)`. False only
+/// when one of them fails by more than 1e-6 (the quotient by
+/// `cos^3 alpha cos beta >= 1/4` keeps that a superset of the relaxed
+/// bounds of [`symmetric_tail_x`]; checked by brute force in
+/// `tests/vgroove.rs`).
+#[inline]
+fn two_reflections_possible(ie: f64, iz: f64, rho: f64, oe: f64, oz: f64, rho_o: f64) -> bool {
+    let u = ie / (rho + iz);
+    let v = oe / (rho_o + oz);
+    let c1 = 1.0 - 3.0 * u * u - u * (3.0 - u * u) * v;
+    let c2 = 1.0 - 3.0 * v * v - v * (3.0 - v * v) * u;
+    c1 >= -1e-6 && c2 >= -1e-6
 }
 
 /// `[sin psi_{k-2}, sin psi_{k-1}, sin psi_k]` for the symmetric solution
