@@ -14,7 +14,7 @@
 #[path = "harness/mod.rs"]
 mod harness;
 
-use harness::reference::{self, GenOptions};
+use harness::reference::{self, EstimatorKind, GenOptions};
 use harness::suite;
 
 fn main() {
@@ -30,18 +30,89 @@ fn main() {
     } else {
         suite::full_suite()
     };
-    let o = GenOptions {
+    if let Some(list) = harness::arg_value("--analyse") {
+        analyse(&list, parse("--samples", 1e6) as u64);
+        return;
+    }
+    let estimator = if harness::arg_flag("--plain") {
+        EstimatorKind::Plain
+    } else {
+        let EstimatorKind::Reduced {
+            forced_conductor,
+            forced_dielectric,
+        } = EstimatorKind::DEFAULT
+        else {
+            unreachable!()
+        };
+        EstimatorKind::Reduced {
+            forced_conductor: parse("--forced-conductor", forced_conductor as f64) as u32,
+            forced_dielectric: parse("--forced-dielectric", forced_dielectric as f64) as u32,
+        }
+    };
+    let mut o = GenOptions {
         pairs: parse("--pairs", if quick { 16.0 } else { 64.0 }) as usize,
         seed: parse("--seed", 20_261_122.0) as u64,
         pilot: parse("--pilot", if quick { 500.0 } else { 4000.0 }) as u64,
         target: parse("--target", 1e-3),
         budget: parse("--budget", if quick { 5.0 } else { 600.0 }),
-        max_samples: parse("--max-samples", 4e7) as u64,
+        max_samples: parse("--max-samples", 1e9) as u64,
         albedo_pilot: 0,
         threads: harness::threads(),
         quiet: false,
+        estimator,
     };
-    let albedo_samples = parse("--albedo-samples", if quick { 2e4 } else { 4e5 }) as u64;
+    if harness::arg_flag("--check") {
+        let n = parse("--samples", 2e5) as u64;
+        let r = reference::check_estimators(&reference::check_items(), n, o.seed + 5, &o);
+        for l in &r.lines {
+            println!("{l}");
+        }
+        if r.worst_z > r.sidak_z {
+            std::process::exit(1);
+        }
+        return;
+    }
+    if harness::arg_flag("--estimate") {
+        // Pilot only: the time the second pass would need for the target.
+        o.budget = 0.0;
+        let g = reference::generate(&suite, &o, None);
+        let secs = g.work / (o.target * o.target) / o.threads as f64;
+        println!(
+            "estimator {}: pilot {} samples per value; estimated {secs:.0} s on {} threads for relative standard error {:.1e} on every value (median reached by the pilot {:.2e})",
+            o.estimator.id(),
+            o.pilot,
+            o.threads,
+            o.target,
+            harness::median(&g.reached)
+        );
+        return;
+    }
+    let path = format!("{out}/reference_values.csv");
+    let resume = harness::arg_flag("--resume");
+    let (prior, prior_header) = if resume {
+        let text = std::fs::read_to_string(&path).expect("--resume: read the existing values");
+        let header = reference::header_lines(&text);
+        let id = format!("estimator-id: {}", o.estimator.id());
+        if !header.iter().any(|h| h.ends_with(&id)) {
+            eprintln!(
+                "--resume: {path} was not made with this estimator ({id}); its samples cannot be pooled"
+            );
+            std::process::exit(2);
+        }
+        let data = reference::read_values(&text).expect("--resume: parse the existing values");
+        let names: Vec<&str> = data.iter().map(|m| m.mat.name.as_str()).collect();
+        let want: Vec<&str> = suite.iter().map(|m| m.name.as_str()).collect();
+        if names != want || data.iter().any(|m| m.pairs.len() != o.pairs) {
+            eprintln!("--resume: {path} holds another suite or pair count");
+            std::process::exit(2);
+        }
+        if harness::arg_value("--seed").is_none() {
+            o.seed = reference::max_seed(&header) + 10;
+        }
+        (Some(data), header)
+    } else {
+        (None, Vec::new())
+    };
     let command = harness::command_line("gen_reference");
     let t = std::time::Instant::now();
     let check = reference::check_order_one(&suite, if quick { 2000 } else { 50_000 }, &o);
@@ -51,7 +122,7 @@ fn main() {
         }
         return;
     }
-    let generated = reference::generate(&suite, &o);
+    let generated = reference::generate(&suite, &o, prior.as_deref());
     let mut header = vec![
         "HEITZ_RANDOM_WALK reference values f(wi, wo) |wo.z| per RGB channel (msbsdf speed-vs-accuracy suite)".to_string(),
         format!("command: {command}"),
@@ -63,12 +134,18 @@ fn main() {
         t.elapsed().as_secs_f64(),
         o.threads
     ));
+    for h in prior_header.iter().skip(1) {
+        header.push(format!("earlier run: {h}"));
+    }
     for h in &header {
         eprintln!("{h}");
     }
-    let path = format!("{out}/reference_values.csv");
     reference::write_values(&path, &header, &generated.data).expect("write values");
     eprintln!("wrote {path}");
+    if resume || harness::arg_flag("--no-albedo") {
+        return;
+    }
+    let albedo_samples = parse("--albedo-samples", if quick { 2e4 } else { 4e5 }) as u64;
     let rows = reference::albedo(&suite, albedo_samples, &o);
     let worst = rows
         .iter()
@@ -90,4 +167,92 @@ fn main() {
     let apath = format!("{out}/reference_albedo.csv");
     reference::write_albedo(&apath, &aheader, &rows).expect("write albedo");
     eprintln!("wrote {apath} ({:.0} s total)", t.elapsed().as_secs_f64());
+}
+
+/// `--analyse name:pair,...`: where the variance of the given values comes
+/// from (per scattering order, heavy tails) and how each walk variant
+/// (forced collisions, MIS) changes variance and time.
+fn analyse(list: &str, samples: u64) {
+    use glam::Vec3;
+    use harness::walk::{ORDERS, WalkOptions};
+    let suite = suite::full_suite();
+    let configs: [(&str, WalkOptions); 5] = [
+        ("old (analog, averaged)", WalkOptions::ANALOG),
+        ("forced 1", WalkOptions { forced: 1, mis: false, order_one: false }),
+        ("mis", WalkOptions { forced: 0, mis: true, order_one: false }),
+        ("forced 1 + mis", WalkOptions { forced: 1, mis: true, order_one: false }),
+        ("forced all + mis", WalkOptions { forced: 256, mis: true, order_one: false }),
+    ];
+    let items: Vec<(usize, usize)> = list
+        .split(',')
+        .filter_map(|s| {
+            let (n, p) = s.split_once(':')?;
+            let mi = suite.iter().position(|m| m.name == n)?;
+            Some((mi, p.parse().ok()?))
+        })
+        .collect();
+    for (mi, pi) in items {
+        let m = &suite[mi];
+        let (wi, wo) = suite::pairs(m.class, 64)[pi];
+        let e = reference::RefEstimator::new(m);
+        eprintln!("{} pair {pi}: wi {wi:.4} wo {wo:.4}", m.name);
+        for (name, opt) in configs {
+            let mut rng = msbsdf::Rng::new(99, (mi * 64 + pi) as u64);
+            let mut tot = harness::Stats::default();
+            let mut per = [harness::Stats::default(); ORDERS];
+            let mut sq: Vec<f64> = Vec::with_capacity(samples as usize);
+            let t = std::time::Instant::now();
+            let mut top: Vec<(f32, msbsdf::Rng)> = Vec::new();
+            for _ in 0..samples {
+                let r0 = rng;
+                let o = e.orders(wi, wo, &mut rng, opt);
+                let tv: f32 = o.iter().map(|v| v.x).sum();
+                if top.len() < 4 || tv > top[3].0 {
+                    top.push((tv, r0));
+                    top.sort_by(|a, b| b.0.total_cmp(&a.0));
+                    top.truncate(4);
+                }
+                let lum = |v: Vec3| [(v.x + v.y + v.z) as f64 / 3.0, 0.0, 0.0];
+                let s: Vec3 = o.iter().copied().sum();
+                tot.push(lum(s));
+                for k in 0..ORDERS {
+                    per[k].push(lum(o[k]));
+                }
+                sq.push(lum(s)[0]);
+            }
+            let secs = t.elapsed().as_secs_f64() / samples as f64;
+            if std::env::var_os("TRACE").is_some() {
+                for (tv, r0) in &top {
+                    eprintln!("  top sample {tv:.4e}");
+                    harness::walk::TRACE.store(true, std::sync::atomic::Ordering::Relaxed);
+                    let mut r = *r0;
+                    let _ = e.orders(wi, wo, &mut r, opt);
+                    harness::walk::TRACE.store(false, std::sync::atomic::Ordering::Relaxed);
+                }
+            }
+            let nz = sq.iter().filter(|x| **x != 0.0).count() as f64 / samples as f64;
+            let m2: f64 = sq.iter().map(|x| x * x).sum();
+            sq.sort_by(|a, b| b.abs().total_cmp(&a.abs()));
+            let top = (samples as usize / 1000).max(1);
+            let top_share = sq[..top].iter().map(|x| x * x).sum::<f64>() / m2.max(1e-300);
+            let v = tot.var()[0];
+            let mean = tot.mean[0];
+            eprintln!(
+                "  {name:24} mean {mean:.5e} +- {:.1e}  var/mean^2 {:.3e}  t {:.0} ns  var*t/mean^2 {:.3e}  nonzero {nz:.2e}  top0.1% share of m2 {top_share:.2}",
+                tot.se()[0],
+                v / (mean * mean),
+                secs * 1e9,
+                v * secs / (mean * mean),
+            );
+            let mut line = String::from("      per order (mean, var share):");
+            for k in 2..ORDERS {
+                line += &format!(
+                    " {k}: {:.2e} {:.2}",
+                    per[k].mean[0],
+                    per[k].var()[0] / v.max(1e-300)
+                );
+            }
+            eprintln!("{line}");
+        }
+    }
 }
