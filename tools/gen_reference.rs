@@ -176,6 +176,7 @@ fn analyse(list: &str, samples: u64) {
     use glam::Vec3;
     use harness::walk::{ORDERS, WalkOptions};
     let suite = suite::full_suite();
+    let one_way = harness::arg_flag("--one-way");
     let configs: [(&str, WalkOptions); 5] = [
         ("old (analog, averaged)", WalkOptions::ANALOG),
         ("forced 1", WalkOptions { forced: 1, mis: false, order_one: false }),
@@ -196,7 +197,18 @@ fn analyse(list: &str, samples: u64) {
         let (wi, wo) = suite::pairs(m.class, 64)[pi];
         let e = reference::RefEstimator::new(m);
         eprintln!("{} pair {pi}: wi {wi:.4} wo {wo:.4}", m.name);
-        for (name, opt) in configs {
+        let list: Vec<(&str, WalkOptions, u8)> = if one_way {
+            let f = |forced| WalkOptions { forced, mis: false, order_one: false };
+            vec![
+                ("forward only", f(0), 1),
+                ("reverse only", f(0), 2),
+                ("forward only, forced 1", f(1), 1),
+                ("reverse only, forced 1", f(1), 2),
+            ]
+        } else {
+            configs.iter().map(|c| (c.0, c.1, 0)).collect()
+        };
+        for (name, opt, way) in list {
             let mut rng = msbsdf::Rng::new(99, (mi * 64 + pi) as u64);
             let mut tot = harness::Stats::default();
             let mut per = [harness::Stats::default(); ORDERS];
@@ -205,7 +217,10 @@ fn analyse(list: &str, samples: u64) {
             let mut top: Vec<(f32, msbsdf::Rng)> = Vec::new();
             for _ in 0..samples {
                 let r0 = rng;
-                let o = e.orders(wi, wo, &mut rng, opt);
+                let o = match way {
+                    0 => e.orders(wi, wo, &mut rng, opt),
+                    w => e.one_way(wi, wo, &mut rng, opt.forced, w == 2),
+                };
                 let tv: f32 = o.iter().map(|v| v.x).sum();
                 if top.len() < 4 || tv > top[3].0 {
                     top.push((tv, r0));
