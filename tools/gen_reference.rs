@@ -77,6 +77,18 @@ fn main() {
         o.budget = 0.0;
         let g = reference::generate(&suite, &o, None);
         let secs = g.work / (o.target * o.target) / o.threads as f64;
+        let t2 = o.target * o.target;
+        for (m, (w, u)) in suite
+            .iter()
+            .zip(g.work_by_material.iter().zip(&g.unit_by_material))
+        {
+            println!(
+                "  {:24} samples for the target {:.3e}, core-seconds {:.3e}",
+                m.name,
+                u / t2,
+                w / t2
+            );
+        }
         println!(
             "estimator {}: pilot {} samples per value; estimated {secs:.0} s on {} threads for relative standard error {:.1e} on every value (median reached by the pilot {:.2e})",
             o.estimator.id(),

@@ -29,6 +29,20 @@ use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
+/// The NDF and facet of a suite material, as `Material::new` builds them.
+pub fn ndf_facet(s: &SuiteMaterial) -> (Ndf, Facet) {
+    let kind = match s.ndf {
+        NdfId::Beckmann => NdfKind::Beckmann,
+        _ => NdfKind::Ggx,
+    };
+    let ndf = Ndf::new(kind, s.alpha_x.max(1e-4), s.alpha_y.max(1e-4));
+    let facet = match s.class {
+        Class::Conductor => Facet::Conductor { eta: s.eta, k: s.k },
+        Class::Dielectric => Facet::Dielectric { eta: s.eta.x },
+    };
+    (ndf, facet)
+}
+
 /// HEITZ with the single-scattering control variate.
 pub struct RefEstimator {
     walk: RefWalk,
@@ -41,14 +55,10 @@ pub struct RefEstimator {
 impl RefEstimator {
     /// For a suite material (as `Material::new` builds HEITZ: default bounces).
     pub fn new(s: &SuiteMaterial) -> Self {
-        let kind = match s.ndf {
-            NdfId::Beckmann => NdfKind::Beckmann,
-            _ => NdfKind::Ggx,
-        };
-        let ndf = Ndf::new(kind, s.alpha_x.max(1e-4), s.alpha_y.max(1e-4));
-        let (facet, eta) = match s.class {
-            Class::Conductor => (Facet::Conductor { eta: s.eta, k: s.k }, None),
-            Class::Dielectric => (Facet::Dielectric { eta: s.eta.x }, Some(s.eta.x)),
+        let (ndf, facet) = ndf_facet(s);
+        let eta = match facet {
+            Facet::Dielectric { eta } => Some(eta),
+            _ => None,
         };
         RefEstimator {
             walk: RefWalk::new(ndf, facet, 0),
@@ -498,6 +508,11 @@ pub struct GenSummary {
     /// the second pass needs about `work / target^2 / threads` seconds more
     /// for relative standard error `target` on every value.
     pub work: f64,
+    /// The same per material (suite order).
+    pub work_by_material: Vec<f64>,
+    /// Samples per value needed for `target` = `unit / target^2`, summed per
+    /// material.
+    pub unit_by_material: Vec<f64>,
     /// Relative standard error reached per value (channel max, with the floor).
     pub reached: Vec<f64>,
 }
@@ -737,10 +752,18 @@ pub fn generate(suite: &[SuiteMaterial], o: &GenOptions, prior: Option<&[RefMate
             "reached: relative standard error per value (channel max; values below {FLOOR:e} x the material RMS count against that floor) median {med:.2e}, worst {worst:.2e}; worst material-normalised RMS of the standard errors {norm_worst:.2e}"
         ),
     ];
+    let work_by_material = (0..suite.len())
+        .map(|mi| (0..per).map(|p| unit[mi * per + p] * t_per[mi * per + p]).sum())
+        .collect();
+    let unit_by_material = (0..suite.len())
+        .map(|mi| (0..per).map(|p| unit[mi * per + p]).sum())
+        .collect();
     GenSummary {
         header,
         data,
         work,
+        work_by_material,
+        unit_by_material,
         reached: rel_all,
     }
 }
