@@ -73,11 +73,30 @@ fn main() {
         return;
     }
     if harness::arg_flag("--estimate") {
+        // `--only SUBSTRING`: estimate a part of the suite.
+        let suite: Vec<_> = match harness::arg_value("--only") {
+            Some(f) => suite.into_iter().filter(|m| m.name.contains(&f)).collect(),
+            None => suite,
+        };
         // Pilot only: the time the second pass would need for the target.
         o.budget = 0.0;
         let g = reference::generate(&suite, &o, None);
         let secs = g.work / (o.target * o.target) / o.threads as f64;
         let t2 = o.target * o.target;
+        let mut order: Vec<usize> = (0..g.work_by_value.len()).collect();
+        order.sort_by(|a, b| g.work_by_value[*b].total_cmp(&g.work_by_value[*a]));
+        let per = o.pairs.min(64);
+        for &i in order.iter().take(harness::arg_value("--top").and_then(|s| s.parse().ok()).unwrap_or(0)) {
+            let p = &g.data[i / per].pairs[i % per];
+            println!(
+                "  top value: {} pair {} (wi.z {:.4}, wo.z {:.4}): core-seconds {:.3e}",
+                suite[i / per].name,
+                i % per,
+                p.wi.z,
+                p.wo.z,
+                g.work_by_value[i] / t2
+            );
+        }
         for (m, (w, u)) in suite
             .iter()
             .zip(g.work_by_material.iter().zip(&g.unit_by_material))

@@ -27,7 +27,6 @@ use msbsdf::{Material, Model, NdfId};
 use std::fmt::Write as _;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::time::Instant;
 
 /// The NDF and facet of a suite material, as `Material::new` builds them.
 pub fn ndf_facet(s: &SuiteMaterial) -> (Ndf, Facet) {
@@ -398,7 +397,23 @@ pub fn parallel<T: Send + Default + Clone>(
     results.into_inner().unwrap_or_default()
 }
 
-/// Result of one value item: statistics and the seconds it took.
+/// CPU time of the calling thread in seconds (`CLOCK_THREAD_CPUTIME_ID`):
+/// the cost of an item without the time other processes took the core
+/// (the machine the reference is made on is usually shared).
+pub fn thread_cpu_secs() -> f64 {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `ts` is a valid, writable timespec.
+    let r = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+    if r != 0 {
+        return 0.0;
+    }
+    ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9
+}
+
+/// Result of one value item: statistics and the CPU seconds it took.
 #[derive(Clone, Default)]
 struct Item {
     stats: Stats,
@@ -513,6 +528,8 @@ pub struct GenSummary {
     /// Samples per value needed for `target` = `unit / target^2`, summed per
     /// material.
     pub unit_by_material: Vec<f64>,
+    /// Core-seconds per unit of relative variance per value (item order).
+    pub work_by_value: Vec<f64>,
     /// Relative standard error reached per value (channel max, with the floor).
     pub reached: Vec<f64>,
 }
@@ -591,13 +608,13 @@ pub fn generate(suite: &[SuiteMaterial], o: &GenOptions, prior: Option<&[RefMate
         let (wi, wo) = pairs[mi][pi];
         let mut rng = Rng::new(seed, i as u64);
         let mut st = Stats::default();
-        let t = Instant::now();
+        let t = thread_cpu_secs();
         for _ in 0..count {
             st.push(est[mi].sample_with(wi, wo, &mut rng, opts[mi]));
         }
         Item {
             stats: st,
-            secs: t.elapsed().as_secs_f64(),
+            secs: thread_cpu_secs() - t,
         }
     };
     let prior_stats: Vec<Stats> = (0..n)
@@ -758,10 +775,12 @@ pub fn generate(suite: &[SuiteMaterial], o: &GenOptions, prior: Option<&[RefMate
     let unit_by_material = (0..suite.len())
         .map(|mi| (0..per).map(|p| unit[mi * per + p]).sum())
         .collect();
+    let work_by_value = (0..n).map(|i| unit[i] * t_per[i]).collect();
     GenSummary {
         header,
         data,
         work,
+        work_by_value,
         work_by_material,
         unit_by_material,
         reached: rel_all,
