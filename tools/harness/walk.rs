@@ -16,21 +16,35 @@
 //!   scattering and a few on large values.
 //! - **Multiple importance sampling** of the forward walk (from `wi`, next
 //!   event towards `wo`) and the reverse walk (from `wo` towards `wi`),
-//!   balance heuristic on the directions: a path of order `k` with travel
-//!   directions `w_1 .. w_{k-1}` between its vertices is sampled by the
-//!   forward walk with density `P_f = prod_{j=1}^{k-1} p_j(w_j | w_{j-1})`
-//!   (the facet sampling densities of its first `k - 1` vertices) and by
-//!   the reverse walk with `P_r = prod_{j=2}^{k} p_j(-w_{j-1} | -w_j)`; the
-//!   forward estimate is weighted `P_f / (P_f + P_r)` and the reverse one
-//!   `P_r / (P_f + P_r)` instead of `1/2` each. This is unbiased because the
-//!   walk's path contribution, integrated over the heights for fixed
-//!   directions, is reciprocal path by path (generalised reciprocity with
-//!   `eta^2` for transmission: Heitz 2016, Sec. 6) and the weights depend
-//!   on the directions only, summing to 1 for every path either walk can
-//!   produce. At low roughness the facet densities are peaky
-//!   (`D ~ 1 / (pi alpha^2)`): the forward walk's next event at vertex `k`
-//!   pays `D(m_k)` of a facet it did not choose, the reverse walk
-//!   `D(m_1)`; the weights keep whichever walk sampled the peak.
+//!   balance heuristic over the whole path. A path of order `k` has
+//!   vertices at heights `x_1 .. x_k` (`x = C1(h)` in the frame of the
+//!   side the walk is on) and travel directions `w_1 .. w_{k-1}` between
+//!   them. The forward walk samples it with density
+//!   `P_f = e_i(x_1) prod_{j<k} p_j(w_j | w_{j-1}) t(x_{j+1} | x_j, w_j)`
+//!   (entry density `e_i(x) = (1 + Lambda_i) x^Lambda_i`, the facet sampling
+//!   density `p_j` = the phase function without conductor Fresnel,
+//!   reflect/refract choice included, and the hit-height density
+//!   `t(y | x, w) = |L| x^L y^(-L-1)`, `L = Lambda(w)` of either sign), the
+//!   reverse walk with `P_r = e_o(x_k) prod_{j>1} p_j(-w_{j-1} | -w_j)
+//!   t(x_{j-1} | x_j, -w_{j-1})`. The heights cancel in `P_r / P_f` except
+//!   at the ends: `t(x | y, -w) / t(y | x, w) = (1 + L) / L` for every pair
+//!   of heights, so `P_r / P_f = (1 + Lambda_o) x_k^Lambda_o / ((1 +
+//!   Lambda_i) x_1^Lambda_i) prod (1 + L_j) / L_j prod p_j^rev / p_j^fwd`,
+//!   accumulated along the walk. The forward next event at vertex `k` is
+//!   weighted `P_f / (P_f + P_r)`, the reverse one `P_r / (P_f + P_r)`,
+//!   instead of `1/2` each. Unbiased because the walk's path contribution
+//!   is reciprocal path by path (generalised reciprocity with `eta^2` for
+//!   transmission; checked numerically: the height and direction factors of
+//!   an order-2 conductor path agree term by term) and the two weights sum
+//!   to 1 for every path either walk can produce (forced collisions only
+//!   add support; the weights use the analog densities). At low roughness
+//!   the facet densities are peaky (`D ~ 1 / (pi alpha^2)`): the forward
+//!   walk's next event at vertex `k` pays `D(m_k)` of a facet it did not
+//!   choose, the reverse walk `D(m_1)`, and one of the two meets its second
+//!   collision very rarely; the weights keep whichever walk sampled the
+//!   peak. Paths whose important part lies in the middle (grazing
+//!   transmission into grazing directions of rough glass) stay hard for both
+//!   walks: a bidirectional connection would be the next step.
 //!
 //! With `forced = 0` and `mis = false` the walk consumes the random numbers
 //! exactly as the library's and its per-order sum is the library's
@@ -46,8 +60,6 @@ use msbsdf::frame::{RefractionHalf, flip_z, reflect, refract, refraction_half};
 use msbsdf::fresnel;
 use msbsdf::multiple::heitz::default_max_bounces;
 use msbsdf::ndf::Ndf;
-
-pub static TRACE: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
 /// Orders kept separately in [`Contribution::by_order`] (index = order;
 /// orders `>= ORDERS - 1` are pooled in the last slot).
@@ -83,13 +95,6 @@ pub struct Contribution {
     pub by_order: [Vec3; ORDERS],
     /// Vertices visited.
     pub vertices: u32,
-}
-
-impl Contribution {
-    /// Sum of the orders `>= from`.
-    pub fn from_order(&self, from: usize) -> Vec3 {
-        self.by_order[from.min(ORDERS)..].iter().copied().sum()
-    }
 }
 
 /// `ln(1 - exp(x))` for `x <= 0` without cancellation (as the library).
@@ -150,7 +155,11 @@ impl RefWalk {
     fn dir_pdf(&self, i: Vec3, o: Vec3, eta: f32, refracted: bool) -> f64 {
         if refracted {
             let Some(RefractionHalf {
-                h, ci, co, jacobian, ..
+                h,
+                ci,
+                co,
+                jacobian,
+                ..
             }) = refraction_half(i, o, eta)
             else {
                 return 0.0;
@@ -186,16 +195,7 @@ impl RefWalk {
 
     /// Phase function times escape probability towards `o` (as the
     /// library's `next_event`).
-    #[allow(clippy::too_many_arguments)]
-    fn next_event(
-        &self,
-        w: Vec3,
-        lc: f64,
-        eta: f32,
-        o: Vec3,
-        sigma_i: f32,
-        lam_o: f64,
-    ) -> Vec3 {
+    fn next_event(&self, w: Vec3, lc: f64, eta: f32, o: Vec3, sigma_i: f32, lam_o: f64) -> Vec3 {
         let i = -w;
         let d_vis = |m: Vec3| {
             let c = i.dot(m);
@@ -336,11 +336,12 @@ impl RefWalk {
                     };
                     let pr = self.reverse_pdf(i, o, eta, o.z < 0.0);
                     let t = log_r + pr.ln() + (1.0 + lam_target).ln() + ln_esc;
-                    let wf = if t.is_nan() { 0.5 } else { 1.0 / (1.0 + t.exp()) };
+                    let wf = if t.is_nan() {
+                        0.5
+                    } else {
+                        1.0 / (1.0 + t.exp())
+                    };
                     c *= wf as f32;
-                }
-                if TRACE.load(std::sync::atomic::Ordering::Relaxed) {
-                    eprintln!("    v{order} flipped {flipped} w {w:.4} lam {lam:.3} lc {lc:.4} weight {weight:.3} o {o:.4} c {:.4e} sigma_i {sigma_i:.3e}", c.x);
                 }
                 out.by_order[order.min(ORDERS - 1)] += c;
             }
