@@ -195,7 +195,11 @@ fn main() {
         o.threads
     ));
     for h in prior_header.iter().skip(1) {
-        header.push(format!("earlier run: {h}"));
+        if h.starts_with("earlier run: ") {
+            header.push(h.clone());
+        } else {
+            header.push(format!("earlier run: {h}"));
+        }
     }
     for h in &header {
         eprintln!("{h}");
