@@ -26,7 +26,7 @@
 //!   rewrite it (earlier header lines kept as `earlier run:`); the albedo
 //!   table is left alone. A bigger machine pushes the reference to the
 //!   target with `--resume --budget SECONDS`.
-//! - `--check [--samples N]`: the estimator against the library's HEITZ eval
+//! - `--check [--samples N] [--items material:pair,...]`: the estimator against the library's HEITZ eval
 //!   and its walks from `wi` and from `wo` on hard and easy pairs (z per
 //!   channel, Sidak-corrected; exit status 1 on failure).
 //! - `--estimate [--pilot N] [--top K] [--only SUBSTRING]`: pilot pass only;
@@ -88,7 +88,23 @@ fn main() {
     };
     if harness::arg_flag("--check") {
         let n = parse("--samples", 2e5) as u64;
-        let r = reference::check_estimators(&reference::check_items(), n, o.seed + 5, &o);
+        // `--items name:pair,...` replaces the default list.
+        let custom: Vec<(String, usize)> = harness::arg_value("--items")
+            .map(|l| {
+                l.split(',')
+                    .filter_map(|s| {
+                        let (n, p) = s.split_once(':')?;
+                        Some((n.to_string(), p.parse().ok()?))
+                    })
+                    .collect()
+            })
+            .unwrap_or_default();
+        let items: Vec<(&str, usize)> = if custom.is_empty() {
+            reference::check_items()
+        } else {
+            custom.iter().map(|(n, p)| (n.as_str(), *p)).collect()
+        };
+        let r = reference::check_estimators(&items, n, o.seed + 5, &o);
         for l in &r.lines {
             println!("{l}");
         }
