@@ -15,8 +15,8 @@
 //! SINGLE term plus the orders >= 2 of a forward and a reverse walk combined
 //! by multiple importance sampling, with a forced collision after the first
 //! vertex for conductors. It estimates the library's HEITZ_RANDOM_WALK
-//! (same walk, NDF, heights, Fresnel, bounce limit) with 5x (suite total) to
-//! 3000x (GGX gold 0.05) less work for 1e-3 than the first generator's
+//! (same walk, NDF, heights, Fresnel, bounce limit) with 6.8x (suite total)
+//! to 2100x (GGX gold 0.05) less work for 1e-3 than the first generator's
 //! estimator, which `--plain` still runs.
 //!
 //! Other modes:

@@ -28,8 +28,10 @@
 //! function towards the grazing `wi` is huge); the plain average inherits
 //! the tail, so 2e5 samples typically fall 4% low while their standard error
 //! says 0.3%. The balance heuristic keeps the walk that sampled the peak:
-//! var/mean^2 3.3e2 -> 16 (forced collision: 5), 22x to 3000x less
-//! variance x time on the low-roughness GGX metals.
+//! var/mean^2 of the multiple part 16, with the forced collision 5; over
+//! the suite (`--estimate`, CPU time for 1e-3 on every value) 81x to 2100x
+//! less variance x time on GGX metals at alpha 0.05 and 0.1, 5x to 9x at
+//! (0.1, 0.6), 7x on glass 0.5, 2.9x on glass 1.0, 6.8x in total.
 
 use super::suite::{Class, SuiteMaterial, ndf_from_name, ndf_name};
 use super::walk::{ORDERS, RefWalk, WalkOptions};
