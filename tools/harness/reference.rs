@@ -1068,6 +1068,13 @@ pub const MIN_EFFECTIVE: f64 = 100.0;
 /// walks meets its large values with probability ~1e-3 to 1e-5, so its
 /// sample variance understates the error for a long time (the reason for
 /// this estimator). Sidak-corrected over the counted tests.
+///
+/// Measured (`gen_reference --check --samples 2000000`, the default items):
+/// worst |z| 2.00 over 90 counted tests (Sidak threshold 3.86; the 12
+/// uncounted heavy-tailed comparisons all below 2.4). On the seven values
+/// where the first reference was furthest off (8% to 20% low, |z| 15 to
+/// 22 against this estimator: its pilot of 4000 samples had not met the
+/// tail), 1e6 samples: worst |z| 2.16 over 18 counted tests (Sidak 3.45).
 pub fn check_estimators(
     items: &[(&str, usize)],
     samples: u64,
