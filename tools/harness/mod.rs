@@ -14,6 +14,7 @@ pub mod reference;
 pub mod speed;
 pub mod suite;
 pub mod svg;
+pub mod walk;
 
 use std::io::Write as _;
 use std::time::{Duration, Instant};
