@@ -2,7 +2,9 @@
 //!
 //! - Conductors: Kulla and Conty 2017 with a walk-derived Fresnel tint. The
 //!   single-scattering lobe plus a multiple-scattering lobe
-//!   `f_ms(wi, wo) = (1 - E(mu_i)) (1 - E(mu_o)) T(mu_i) T(mu_o) / (pi (1 - E_avg) T_avg)`,
+//!   `f_ms(wi, wo) = (1 - E(mu_i)) (1 - E(mu_o)) T(mu_i) T(mu_o) / (pi (1 - E_avg) T_avg)`
+//!   (stored per material as one table `g(mu)` with `f_ms = g(mu_i) g(mu_o)`
+//!   for isotropic roughness: one lookup per direction, see [`Tint`]),
 //!   where `E(mu)` is the single-scattering directional albedo with F = 1,
 //!   `E_avg = 2 int E mu dmu` its cosine-weighted average, `T(mu)` (per RGB
 //!   channel) the fraction of the multiply scattered energy from `mu` that
@@ -291,20 +293,33 @@ pub struct Compensated {
 }
 
 /// The Fresnel tint `T(mu)` of the multiple-scattering lobe on the mu grid
-/// of the tables, already divided by `sqrt(T_avg)` so that
-/// `f_ms ∝ (1 - E_i) (1 - E_o) t(mu_i) t(mu_o)`.
+/// of the tables, in one of two forms:
+///
+/// - `folded` (isotropic roughness): `g(mu) = (1 - E(mu)) T(mu) / sqrt(Z)`
+///   with `Z = 2 pi int g_raw mu dmu` over exactly the interpolant the
+///   lookup uses (linear between nodes, constant below the first), so that
+///   `f_ms |o.z| = g(mu_i) g(mu_o) |o.z|` has the multiply scattered
+///   albedo `(1 - E(mu_i)) T(mu_i)` and costs one lookup per direction;
+/// - otherwise (anisotropic roughness, where `E` depends on the azimuth):
+///   `T(mu) / sqrt(T_avg)`, combined with `1 - E(w)` at eval time.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Tint {
     t: [Vec3; t::MU_N],
+    folded: bool,
+    /// `sqrt(Z)` (folded form): the multiply scattered albedo from `wi` is
+    /// `g(mu_i) sqrt(Z)`.
+    sqrt_z: Vec3,
 }
 
 impl Tint {
     /// No multiple scattering (diffuse facets reuse the conductor arm).
     const ZERO: Tint = Tint {
         t: [Vec3::ZERO; t::MU_N],
+        folded: true,
+        sqrt_z: Vec3::ZERO,
     };
 
-    /// The tint at `mu`, linear in the mu grid.
+    /// The table at `mu`, linear in the mu grid.
     #[inline]
     fn at(&self, mu: f32) -> Vec3 {
         let (m0, m1, fm) = split(mu_coord(mu), t::MU_N);
@@ -313,8 +328,16 @@ impl Tint {
 
     /// Builds the tint of a conductor (complex IOR per channel) for the
     /// NDF table `ndf` at alpha coordinate `alpha_c`, with `e(mu)` the
-    /// single-scattering albedo with F = 1. Runs once per material.
-    fn conductor(ndf: usize, alpha_c: f32, eta: Vec3, k: Vec3, e: impl Fn(f32) -> f32) -> Tint {
+    /// single-scattering albedo with F = 1 at that alpha; `fold` selects
+    /// the folded form. Runs once per material.
+    fn conductor(
+        ndf: usize,
+        alpha_c: f32,
+        eta: Vec3,
+        k: Vec3,
+        e: impl Fn(f32) -> f32,
+        fold: bool,
+    ) -> Tint {
         // The exact Fresnel and Schlick's `(1 - c)^5` at the bin centres.
         let mut f_bin = [Vec3::ZERO; ms::MS_BINS];
         let mut s_bin = [0.0f32; ms::MS_BINS];
@@ -341,7 +364,41 @@ impl Tint {
             };
             Vec3::new(read(f0.x), read(f0.y), read(f0.z))
         };
-        let mut tint = Tint::ZERO;
+        let mut tint = Tint {
+            folded: fold,
+            ..Tint::ZERO
+        };
+        if fold {
+            for i in 0..t::MU_N {
+                let ti = tint_at(a0, i).lerp(tint_at(a1, i), fa);
+                tint.t[i] = ti * (1.0 - e(grid_mu(i))).max(0.0);
+            }
+            // Z = 2 pi int g mu dmu of the interpolant: constant below the
+            // first node, linear between nodes (exact per interval).
+            let m0 = grid_mu(0);
+            let mut z = tint.t[0] * (m0 * m0 * 0.5);
+            for i in 0..t::MU_N - 1 {
+                let (x0, x1) = (grid_mu(i), grid_mu(i + 1));
+                let h = x1 - x0;
+                let (g0, g1) = (tint.t[i], tint.t[i + 1]);
+                z += g0 * (h * (x0 + 0.5 * h)) + (g1 - g0) * (h * (0.5 * x0 + h / 3.0));
+            }
+            let z = z * (2.0 * PI);
+            for c in 0..3 {
+                if z[c] > 0.0 {
+                    let r = z[c].sqrt();
+                    tint.sqrt_z[c] = r;
+                    for g in tint.t.iter_mut() {
+                        g[c] /= r;
+                    }
+                } else {
+                    for g in tint.t.iter_mut() {
+                        g[c] = 0.0;
+                    }
+                }
+            }
+            return tint;
+        }
         // T_avg = int (1 - E) T mu dmu / int (1 - E) mu dmu (trapezoid on the grid).
         let (mut num, mut den) = (Vec3::ZERO, 0.0f32);
         for i in 0..t::MU_N {
@@ -387,9 +444,14 @@ impl Compensated {
                     Some(a) => a.e_avg(),
                     None => conductor_e_avg(ndf_index, alpha_c),
                 };
-                let tint = Tint::conductor(ndf_index, alpha_c, eta, k, |mu| {
-                    conductor_e(ndf_index, alpha_c, mu)
-                });
+                let tint = Tint::conductor(
+                    ndf_index,
+                    alpha_c,
+                    eta,
+                    k,
+                    |mu| conductor_e(ndf_index, alpha_c, mu),
+                    aniso.is_none(),
+                );
                 Kind::Conductor { e_avg, tint }
             }
             Facet::Diffuse { .. } => Kind::Conductor {
@@ -426,6 +488,9 @@ impl Compensated {
     /// same side.
     #[inline]
     fn ms_lobe(&self, wi: Vec3, wo: Vec3, e_avg: f32, tint: &Tint) -> Vec3 {
+        if tint.folded {
+            return tint.at(wi.z.abs()) * tint.at(wo.z.abs()) * wo.z.abs();
+        }
         if e_avg >= 1.0 {
             return Vec3::ZERO;
         }
@@ -438,11 +503,16 @@ impl Compensated {
     #[inline]
     fn p_single(&self, wi: Vec3, e_avg: f32, tint: &Tint) -> f32 {
         let e = self.e_dir(wi);
-        // The multiply scattered albedo is (1 - E(mu_i)) T(mu_i); the stored
+        // The multiply scattered albedo: exactly g(mu_i) sqrt(Z) in the
+        // folded form; (1 - E(mu_i)) T(mu_i) otherwise, where the stored
         // tint carries 1 / sqrt(T_avg), close enough for a sampling weight.
-        let ms = tint.at(wi.z.abs()).element_sum() / 3.0
-            * (1.0 - e).max(0.0)
-            * if e_avg < 1.0 { 1.0 } else { 0.0 };
+        let ms = if tint.folded {
+            (tint.at(wi.z.abs()) * tint.sqrt_z).element_sum() / 3.0
+        } else {
+            tint.at(wi.z.abs()).element_sum() / 3.0
+                * (1.0 - e).max(0.0)
+                * if e_avg < 1.0 { 1.0 } else { 0.0 }
+        };
         let ss = e.max(1e-4);
         ss / (ss + ms)
     }
