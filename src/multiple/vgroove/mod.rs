@@ -207,10 +207,10 @@
 //! 15-20% is the overhead on a whole frame, which `scripts/vgroove_frame.sh`
 //! measures with the Embree tracer (`c_examples/scenes/conductors.scene`,
 //! nine conductor spheres, 32 spp, one thread, CPU time, minimum of 3
-//! runs, every material forced to the model; first round, two sessions):
-//! VGROOVE / SINGLE = 1.53 with Beckmann (1.62-1.80 originally; also 1.53
-//! with every sphere at alpha 0.2, `N = 2`, 1.64 originally) and 3.1-3.2
-//! with GGX (4.6-4.9 originally). That scene is nine spheres under a sky:
+//! runs, every material forced to the model): VGROOVE / SINGLE with
+//! Beckmann 1.40 after the second round (1.53 after the first, 1.62-1.80
+//! originally), with every sphere at Beckmann alpha 0.2 (`N = 2`) 1.19
+//! (1.53, 1.64), with GGX 3.0 (3.1-3.2, 4.6-4.9); 32 spp. That scene is nine spheres under a sky:
 //! BSDF calls dominate its frame time, so the frame ratio stays close to
 //! the per-call ratio; a scene with more geometry and texturing per path
 //! vertex (the paper's) dilutes it.
