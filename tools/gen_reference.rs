@@ -35,6 +35,8 @@
 //! - `--analyse material:pair,... [--samples N] [--one-way]`: variance per
 //!   scattering order, tail weight and time of each walk variant.
 //! - `--check-only`: only the order-1 check (`E[walk_1] = SINGLE`).
+//! - `--albedo-only [--albedo-samples N]`: only `reference_albedo.csv`
+//!   (default 1e6 HEITZ samples per row).
 
 #[path = "harness/mod.rs"]
 mod harness;
@@ -191,6 +193,10 @@ fn main() {
     };
     let command = harness::command_line("gen_reference");
     let t = std::time::Instant::now();
+    if harness::arg_flag("--albedo-only") {
+        albedo_table(&suite, &o, &command, &out, quick, t);
+        return;
+    }
     let check = reference::check_order_one(&suite, if quick { 2000 } else { 50_000 }, &o);
     if harness::arg_flag("--check-only") {
         for h in check {
@@ -225,28 +231,7 @@ fn main() {
     if resume || harness::arg_flag("--no-albedo") {
         return;
     }
-    let albedo_samples = parse("--albedo-samples", if quick { 2e4 } else { 4e5 }) as u64;
-    let rows = reference::albedo(&suite, albedo_samples, &o);
-    let worst = rows
-        .iter()
-        .map(|r| {
-            (0..3)
-                .map(|c| r.se[c] / r.albedo[c].max(1e-9))
-                .fold(0.0, f64::max)
-        })
-        .fold(0.0, f64::max);
-    let aheader = vec![
-        "HEITZ_RANDOM_WALK directional albedo (mean sample weight; reflected + transmitted; azimuth 0) of the suite materials".to_string(),
-        format!("command: {command}"),
-        format!(
-            "seeds: Rng::new({}, stream = material_index * {} + angle_index); {albedo_samples} samples per row; worst relative standard error {worst:.2e}",
-            o.seed + 3,
-            reference::ALBEDO_THETAS.len()
-        ),
-    ];
-    let apath = format!("{out}/reference_albedo.csv");
-    reference::write_albedo(&apath, &aheader, &rows).expect("write albedo");
-    eprintln!("wrote {apath} ({:.0} s total)", t.elapsed().as_secs_f64());
+    albedo_table(&suite, &o, &command, &out, quick, t);
 }
 
 /// `--analyse name:pair,...`: where the variance of the given values comes
@@ -361,4 +346,45 @@ fn analyse(list: &str, samples: u64) {
             eprintln!("{line}");
         }
     }
+}
+
+/// Writes `DIR/reference_albedo.csv`: HEITZ_RANDOM_WALK's directional
+/// albedo (mean sample weight) per suite material and incident angle,
+/// `--albedo-samples` per row (default 1e6: worst relative standard error
+/// below 1e-3).
+fn albedo_table(
+    suite: &[suite::SuiteMaterial],
+    o: &GenOptions,
+    command: &str,
+    out: &str,
+    quick: bool,
+    t: std::time::Instant,
+) {
+    let parse = |name: &str, default: f64| {
+        harness::arg_value(name)
+            .and_then(|s| s.parse::<f64>().ok())
+            .unwrap_or(default)
+    };
+    let albedo_samples = parse("--albedo-samples", if quick { 2e4 } else { 1e6 }) as u64;
+    let rows = reference::albedo(suite, albedo_samples, o);
+    let worst = rows
+        .iter()
+        .map(|r| {
+            (0..3)
+                .map(|c| r.se[c] / r.albedo[c].max(1e-9))
+                .fold(0.0, f64::max)
+        })
+        .fold(0.0, f64::max);
+    let aheader = vec![
+        "HEITZ_RANDOM_WALK directional albedo (mean sample weight; reflected + transmitted; azimuth 0) of the suite materials".to_string(),
+        format!("command: {command}"),
+        format!(
+            "seeds: Rng::new({}, stream = material_index * {} + angle_index); {albedo_samples} samples per row; worst relative standard error {worst:.2e}",
+            o.seed + 3,
+            reference::ALBEDO_THETAS.len()
+        ),
+    ];
+    let apath = format!("{out}/reference_albedo.csv");
+    reference::write_albedo(&apath, &aheader, &rows).expect("write albedo");
+    eprintln!("wrote {apath} ({:.0} s total)", t.elapsed().as_secs_f64());
 }
