@@ -92,6 +92,87 @@ fn fmt_row(v: &[f32]) -> String {
     format!("[{}]", items.join(", "))
 }
 
+/// Runs `f(index, job)` on every job over two threads (job `i` on thread
+/// `i % 2`), printing progress every `every` jobs; results in job order.
+fn parallel<J: Sync, R: Send>(
+    jobs: &[J],
+    what: &str,
+    every: usize,
+    f: impl Fn(usize, &J) -> R + Sync,
+) -> Vec<R> {
+    let t0 = std::time::Instant::now();
+    let total = jobs.len();
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    let parts: Vec<Vec<(usize, R)>> = std::thread::scope(|sc| {
+        let handles: Vec<_> = (0..2)
+            .map(|th| {
+                let (f, done) = (&f, &done);
+                sc.spawn(move || {
+                    let mut out = Vec::new();
+                    for (idx, job) in jobs.iter().enumerate().filter(|(i, _)| i % 2 == th) {
+                        out.push((idx, f(idx, job)));
+                        let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+                        if d.is_multiple_of(every) || d == total {
+                            let el = t0.elapsed().as_secs_f32();
+                            eprintln!(
+                                "{d}/{total} {what}, {el:.0} s, ETA {:.0} s",
+                                el / d as f32 * (total - d) as f32
+                            );
+                        }
+                    }
+                    out
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().expect("worker"))
+            .collect()
+    });
+    let mut all: Vec<(usize, R)> = parts.into_iter().flatten().collect();
+    all.sort_by_key(|(i, _)| *i);
+    all.into_iter().map(|(_, r)| r).collect()
+}
+
+/// A nested table that writes itself as Rust array items, one row of
+/// numbers per line, two spaces of indent per level (rustfmt re-indents).
+trait Nested {
+    fn write_items(&self, s: &mut String, indent: usize);
+}
+
+impl Nested for Vec<f32> {
+    fn write_items(&self, s: &mut String, indent: usize) {
+        writeln!(s, "{:indent$}{},", "", fmt_row(self)).ok();
+    }
+}
+
+impl<T: Nested> Nested for Vec<T> {
+    fn write_items(&self, s: &mut String, indent: usize) {
+        writeln!(s, "{:indent$}[", "").ok();
+        for x in self {
+            x.write_items(s, indent + 2);
+        }
+        writeln!(s, "{:indent$}],", "").ok();
+    }
+}
+
+/// `/// doc` + `pub static DECL = [...];` for a nested table.
+fn write_static<T: Nested>(s: &mut String, doc: &str, decl: &str, v: &[T]) {
+    writeln!(s, "/// {doc}\npub static {decl} = [").ok();
+    for x in v {
+        x.write_items(s, 2);
+    }
+    writeln!(s, "];").ok();
+}
+
+/// Writes the generated source `src/multiple/{file}`.
+fn write_source(file: &str, s: &str, t0: std::time::Instant) {
+    let path = format!("{}/src/multiple/{file}", env!("CARGO_MANIFEST_DIR"));
+    let mut f = std::fs::File::create(&path).expect("create the tables file");
+    f.write_all(s.as_bytes()).expect("write the tables file");
+    eprintln!("wrote {path} in {:.0} s", t0.elapsed().as_secs_f32());
+}
+
 fn main() {
     if std::env::args().any(|a| a == "--ms") {
         ms_tables();
@@ -114,60 +195,27 @@ fn main() {
             })
         })
         .collect();
-    let total = jobs.len();
-    let done = std::sync::atomic::AtomicUsize::new(0);
-    type Row = ((usize, usize, usize, usize), Vec<f32>, f32);
-    let results: Vec<Vec<Row>> = std::thread::scope(|sc| {
-        let handles: Vec<_> = (0..2)
-            .map(|t| {
-                let jobs = &jobs;
-                let done = &done;
-                sc.spawn(move || {
-                    let mut out = Vec::new();
-                    for (idx, &(n, kind, k, j)) in jobs.iter().enumerate() {
-                        if idx % 2 != t {
-                            continue;
-                        }
-                        let alpha = grid_alpha(j);
-                        let row: Vec<f32> = (0..MU_N)
-                            .map(|i| match kind {
-                                0 => conductor(NDFS[n], alpha, grid_mu(i)),
-                                1 => dielectric(NDFS[n], alpha, grid_eta(k), grid_mu(i)),
-                                _ => dielectric(NDFS[n], alpha, 1.0 / grid_eta(k), grid_mu(i)),
-                            })
-                            .collect();
-                        // E_avg = 2 int E(mu) mu dmu = int_0^1 E(sqrt(s)) ds, 32 midpoints.
-                        let avg = if kind == 0 {
-                            (0..32)
-                                .map(|i| {
-                                    conductor(NDFS[n], alpha, ((i as f32 + 0.5) / 32.0).sqrt())
-                                })
-                                .sum::<f32>()
-                                / 32.0
-                        } else {
-                            0.0
-                        };
-                        out.push(((n, kind, k, j), row, avg));
-                        let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-                        let el = t0.elapsed().as_secs_f32();
-                        if d.is_multiple_of(40) || d == total {
-                            eprintln!(
-                                "{d}/{total} rows, {el:.0} s, ETA {:.0} s   ",
-                                el / d as f32 * (total - d) as f32
-                            );
-                        }
-                    }
-                    out
-                })
+    let results = parallel(&jobs, "rows", 40, |_, &(n, kind, k, j)| {
+        let alpha = grid_alpha(j);
+        let row: Vec<f32> = (0..MU_N)
+            .map(|i| match kind {
+                0 => conductor(NDFS[n], alpha, grid_mu(i)),
+                1 => dielectric(NDFS[n], alpha, grid_eta(k), grid_mu(i)),
+                _ => dielectric(NDFS[n], alpha, 1.0 / grid_eta(k), grid_mu(i)),
             })
             .collect();
-        handles
-            .into_iter()
-            .map(|h| h.join().expect("worker"))
-            .collect()
+        // E_avg = 2 int E(mu) mu dmu = int_0^1 E(sqrt(s)) ds, 32 midpoints.
+        let avg = if kind == 0 {
+            (0..32)
+                .map(|i| conductor(NDFS[n], alpha, ((i as f32 + 0.5) / 32.0).sqrt()))
+                .sum::<f32>()
+                / 32.0
+        } else {
+            0.0
+        };
+        (row, avg)
     });
-    eprintln!();
-    for ((n, kind, k, j), row, avg) in results.into_iter().flatten() {
+    for (&(n, kind, k, j), (row, avg)) in jobs.iter().zip(results) {
         if kind == 0 {
             cond[n][j] = row;
             cond_avg[n][j] = avg;
@@ -221,48 +269,25 @@ fn main() {
         "/// Smallest tabulated mu.\npub const MU_MIN: f32 = {MU_MIN:?};"
     )
     .ok();
-    writeln!(
-        s,
-        "/// Conductor albedo with F = 1.\npub static CONDUCTOR_E: [[[f32; MU_N]; ALPHA_N]; 2] = ["
-    )
-    .ok();
-    for table in &cond {
-        writeln!(s, "  [").ok();
-        for row in table {
-            writeln!(s, "    {},", fmt_row(row)).ok();
-        }
-        writeln!(s, "  ],").ok();
-    }
-    writeln!(s, "];").ok();
-    writeln!(s, "/// Cosine-weighted average of the conductor albedo.\npub static CONDUCTOR_E_AVG: [[f32; ALPHA_N]; 2] = [").ok();
-    for row in &cond_avg {
-        writeln!(s, "  {},", fmt_row(row)).ok();
-    }
-    writeln!(s, "];").ok();
-    writeln!(s, "/// Dielectric reflected + transmitted albedo.\npub static DIELECTRIC_E: [[[[[f32; MU_N]; ALPHA_N]; ETA_N]; 2]; 2] = [").ok();
-    for per_ndf in &diel {
-        writeln!(s, "  [").ok();
-        for per_side in per_ndf {
-            writeln!(s, "    [").ok();
-            for per_eta in per_side {
-                writeln!(s, "      [").ok();
-                for row in per_eta {
-                    writeln!(s, "        {},", fmt_row(row)).ok();
-                }
-                writeln!(s, "      ],").ok();
-            }
-            writeln!(s, "    ],").ok();
-        }
-        writeln!(s, "  ],").ok();
-    }
-    writeln!(s, "];").ok();
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/src/multiple/compensation_tables.rs"
+    write_static(
+        &mut s,
+        "Conductor albedo with F = 1.",
+        "CONDUCTOR_E: [[[f32; MU_N]; ALPHA_N]; 2]",
+        &cond,
     );
-    let mut f = std::fs::File::create(path).expect("create the tables file");
-    f.write_all(s.as_bytes()).expect("write the tables file");
-    eprintln!("wrote {path} in {:.0} s", t0.elapsed().as_secs_f32());
+    write_static(
+        &mut s,
+        "Cosine-weighted average of the conductor albedo.",
+        "CONDUCTOR_E_AVG: [[f32; ALPHA_N]; 2]",
+        &cond_avg,
+    );
+    write_static(
+        &mut s,
+        "Dielectric reflected + transmitted albedo.",
+        "DIELECTRIC_E: [[[[[f32; MU_N]; ALPHA_N]; ETA_N]; 2]; 2]",
+        &diel,
+    );
+    write_source("compensation_tables.rs", &s, t0);
 }
 
 /// Cosine bins of the multiple-scattering bounce histogram.
@@ -332,103 +357,71 @@ fn ms_tables() {
     let cells: Vec<(usize, usize, usize)> = (0..2)
         .flat_map(|n| (0..ALPHA_N).flat_map(move |j| (0..MU_N).map(move |i| (n, j, i))))
         .collect();
-    let total = cells.len();
-    let done = std::sync::atomic::AtomicUsize::new(0);
-    // (cell, histogram, tint per F0, walks, ms paths, |z| of the E check)
-    type Cell = ((usize, usize, usize), Vec<f32>, Vec<f32>, u64, u64, f64);
-    let results: Vec<Vec<Cell>> = std::thread::scope(|sc| {
-        let handles: Vec<_> = (0..2)
-            .map(|th| {
-                let cells = &cells;
-                let done = &done;
-                sc.spawn(move || {
-                    let mut out = Vec::new();
-                    let mut cos = Vec::new();
-                    for (idx, &(n, j, i)) in cells.iter().enumerate() {
-                        if idx % 2 != th {
-                            continue;
-                        }
-                        let alpha = grid_alpha(j);
-                        let mut hist = [0f64; MS_BINS];
-                        let mut tint = [0f64; F0_N];
-                        let (mut walks, mut paths, mut singles) = (0u64, 0u64, 0u64);
-                        if alpha > 0.0 {
-                            let ndf = Ndf::new(NDFS[n], alpha, alpha);
-                            let wi = dir(grid_mu(i));
-                            let mut rng = Rng::new(20_261_122 + idx as u64, 7);
-                            while paths < MS_TARGET_PATHS && walks < MS_MAX_WALKS {
-                                walks += 1;
-                                if !ms_walk(&ndf, wi, &mut rng, &mut cos) {
-                                    continue;
-                                }
-                                if cos.len() == 1 {
-                                    singles += 1;
-                                    continue;
-                                }
-                                paths += 1;
-                                let wgt = 1.0; // every reflection counts once
-                                for &c in &cos {
-                                    let b = ((c * MS_BINS as f32) as usize).min(MS_BINS - 1);
-                                    hist[b] += wgt;
-                                }
-                                for (q, tq) in tint.iter_mut().enumerate() {
-                                    let f0 = q as f64 / (F0_N - 1) as f64;
-                                    *tq += cos.iter().map(|&c| schlick(c, f0)).product::<f64>();
-                                }
-                            }
-                        }
-                        let (hist, tint) = if paths > 0 {
-                            let hs: f64 = hist.iter().sum();
-                            (
-                                hist.iter().map(|h| (h / hs) as f32).collect(),
-                                tint.iter().map(|x| (x / paths as f64) as f32).collect(),
-                            )
-                        } else {
-                            // No multiple scattering (alpha 0): the tint is
-                            // never used; keep a sane uniform histogram.
-                            (
-                                vec![1.0 / MS_BINS as f32; MS_BINS],
-                                (0..F0_N)
-                                    .map(|q| {
-                                        let f0 = q as f32 / (F0_N - 1) as f32;
-                                        f0 * f0
-                                    })
-                                    .collect(),
-                            )
-                        };
-                        let z = if walks > 0 {
-                            let p = singles as f64 / walks as f64;
-                            let e = t::CONDUCTOR_E[n][j][i] as f64;
-                            // Binomial error of the walk, floored at the table's
-                            // quadrature accuracy (2e-5, rounding included).
-                            let var = (e * (1.0 - e)).max(p * (1.0 - p)) / walks as f64;
-                            ((p - e).abs() - 2e-5).max(0.0) / var.sqrt().max(1e-6)
-                        } else {
-                            0.0
-                        };
-                        out.push(((n, j, i), hist, tint, walks, paths, z));
-                        let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-                        let el = t0.elapsed().as_secs_f32();
-                        if d.is_multiple_of(64) || d == total {
-                            eprintln!(
-                                "{d}/{total} cells, {el:.0} s, ETA {:.0} s",
-                                el / d as f32 * (total - d) as f32
-                            );
-                        }
-                    }
-                    out
-                })
-            })
-            .collect();
-        handles
-            .into_iter()
-            .map(|h| h.join().expect("worker"))
-            .collect()
+    let results = parallel(&cells, "cells", 64, |idx, &(n, j, i)| {
+        let mut cos = Vec::new();
+        let alpha = grid_alpha(j);
+        let mut hist = [0f64; MS_BINS];
+        let mut tint = [0f64; F0_N];
+        let (mut walks, mut paths, mut singles) = (0u64, 0u64, 0u64);
+        if alpha > 0.0 {
+            let ndf = Ndf::new(NDFS[n], alpha, alpha);
+            let wi = dir(grid_mu(i));
+            let mut rng = Rng::new(20_261_122 + idx as u64, 7);
+            while paths < MS_TARGET_PATHS && walks < MS_MAX_WALKS {
+                walks += 1;
+                if !ms_walk(&ndf, wi, &mut rng, &mut cos) {
+                    continue;
+                }
+                if cos.len() == 1 {
+                    singles += 1;
+                    continue;
+                }
+                paths += 1;
+                // Every reflection counts once.
+                for &c in &cos {
+                    hist[((c * MS_BINS as f32) as usize).min(MS_BINS - 1)] += 1.0;
+                }
+                for (q, tq) in tint.iter_mut().enumerate() {
+                    let f0 = q as f64 / (F0_N - 1) as f64;
+                    *tq += cos.iter().map(|&c| schlick(c, f0)).product::<f64>();
+                }
+            }
+        }
+        let (hist, tint): (Vec<f32>, Vec<f32>) = if paths > 0 {
+            let hs: f64 = hist.iter().sum();
+            (
+                hist.iter().map(|h| (h / hs) as f32).collect(),
+                tint.iter().map(|x| (x / paths as f64) as f32).collect(),
+            )
+        } else {
+            // No multiple scattering (alpha 0): the tint is never used;
+            // keep a sane uniform histogram.
+            (
+                vec![1.0 / MS_BINS as f32; MS_BINS],
+                (0..F0_N)
+                    .map(|q| {
+                        let f0 = q as f32 / (F0_N - 1) as f32;
+                        f0 * f0
+                    })
+                    .collect(),
+            )
+        };
+        let z = if walks > 0 {
+            let p = singles as f64 / walks as f64;
+            let e = t::CONDUCTOR_E[n][j][i] as f64;
+            // Binomial error of the walk, floored at the table's quadrature
+            // accuracy (2e-5, rounding included).
+            let var = (e * (1.0 - e)).max(p * (1.0 - p)) / walks as f64;
+            ((p - e).abs() - 2e-5).max(0.0) / var.sqrt().max(1e-6)
+        } else {
+            0.0
+        };
+        (hist, tint, walks, paths, z)
     });
     let mut hist = vec![vec![vec![vec![0f32; MS_BINS]; MU_N]; ALPHA_N]; 2];
     let mut tint = vec![vec![vec![vec![0f32; F0_N]; MU_N]; ALPHA_N]; 2];
     let (mut walks, mut worst_z, mut fewest) = (0u64, 0f64, u64::MAX);
-    for ((n, j, i), h, tq, w, p, z) in results.into_iter().flatten() {
+    for (&(n, j, i), (h, tq, w, p, z)) in cells.iter().zip(results) {
         hist[n][j][i] = h;
         tint[n][j][i] = tq;
         walks += w;
@@ -475,46 +468,19 @@ fn ms_tables() {
         "/// Schlick `F0` nodes (uniform on [0, 1]) of [`CONDUCTOR_MS_TINT`].\npub const F0_N: usize = {F0_N};"
     )
     .ok();
-    let write4 = |s: &mut String, name: &str, doc: &str, len: &str, v: &Vec<Vec<Vec<Vec<f32>>>>| {
-        writeln!(
-            s,
-            "/// {doc}\npub static {name}: [[[[f32; {len}]; MU_N]; ALPHA_N]; 2] = ["
-        )
-        .ok();
-        for per_ndf in v {
-            writeln!(s, "  [").ok();
-            for per_alpha in per_ndf {
-                writeln!(s, "    [").ok();
-                for row in per_alpha {
-                    writeln!(s, "      {},", fmt_row(row)).ok();
-                }
-                writeln!(s, "    ],").ok();
-            }
-            writeln!(s, "  ],").ok();
-        }
-        writeln!(s, "];").ok();
-    };
-    write4(
+    write_static(
         &mut s,
-        "CONDUCTOR_MS_COS_HIST",
         "Distribution of the reflection cosines `|w.m|` of multiply scattered paths (every reflection counts once).",
-        "MS_BINS",
+        "CONDUCTOR_MS_COS_HIST: [[[[f32; MS_BINS]; MU_N]; ALPHA_N]; 2]",
         &hist,
     );
-    write4(
+    write_static(
         &mut s,
-        "CONDUCTOR_MS_TINT",
         "Mean over multiply scattered paths of `prod_j S(c_j; F0)`, Schlick's reflectance.",
-        "F0_N",
+        "CONDUCTOR_MS_TINT: [[[[f32; F0_N]; MU_N]; ALPHA_N]; 2]",
         &tint,
     );
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/src/multiple/compensation_ms_tables.rs"
-    );
-    let mut f = std::fs::File::create(path).expect("create the tables file");
-    f.write_all(s.as_bytes()).expect("write the tables file");
-    eprintln!("wrote {path} in {:.0} s", t0.elapsed().as_secs_f32());
+    write_source("compensation_ms_tables.rs", &s, t0);
 }
 
 /// Grid of the anisotropic albedo table: mu (quadratic spacing, dense
@@ -546,62 +512,23 @@ fn aniso_tables() {
     let jobs: Vec<(usize, usize, usize)> = (0..2)
         .flat_map(|n| (0..AN_A).flat_map(move |jx| (0..AN_A).map(move |jy| (n, jx, jy))))
         .collect();
-    let total = jobs.len();
-    let done = std::sync::atomic::AtomicUsize::new(0);
-    type Block = ((usize, usize, usize), Vec<Vec<f32>>);
-    let results: Vec<Vec<Block>> = std::thread::scope(|sc| {
-        let handles: Vec<_> = (0..2)
-            .map(|th| {
-                let jobs = &jobs;
-                let done = &done;
-                sc.spawn(move || {
-                    let mut out = Vec::new();
-                    for (idx, &(n, jx, jy)) in jobs.iter().enumerate() {
-                        if idx % 2 != th {
-                            continue;
-                        }
-                        let (ax, ay) = (aniso_grid_alpha(jx), aniso_grid_alpha(jy));
-                        let block: Vec<Vec<f32>> = (0..AN_PHI)
-                            .map(|k| {
-                                (0..AN_MU)
-                                    .map(|i| {
-                                        if ax == 0.0 || ay == 0.0 {
-                                            // A smooth axis: the quadrature's warp needs
-                                            // alpha > 0; use the smallest positive one.
-                                            return aniso_entry(
-                                                NDFS[n],
-                                                ax.max(1e-4),
-                                                ay.max(1e-4),
-                                                k,
-                                                i,
-                                            );
-                                        }
-                                        aniso_entry(NDFS[n], ax, ay, k, i)
-                                    })
-                                    .collect()
-                            })
-                            .collect();
-                        out.push(((n, jx, jy), block));
-                        let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-                        if d.is_multiple_of(16) || d == total {
-                            let el = t0.elapsed().as_secs_f32();
-                            eprintln!(
-                                "{d}/{total} (alpha_x, alpha_y) blocks, {el:.0} s, ETA {:.0} s",
-                                el / d as f32 * (total - d) as f32
-                            );
-                        }
-                    }
-                    out
-                })
+    let results = parallel(&jobs, "(alpha_x, alpha_y) blocks", 16, |_, &(n, jx, jy)| {
+        // A smooth axis: the quadrature's warp needs alpha > 0; use the
+        // smallest positive one.
+        let (ax, ay) = (
+            aniso_grid_alpha(jx).max(1e-4),
+            aniso_grid_alpha(jy).max(1e-4),
+        );
+        (0..AN_PHI)
+            .map(|k| {
+                (0..AN_MU)
+                    .map(|i| aniso_entry(NDFS[n], ax, ay, k, i))
+                    .collect::<Vec<f32>>()
             })
-            .collect();
-        handles
-            .into_iter()
-            .map(|h| h.join().expect("worker"))
-            .collect()
+            .collect::<Vec<_>>()
     });
     let mut table = vec![vec![vec![vec![vec![0f32; AN_MU]; AN_PHI]; AN_A]; AN_A]; 2];
-    for ((n, jx, jy), block) in results.into_iter().flatten() {
+    for (&(n, jx, jy), block) in jobs.iter().zip(results) {
         table[n][jx][jy] = block;
     }
     let mut s = String::new();
@@ -633,34 +560,13 @@ fn aniso_tables() {
         "/// Number of alpha grid points per axis.\npub const AN_A: usize = {AN_A};"
     )
     .ok();
-    writeln!(
-        s,
-        "/// Conductor albedo with F = 1.\npub static CONDUCTOR_E_ANISO: [[[[[f32; AN_MU]; AN_PHI]; AN_A]; AN_A]; 2] = ["
-    )
-    .ok();
-    for per_ndf in &table {
-        writeln!(s, "  [").ok();
-        for per_x in per_ndf {
-            writeln!(s, "    [").ok();
-            for per_y in per_x {
-                writeln!(s, "      [").ok();
-                for row in per_y {
-                    writeln!(s, "        {},", fmt_row(row)).ok();
-                }
-                writeln!(s, "      ],").ok();
-            }
-            writeln!(s, "    ],").ok();
-        }
-        writeln!(s, "  ],").ok();
-    }
-    writeln!(s, "];").ok();
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/src/multiple/compensation_aniso_tables.rs"
+    write_static(
+        &mut s,
+        "Conductor albedo with F = 1.",
+        "CONDUCTOR_E_ANISO: [[[[[f32; AN_MU]; AN_PHI]; AN_A]; AN_A]; 2]",
+        &table,
     );
-    let mut f = std::fs::File::create(path).expect("create the tables file");
-    f.write_all(s.as_bytes()).expect("write the tables file");
-    eprintln!("wrote {path} in {:.0} s", t0.elapsed().as_secs_f32());
+    write_source("compensation_aniso_tables.rs", &s, t0);
 }
 
 /// One entry of the anisotropic table (also used by the tests' recomputation).
