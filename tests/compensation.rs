@@ -28,6 +28,9 @@ fn compensated(ndf: NdfId, ax: f32, ay: f32, facet: FacetKind, eta: f32) -> Mate
     .expect("valid material")
 }
 
+/// White furnace (F = 1) within 1% through sample and through a quadrature
+/// of eval, theta_i up to 89 degrees (DESIGN's range; the issue asks 80).
+/// Measured worst: 0.9959 (GGX alpha 1 at 89 degrees).
 #[test]
 fn white_furnace_conductor_within_one_percent() {
     let n = 200_000;
@@ -35,7 +38,7 @@ fn white_furnace_conductor_within_one_percent() {
     for ndf in NDFS {
         for (ax, ay) in [(0.1, 0.1), (0.3, 0.3), (0.6, 0.6), (1.0, 1.0)] {
             let m = compensated(ndf, ax, ay, FacetKind::Conductor, 0.0);
-            for theta in [0.0, 30.0, 60.0, 80.0] {
+            for theta in [0.0, 30.0, 60.0, 80.0, 85.0, 89.0] {
                 let wi = dir_deg(theta);
                 let mut rng = Rng::new(11, theta as u64);
                 let (mean, err) =
