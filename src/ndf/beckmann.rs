@@ -94,7 +94,11 @@ fn h_and_e(a: f64, t: f64) -> (f64, f64) {
 /// `H(0)`, the total mass, in the same scaling as [`h_and_e`].
 #[inline]
 fn h_total(a: f64) -> f64 {
-    if a >= A_FAR {
+    if a >= 6.0 {
+        // erfc(-a) = 2 - erfc(a) rounds to 2 and exp(-a^2) is below 1e-17
+        // of the sum: exactly the f64 value of the full expression.
+        2.0 * SQRT_PI * a
+    } else if a >= A_FAR {
         a * SQRT_PI * erfc(-a) + (-a * a).exp()
     } else {
         r_tail(-a)
@@ -136,6 +140,22 @@ fn guess_ln_y(a: f64, z: f64) -> f64 {
     v0 + wq * (v1 - v0)
 }
 
+/// `exp(x)` to about 2e-8 relative for `|x| < 700`: range reduction by
+/// `ln 2` and a degree-7 Taylor polynomial (only for the starting point).
+#[inline]
+fn exp_rough(x: f64) -> f64 {
+    const SHIFTER: f64 = 6_755_399_441_055_744.0; // 1.5 * 2^52: rounds to an integer
+    let x = x.clamp(-700.0, 700.0);
+    let k = (x * std::f64::consts::LOG2_E + SHIFTER) - SHIFTER;
+    let r = x - k * std::f64::consts::LN_2;
+    let p = 1.0
+        + r * (1.0
+            + r * (0.5
+                + r * (1.0 / 6.0
+                    + r * (1.0 / 24.0 + r * (1.0 / 120.0 + r * (1.0 / 720.0 + r / 5040.0))))));
+    p * f64::from_bits(((k as i64 + 1023) as u64) << 52)
+}
+
 /// Samples the first slope coordinate with density proportional to
 /// `(a - x) exp(-x^2)` on `x < a` (Heitz and d'Eon 2014) by inverting its
 /// CDF exactly: Halley iteration on `H(t) = u H(0)` in `t = a - x`, started
@@ -158,7 +178,7 @@ fn solve_slope_x(a: f64, u: f64) -> (f64, u32) {
     }
     let target = u * h_total(a);
     let z = erfinv_fast(2.0 * u - 1.0);
-    let mut t = guess_ln_y(a, z).exp() / guess_scale(a);
+    let mut t = exp_rough(guess_ln_y(a, z)) / guess_scale(a);
     let scale = 1.0 / (1.0 + 2.0 * a.abs());
     let (mut lo, mut hi) = (0.0f64, f64::INFINITY);
     let mut evals = 0;
@@ -209,9 +229,11 @@ fn solve_slope_x(a: f64, u: f64) -> (f64, u32) {
 /// Visible normal sampling from direction `v` (any hemisphere; its visible
 /// normals have density `max(0, v.m) D(m) / sigma(v)`).
 pub fn sample_visible(ax: f32, ay: f32, v: Vec3, u1: f32, u2: f32) -> Vec3 {
-    let vs = Vec3::new(ax * v.x, ay * v.y, v.z).as_dvec3().normalize();
-    let sin_theta = (vs.x * vs.x + vs.y * vs.y).sqrt();
-    let (sx, sy) = if sin_theta < 1e-7 {
+    // The stretched view; only its direction matters (a = cot theta and the
+    // azimuth are ratios), so it is not normalised.
+    let vs = Vec3::new(ax * v.x, ay * v.y, v.z).as_dvec3();
+    let r = (vs.x * vs.x + vs.y * vs.y).sqrt();
+    let (sx, sy) = if r < 1e-7 * (r * r + vs.z * vs.z).sqrt() {
         // Normal incidence: slopes are two independent N(0, 1/2).
         if vs.z <= 0.0 {
             return Vec3::Z; // nothing is visible from straight below
@@ -220,10 +242,11 @@ pub fn sample_visible(ax: f32, ay: f32, v: Vec3, u1: f32, u2: f32) -> Vec3 {
         let phi = 2.0 * std::f64::consts::PI * u2 as f64;
         (r * phi.cos(), r * phi.sin())
     } else {
-        let a = (vs.z / sin_theta).max(-1e4);
+        let inv_r = 1.0 / r;
+        let a = (vs.z * inv_r).max(-1e4);
         let x = sample_slope_x(a, u1 as f64);
         let y = erfinv_fast((2.0 * u2 as f64 - 1.0).clamp(-1.0 + 1e-15, 1.0 - 1e-15));
-        let (cp, sp) = (vs.x / sin_theta, vs.y / sin_theta);
+        let (cp, sp) = (vs.x * inv_r, vs.y * inv_r);
         (cp * x - sp * y, sp * x + cp * y)
     };
     let m = glam::DVec3::new(-sx * ax as f64, -sy * ay as f64, 1.0).normalize();
@@ -304,6 +327,23 @@ mod tests {
                 let f = (0.5 * a * (1.0 + erf(x)) + 0.5 * g).max(1e-300);
                 (f.ln(), (a - x) * g / f)
             }
+        }
+
+        /// `exp(x)` to about 2e-8 relative for `|x| < 700`: range reduction by
+        /// `ln 2` and a degree-7 Taylor polynomial (only for the starting point).
+        #[inline]
+        fn exp_rough(x: f64) -> f64 {
+            const SHIFTER: f64 = 6_755_399_441_055_744.0; // 1.5 * 2^52: rounds to an integer
+            let x = x.clamp(-700.0, 700.0);
+            let k = (x * std::f64::consts::LOG2_E + SHIFTER) - SHIFTER;
+            let r = x - k * std::f64::consts::LN_2;
+            let p = 1.0
+                + r * (1.0
+                    + r * (0.5
+                        + r * (1.0 / 6.0
+                            + r * (1.0 / 24.0
+                                + r * (1.0 / 120.0 + r * (1.0 / 720.0 + r / 5040.0))))));
+            p * f64::from_bits(((k as i64 + 1023) as u64) << 52)
         }
 
         /// Samples the first slope coordinate with density proportional to
@@ -568,6 +608,16 @@ mod tests {
                     assert!((h_total(a) - quad).abs() <= 1e-9 * quad, "a {a}: H(0)");
                 }
             }
+        }
+    }
+
+    /// The starting-point exponential against `f64::exp`.
+    #[test]
+    fn exp_rough_is_accurate() {
+        for i in 0..=14_000 {
+            let x = -700.0 + 0.1 * i as f64;
+            let (got, want) = (exp_rough(x), x.exp());
+            assert!((got - want).abs() <= 3e-8 * want, "x {x}: {got} vs {want}");
         }
     }
 }
