@@ -329,23 +329,6 @@ mod tests {
             }
         }
 
-        /// `exp(x)` to about 2e-8 relative for `|x| < 700`: range reduction by
-        /// `ln 2` and a degree-7 Taylor polynomial (only for the starting point).
-        #[inline]
-        fn exp_rough(x: f64) -> f64 {
-            const SHIFTER: f64 = 6_755_399_441_055_744.0; // 1.5 * 2^52: rounds to an integer
-            let x = x.clamp(-700.0, 700.0);
-            let k = (x * std::f64::consts::LOG2_E + SHIFTER) - SHIFTER;
-            let r = x - k * std::f64::consts::LN_2;
-            let p = 1.0
-                + r * (1.0
-                    + r * (0.5
-                        + r * (1.0 / 6.0
-                            + r * (1.0 / 24.0
-                                + r * (1.0 / 120.0 + r * (1.0 / 720.0 + r / 5040.0))))));
-            p * f64::from_bits(((k as i64 + 1023) as u64) << 52)
-        }
-
         /// Samples the first slope coordinate with density proportional to
         /// `(a - x) exp(-x^2)` on `x < a` by safeguarded Newton iteration on log F,
         /// started from the quantile of the Gaussian truncated at `a` (exact as
