@@ -110,6 +110,23 @@ fn kind_of(ndf: NdfId) -> NdfKind {
     }
 }
 
+/// eval, pdf and sample of `m` at `(wi, wo)`: all finite and non-negative
+/// (asserted); returns the sample.
+fn checked_outputs(m: &Material, wi: Vec3, wo: Vec3, rng: &mut Rng) -> msbsdf::Sample {
+    let v = m.eval(wi, wo, rng);
+    assert!(
+        v.is_finite() && v.min_element() >= 0.0,
+        "eval {v} {:?}",
+        m.desc()
+    );
+    let p = m.pdf(wi, wo);
+    assert!(p.is_finite() && p >= 0.0);
+    let s = m.sample(wi, rng);
+    assert!(s.weight.is_finite() && s.weight.min_element() >= 0.0);
+    assert!(s.pdf.is_finite() && s.pdf >= 0.0);
+    s
+}
+
 const THETAS: [f64; 5] = [0.0, 30.0, 60.0, 80.0, 89.0];
 
 fn furnace_configs() -> Vec<(NdfId, f32, f32)> {
@@ -646,17 +663,7 @@ fn stability_sweep() {
         } else {
             wo
         };
-        let v = m.eval(wi, wo, &mut rng);
-        assert!(
-            v.is_finite() && v.min_element() >= 0.0,
-            "eval {v} {:?}",
-            m.desc()
-        );
-        let p = m.pdf(wi, wo);
-        assert!(p.is_finite() && p >= 0.0);
-        let s = m.sample(wi, &mut rng);
-        assert!(s.weight.is_finite() && s.weight.min_element() >= 0.0);
-        assert!(s.pdf.is_finite() && s.pdf >= 0.0);
+        let s = checked_outputs(&m, wi, wo, &mut rng);
         if s.flags != SAMPLE_ABSORBED {
             assert!(s.wo.z * wi.z > 0.0);
             if s.pdf <= 0.0 {
@@ -1159,17 +1166,7 @@ fn student_t_combinations_and_stability() {
             wi.z = -wi.z;
             wo.z = -wo.z;
         }
-        let v = m.eval(wi, wo, &mut rng);
-        assert!(
-            v.is_finite() && v.min_element() >= 0.0,
-            "eval {v} {:?}",
-            m.desc()
-        );
-        let p = m.pdf(wi, wo);
-        assert!(p.is_finite() && p >= 0.0);
-        let s = m.sample(wi, &mut rng);
-        assert!(s.weight.is_finite() && s.weight.min_element() >= 0.0);
-        assert!(s.pdf.is_finite() && s.pdf >= 0.0);
+        let s = checked_outputs(&m, wi, wo, &mut rng);
         if s.flags != SAMPLE_ABSORBED {
             assert!(s.wo.z * wi.z > 0.0 && s.pdf > 0.0, "{s:?} {:?}", m.desc());
         }
