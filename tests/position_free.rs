@@ -176,6 +176,19 @@ fn par_map<T: Sync, R: Send>(items: &[T], f: impl Fn(&T) -> R + Sync) -> Vec<R> 
     })
 }
 
+/// A direction over the whole sphere for the stability sweeps: 30% with a
+/// polar angle in [89, 89.99] degrees (grazing), the rest uniform in angle.
+fn sweep_dir(rng: &mut Rng) -> Vec3 {
+    let th = if rng.next_f32() < 0.3 {
+        89.0 + 0.99 * rng.next_f32()
+    } else {
+        180.0 * rng.next_f32()
+    };
+    let ph = 360.0 * rng.next_f32();
+    let (t, p) = (th.to_radians(), ph.to_radians());
+    Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos())
+}
+
 #[test]
 fn furnace_conductor_white_eval_within_1_percent() {
     // Every (NDF, roughness) at every incidence; the truncation at the default
@@ -636,15 +649,7 @@ fn stability_sweep_no_nan_inf_or_negative() {
                 for desc in descs {
                     let m = Material::new(&desc).unwrap();
                     for _ in 0..40 {
-                        // Grazing angles down to 89.99 degrees.
-                        let th = if rng.next_f32() < 0.3 {
-                            89.0 + 0.99 * rng.next_f32()
-                        } else {
-                            180.0 * rng.next_f32()
-                        };
-                        let ph = 360.0 * rng.next_f32();
-                        let (t, p) = (th.to_radians(), ph.to_radians());
-                        let wi = Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos());
+                        let wi = sweep_dir(&mut rng);
                         let wo = cosine_dir(
                             rng.next_f32(),
                             rng.next_f32(),
@@ -965,14 +970,7 @@ fn student_t_stability_sweep() {
                 for desc in [gold(base), dielectric(base, 1.5)] {
                     let m = Material::new(&desc).unwrap();
                     for _ in 0..12 {
-                        let th = if rng.next_f32() < 0.3 {
-                            89.0 + 0.99 * rng.next_f32()
-                        } else {
-                            180.0 * rng.next_f32()
-                        };
-                        let ph = 360.0 * rng.next_f32();
-                        let (t, p) = (th.to_radians(), ph.to_radians());
-                        let wi = Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos());
+                        let wi = sweep_dir(&mut rng);
                         let side = if rng.next_f32() < 0.5 { 1.0 } else { -1.0 };
                         let wo = cosine_dir(rng.next_f32(), rng.next_f32(), side);
                         let v = m.eval(wi, wo, &mut rng);
