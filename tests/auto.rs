@@ -36,16 +36,10 @@ fn auto_desc(r: &RefMaterial) -> MaterialDesc {
 /// Measured relative RMS error of a query of `evaluations` evaluations of
 /// `m` (the concrete chosen model), from `samples` evaluations per pair:
 /// returns (estimate, upper bound at 4 standard deviations of the
-/// squared-bias estimate). With `reference_model` (HEITZ_RANDOM_WALK, whose
-/// expectation the reference is, see the header of the reference CSV) the
-/// bias is zero and the error is the noise alone.
-fn measured_error(
-    m: &Material,
-    r: &RefMaterial,
-    evaluations: u32,
-    samples: u32,
-    reference_model: bool,
-) -> (f64, f64) {
+/// squared-bias estimate). The bias is measured for every model, including
+/// HEITZ_RANDOM_WALK (whose expectation the reference is meant to be: the
+/// test would catch a reference or a walk that drifted apart).
+fn measured_error(m: &Material, r: &RefMaterial, evaluations: u32, samples: u32) -> (f64, f64) {
     let (mut b2, mut var, mut den, mut b2_var) = (0.0, 0.0, 0.0, 0.0);
     for (pi, p) in r.pairs.iter().enumerate() {
         let mut st = harness::Stats::default();
@@ -70,9 +64,6 @@ fn measured_error(
             var += vc;
             den += p.value[c] * p.value[c];
         }
-    }
-    if reference_model {
-        (b2, b2_var) = (0.0, 0.0);
     }
     let e = |b: f64| ((b.max(0.0) + var / evaluations as f64) / den).sqrt();
     // The variance estimate itself is good to sqrt(2 / (n - 1)) per value;
@@ -99,9 +90,8 @@ fn auto_tolerance_001_meets_it_on_every_suite_material() {
                             c.estimator,
                         ))
                         .expect("chosen model");
-                        let heitz = c.model == Model::HeitzRandomWalk;
-                        let samples = if heitz { 2048 } else { 4096 };
-                        let (e, hi) = measured_error(&inner, r, c.evaluations, samples, heitz);
+                        let samples = (16 * c.evaluations).clamp(4096, 65_536);
+                        let (e, hi) = measured_error(&inner, r, c.evaluations, samples);
                         out.push((r.mat.name.clone(), c, e, hi));
                     }
                     out
@@ -119,9 +109,11 @@ fn auto_tolerance_001_meets_it_on_every_suite_material() {
                 // The table's errors are upper confidence values (3 standard
                 // errors on the squared bias and on the variance), so a
                 // fresh estimate with other random numbers stays below the
-                // tolerance; `hi` (4 standard errors on this estimate's
-                // squared bias) is printed to show how decisive it is.
-                if e >= TOLERANCE as f64 {
+                // tolerance, and so does its upper bound `hi` (4 standard
+                // errors on this estimate's squared bias): the test is
+                // decisive only when the bound, not just the estimate, is
+                // below the tolerance.
+                if hi >= TOLERANCE as f64 {
                     failures.push(line.clone());
                 }
                 all.push(line);
@@ -182,17 +174,15 @@ fn auto_never_costs_more_than_the_cheapest_config_meeting_it_in_the_table() {
 fn auto_eval_is_the_mean_of_the_chosen_evaluations() {
     // Find a suite material where AUTO averages several evaluations.
     let refs = refs();
-    let Some((r, m)) = refs.iter().find_map(|r| {
-        let m = Material::new(&auto_desc(r)).ok()?;
-        (m.chosen().evaluations > 1).then_some((r, m))
-    }) else {
-        // Every choice is a single evaluation: the wrapper is a pass-through.
-        for r in &refs {
-            let m = Material::new(&auto_desc(r)).expect("AUTO");
-            assert_eq!(m.chosen().evaluations, 1);
-        }
-        return;
-    };
+    // At tolerance 0.01 AUTO averages walks over many evaluations for the
+    // suite's conductors, so such a material exists.
+    let (r, m) = refs
+        .iter()
+        .find_map(|r| {
+            let m = Material::new(&auto_desc(r)).ok()?;
+            (m.chosen().evaluations > 1).then_some((r, m))
+        })
+        .expect("a suite material for which AUTO averages several evaluations");
     let c = *m.chosen();
     let inner = Material::new(&concrete(&auto_desc(r), c.model, c.estimator)).expect("inner");
     for (i, p) in r.pairs.iter().enumerate().take(8) {

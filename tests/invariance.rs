@@ -493,9 +493,10 @@ fn sample_matches_eval_histogram() {
                 let r = (1.0 - z * z).max(0.0).sqrt();
                 let wo = Vec3::new((r * ph.cos()) as f32, (r * ph.sin()) as f32, z as f32);
                 if wo.z <= 0.0 {
-                    return 0.0;
+                    0.0
+                } else {
+                    m.eval(wi, wo, &mut rng).x as f64
                 }
-                m.eval(wi, wo, &mut rng).x as f64
             }));
             let exp = n as f64 * mean * solid;
             let exp_var = (n as f64 * se * solid).powi(2);

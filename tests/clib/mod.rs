@@ -176,42 +176,67 @@ pub fn run_program(cmd: &mut Command, timeout: Duration) -> (bool, String) {
     (status.success(), format!("{text}[{status}]\n"))
 }
 
-/// True when `compiler flags` builds and runs a trivial C program (used to
-/// tell whether a sanitizer runtime is installed). Probed once per process
+/// `Ok` when `compiler flags` builds and runs a trivial C program (used to
+/// tell whether a sanitizer runtime is installed); otherwise why not, with
+/// the compiler's or the program's own words. The probe runs with
+/// `ASAN_OPTIONS=detect_leaks=0`: whether LeakSanitizer can run here is a
+/// separate question ([`leak_sanitizer_runs`]), and a missing LeakSanitizer
+/// must not pass for a missing AddressSanitizer. Probed once per process
 /// and flag set (tests run in parallel threads).
-pub fn compiler_supports(compiler: &str, flags: &[&str]) -> bool {
-    static CACHE: Mutex<BTreeMap<String, bool>> = Mutex::new(BTreeMap::new());
+pub fn compiler_supports(compiler: &str, flags: &[&str]) -> Result<(), String> {
+    static CACHE: Mutex<BTreeMap<String, Result<(), String>>> = Mutex::new(BTreeMap::new());
     let key = format!("{compiler} {flags:?}");
     let mut cache = CACHE.lock().unwrap_or_else(|e| e.into_inner());
-    *cache
+    cache
         .entry(key)
-        .or_insert_with(|| probe_compiler(compiler, flags))
+        .or_insert_with(|| probe_compiler(compiler, flags, "detect_leaks=0"))
+        .clone()
 }
 
-fn probe_compiler(compiler: &str, flags: &[&str]) -> bool {
+/// `Ok` when LeakSanitizer works here (it needs ptrace, which some
+/// containers forbid): an ASan build of a trivial program runs with
+/// `detect_leaks=1`.
+pub fn leak_sanitizer_runs(compiler: &str) -> Result<(), String> {
+    probe_compiler(compiler, &["-fsanitize=address"], "detect_leaks=1")
+}
+
+fn probe_compiler(compiler: &str, flags: &[&str], asan_options: &str) -> Result<(), String> {
     let dir = work_dir(&format!("probe{}", std::process::id()));
     let tag: String = flags
         .iter()
+        .chain(std::iter::once(&asan_options))
         .map(|f| f.replace(|c: char| !c.is_ascii_alphanumeric(), "_"))
         .collect();
     let src = dir.join(format!("probe_{compiler}_{tag}.c"));
     let exe = dir.join(format!("probe_{compiler}_{tag}"));
-    if std::fs::write(&src, "int main(void) { return 0; }\n").is_err() {
-        return false;
-    }
+    std::fs::write(&src, "int main(void) { return 0; }\n")
+        .map_err(|e| format!("cannot write {}: {e}", src.display()))?;
     let built = Command::new(compiler)
         .args(flags)
         .arg(&src)
         .arg("-o")
         .arg(&exe)
         .output()
-        .map(|o| o.status.success())
-        .unwrap_or(false);
-    built
-        && Command::new(&exe)
-            .output()
-            .map(|o| o.status.success())
-            .unwrap_or(false)
+        .map_err(|e| format!("cannot run `{compiler}`: {e}"))?;
+    if !built.status.success() {
+        return Err(format!(
+            "`{compiler} {}` does not build a trivial program: {}",
+            flags.join(" "),
+            String::from_utf8_lossy(&built.stderr).trim()
+        ));
+    }
+    let ran = Command::new(&exe)
+        .env("ASAN_OPTIONS", asan_options)
+        .output()
+        .map_err(|e| format!("cannot run the probe {}: {e}", exe.display()))?;
+    if !ran.status.success() {
+        return Err(format!(
+            "a trivial program built with `{compiler} {}` fails under ASAN_OPTIONS={asan_options}: {}",
+            flags.join(" "),
+            String::from_utf8_lossy(&ran.stderr).trim()
+        ));
+    }
+    Ok(())
 }
 
 /// One number of Rust's view of the public C structs.
