@@ -48,7 +48,7 @@ impl Rng {
     /// 2^-24, so 1.0 is never returned (a plain `x * 2^-32` can round to 1).
     #[inline]
     pub fn next_f32(&mut self) -> f32 {
-        (self.next_u32() >> 8) as f32 * (1.0 / 16_777_216.0)
+        unit_f32(self.next_u32())
     }
 
     /// A uniform double in `[0, 1)` built from two outputs (53 bits).
@@ -58,6 +58,12 @@ impl Rng {
         let lo = (self.next_u32() >> 6) as u64; // 26 bits
         ((hi << 26) | lo) as f64 * (1.0 / 9_007_199_254_740_992.0)
     }
+}
+
+/// Maps 32 random bits to `[0, 1)`: the top 24 bits times 2^-24.
+#[inline]
+fn unit_f32(bits: u32) -> f32 {
+    (bits >> 8) as f32 * (1.0 / 16_777_216.0)
 }
 
 #[cfg(test)]
@@ -86,9 +92,17 @@ mod tests {
             let y = r.next_f64();
             assert!((0.0..1.0).contains(&y));
         }
-        let mut r = Rng { state: 0, inc: 1 };
-        // An all-ones output must still map below 1.
-        assert!(((u32::MAX >> 8) as f32 * (1.0 / 16_777_216.0)) < 1.0);
-        let _ = r.next_f32();
+        // next_f32 is exactly the mapping of next_u32 ...
+        let (mut a, mut b) = (Rng::new(7, 3), Rng::new(7, 3));
+        for _ in 0..1000 {
+            assert_eq!(a.next_f32(), unit_f32(b.next_u32()));
+        }
+        // ... whose extremes stay in [0, 1): an all-ones output maps to the
+        // largest f32 below 1 (a plain `x * 2^-32` would round to 1.0).
+        assert_eq!(unit_f32(u32::MAX), 1.0 - f32::EPSILON / 2.0);
+        assert_eq!(unit_f32(0), 0.0);
+        assert_eq!(unit_f32(255), 0.0);
+        assert_eq!(unit_f32(256), 1.0 / 16_777_216.0);
+        assert_eq!(u32::MAX as f32 * (1.0 / 4_294_967_296.0), 1.0);
     }
 }

@@ -93,8 +93,11 @@ fn default_bounce_limits_follow_the_documented_rule() {
 /// the walk is cut), albedo 1 within 0.3% at every angle and roughness. With
 /// 40 000 walks the standard error is below 0.03% (asserted), so the 0.3%
 /// bound is decisive.
+/// With F = 1 facets every sample weight is 1 by construction, so this
+/// checks only the bounce truncation (paths still inside at the limit), not
+/// the physics; the eval furnaces are the physics check.
 #[test]
-fn furnace_heitz_conductor_sample_albedo_is_one() {
+fn heitz_sample_truncation_loss_conductor_f1() {
     let thetas = [0.0, 30.0, 60.0, 80.0, 89.0];
     let mut cases: Vec<(NdfKind, f32, f32)> = Vec::new();
     for kind in [NdfKind::Ggx, NdfKind::Beckmann] {
@@ -124,8 +127,11 @@ fn furnace_heitz_conductor_sample_albedo_is_one() {
 /// (`invariance::heavy_tail_bounce_scale`), so the furnace holds within
 /// 0.3% there too. Measured with the GGX rule alone (10 bounces at alpha
 /// 1): 0.917 at shape 1.6, normal incidence; with the scaled limit 0.9999.
+/// With F = 1 facets every sample weight is 1 by construction, so this
+/// checks only the bounce truncation (paths still inside at the limit), not
+/// the physics; the eval furnaces are the physics check.
 #[test]
-fn furnace_heitz_heavy_tailed_student_t() {
+fn heitz_sample_truncation_loss_heavy_tailed_student_t() {
     let mut seed = 500;
     for (shape, alpha) in [(1.6f32, 1.0f32), (1.8, 1.0), (1.6, 0.3)] {
         let h = Heitz::new(
@@ -152,8 +158,11 @@ fn furnace_heitz_heavy_tailed_student_t() {
 /// Dielectric facets (eta 1.5, no absorption): reflected plus transmitted
 /// albedo 1 within 0.5%, entering from above and from below (total internal
 /// reflection inside). Standard error < 0.05% (asserted).
+/// With F = 1 facets every sample weight is 1 by construction, so this
+/// checks only the bounce truncation (paths still inside at the limit), not
+/// the physics; the eval furnaces are the physics check.
 #[test]
-fn furnace_heitz_dielectric_reflection_plus_transmission_is_one() {
+fn heitz_sample_truncation_loss_dielectric_r_plus_t() {
     let mut seed = 1000;
     for kind in [NdfKind::Ggx, NdfKind::Beckmann] {
         for a in [0.1f32, 0.5, 1.0, 2.0] {
@@ -182,8 +191,11 @@ fn furnace_heitz_dielectric_reflection_plus_transmission_is_one() {
 
 /// Diffuse facets with albedo 1: the walk keeps all the energy (albedo 1
 /// within 0.3%, standard error < 0.03% asserted).
+/// With F = 1 facets every sample weight is 1 by construction, so this
+/// checks only the bounce truncation (paths still inside at the limit), not
+/// the physics; the eval furnaces are the physics check.
 #[test]
-fn furnace_heitz_diffuse_facets_albedo_one() {
+fn heitz_sample_truncation_loss_white_diffuse_facets() {
     let mut seed = 2000;
     for kind in [NdfKind::Ggx, NdfKind::Beckmann] {
         for a in [0.1f32, 0.5, 1.0, 2.0] {
@@ -389,11 +401,14 @@ fn heitz_order_one_equals_single_height_correlated() {
 /// Reciprocity of the walk itself: the unidirectional estimate from `wi`
 /// of `f(wi, wo)` equals the one from `wo` of `f(wo, wi)` (reflection), and
 /// `f(wi, wo) / eta_o^2 = f(wo, wi) / eta_i^2` for transmission; within 4
-/// combined standard errors, full multiple scattering. The same for the
-/// symmetrised `eval(wi, wo)` against `eval(wo, wi)`.
+/// combined standard errors, full multiple scattering. (Not `eval`: it
+/// averages the walks from both ends with the reciprocity scale, so its
+/// expectation is reciprocal whether the walk is or not.)
 #[test]
-fn heitz_walk_is_reciprocal() {
+fn heitz_one_way_walk_is_reciprocal() {
     let mut rng = Rng::new(91, 3);
+    let mut worst_rel_sigma: f64 = 0.0;
+    let mut tested = 0;
     for kind in [NdfKind::Ggx, NdfKind::Beckmann] {
         for facet in [
             gold(),
@@ -407,7 +422,8 @@ fn heitz_walk_is_reciprocal() {
             for k in 0..6 {
                 let transmit = dielectric && k % 2 == 1;
                 let (wi, wo) = random_pair(&mut rng, 75.0, transmit);
-                let n = 20_000;
+                // Glass reflects little and noisily: more walks.
+                let n = if dielectric { 100_000 } else { 20_000 };
                 let est = |a: Vec3, b: Vec3, rng: &mut Rng| {
                     let (mut s1, mut s2) = (0.0f64, 0.0f64);
                     for _ in 0..n {
@@ -425,29 +441,34 @@ fn heitz_walk_is_reciprocal() {
                 let (lhs, rhs) = (f_io, f_oi * ratio);
                 let sigma = (se_io * se_io + (se_oi * ratio).powi(2)).sqrt();
                 println!(
-                    "reciprocity {kind:?} {facet:?} transmit {transmit}: {lhs:.5} vs {rhs:.5} ({:.2} sigma)",
-                    (lhs - rhs) / sigma
+                    "reciprocity {kind:?} {facet:?} transmit {transmit}: {lhs:.5} vs {rhs:.5} ({:.2} sigma, sigma {:.2}% of the value)",
+                    (lhs - rhs) / sigma,
+                    100.0 * sigma / lhs.abs().max(rhs.abs())
+                );
+                // Decisive: in reflection a 10% asymmetry (a wrong masking
+                // term at one end of the walk) is 4 sigma or more; in
+                // transmission the effect to catch is a walk that drops or
+                // doubles the eta^2 of refraction (a factor 2.25: 125%), and
+                // 4 sigma stays below 40% (rough transmission is heavy-tailed).
+                let bound = if transmit { 0.10 } else { 0.025 };
+                worst_rel_sigma = worst_rel_sigma.max(sigma / lhs.abs().max(rhs.abs()));
+                assert!(
+                    sigma <= bound * lhs.abs().max(rhs.abs()),
+                    "{kind:?} {facet:?} wi {wi} wo {wo}: sigma {sigma} too large for {lhs}"
                 );
                 assert!(
                     (lhs - rhs).abs() < 4.0 * sigma + 1e-6,
                     "{kind:?} {facet:?} wi {wi} wo {wo}: f(wi,wo) {lhs} vs {rhs} (sigma {sigma})"
                 );
-                // The symmetrised eval, through the same relation.
-                let ev = |a: Vec3, b: Vec3, rng: &mut Rng| {
-                    let (m, se) = eval_mean(&h, a, b, 5_000, rng);
-                    ((m.y / b.z.abs()) as f64, (se.y / b.z.abs()) as f64)
-                };
-                let (e_io, s_io) = ev(wi, wo, &mut rng);
-                let (e_oi, s_oi) = ev(wo, wi, &mut rng);
-                let sigma = (s_io * s_io + (s_oi * ratio).powi(2)).sqrt();
-                assert!(
-                    (e_io - e_oi * ratio).abs() < 4.0 * sigma + 1e-6,
-                    "{kind:?} {facet:?} wi {wi} wo {wo}: eval {e_io} vs {} (sigma {sigma})",
-                    e_oi * ratio
-                );
+                tested += 1;
             }
         }
     }
+    println!(
+        "reciprocity: worst sigma {:.2}% of the value",
+        100.0 * worst_rel_sigma
+    );
+    assert_eq!(tested, 2 * 3 * 6);
 }
 
 /// Weighted histogram of `sample` against the integral of `eval` over the

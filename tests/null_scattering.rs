@@ -8,7 +8,7 @@ use glam::Vec3;
 use msbsdf::bsdf::ScatterModel;
 use msbsdf::facet::Facet;
 use msbsdf::multiple::null_scattering::{
-    GL_NODES, GL_NODES_SMOOTH, NullNdf, NullNdfKind, NullScattering, sigma_dirac,
+    GL_NODES, GL_NODES_SMOOTH, NullNdf, NullNdfKind, NullScattering, WalkStats, sigma_dirac,
     sigma_quadrature_nodes, sigma_quadrature_with,
 };
 use msbsdf::ndf::{Ndf, NdfKind};
@@ -17,6 +17,10 @@ use msbsdf::{Error, Material, MaterialDesc, Model, NdfId, Rng};
 const MIRROR: Facet = Facet::Conductor {
     eta: Vec3::ZERO,
     k: Vec3::ONE,
+};
+const GOLD: Facet = Facet::Conductor {
+    eta: Vec3::new(GOLD_ETA[0], GOLD_ETA[1], GOLD_ETA[2]),
+    k: Vec3::new(GOLD_K[0], GOLD_K[1], GOLD_K[2]),
 };
 
 #[test]
@@ -214,8 +218,11 @@ fn sample_albedo(model: &NullScattering, wi: Vec3, n: usize, rng: &mut Rng) -> (
 
 /// Sample albedo with F = 1 facets: every path that escapes has weight 1,
 /// so the loss is the bounce cap's (and nothing else); asserted below 0.5%.
+/// With F = 1 facets every sample weight is 1 by construction, so this
+/// checks only the bounce truncation (paths still inside at the limit), not
+/// the physics; the eval furnaces are the physics check.
 #[test]
-fn white_furnace_every_ndf_sample() {
+fn sample_truncation_loss_f1_every_ndf() {
     let mut rng = Rng::new(17, 3);
     for kind in ALL {
         for alpha in [0.4f32, 1.0, 4.0] {
@@ -234,7 +241,9 @@ fn white_furnace_every_ndf_sample() {
 }
 
 /// Albedo through eval (next-event estimation with the quadrature
-/// cross-section) is 1 within 4 sigma, with sigma below 0.6%.
+/// cross-section) is 1 within 4 sigma, with sigma below 0.5% so that a 2%
+/// energy loss (a lost or doubled collision term) fails (measured worst
+/// sigma 0.42%, Beckmann alpha 0.4).
 #[test]
 fn white_furnace_every_ndf_eval() {
     let mut rng = Rng::new(19, 4);
@@ -245,7 +254,7 @@ fn white_furnace_every_ndf_eval() {
             let wi = dir_deg(50.0);
             let (e, ee) = eval_albedo(&model, MIRROR, alpha, wi, 100_000, &mut rng);
             println!("{kind:?} alpha {alpha}: eval albedo {e:.4} +- {ee:.4}");
-            assert!(ee < 0.006, "{kind:?} alpha {alpha}: error {ee}");
+            assert!(ee < 0.005, "{kind:?} alpha {alpha}: error {ee}");
             assert!(
                 (e - 1.0).abs() < 4.0 * ee,
                 "{kind:?} alpha {alpha}: {e} +- {ee}"
@@ -312,8 +321,11 @@ fn white_furnace_dielectric_and_diffuse() {
                     println!(
                         "{kind:?} {alpha} {facet:?} theta {theta} {name}: sample {a:.4} +- {ae:.4} eval {b:.4} +- {be:.4}"
                     );
+                    // Decisive for a 3% (absolute) shift of energy between
+                    // R and T at 4 sigma (measured worst 0.0064, Beckmann
+                    // glass alpha 1 from below).
                     assert!(
-                        be < 0.03,
+                        be < 0.008,
                         "{kind:?} {facet:?} theta {theta} {name}: eval error {be}"
                     );
                     assert!(
@@ -690,4 +702,81 @@ fn eval_matches_sample_by_bins_for_full_sphere_ndfs() {
             );
         }
     }
+}
+
+/// Reciprocity of the one-way walk (`eval_with_stats`, a walk from `wi`
+/// only): `f(wi, wo) = f(wo, wi)` in reflection and `f(wi, wo) / eta_o^2 =
+/// f(wo, wi) / eta_i^2` in transmission, within 4 combined sigma. `eval`
+/// itself averages the walks from both ends with that scale, so its
+/// expectation is reciprocal whatever the walk does: it is not tested here.
+/// Sigma is bounded so the test is decisive: below 2.5% of the value in
+/// reflection (a 10% asymmetry fails), 10% in transmission (the effect to
+/// catch there is a lost or doubled eta^2: 125%).
+#[test]
+fn one_way_walk_is_reciprocal() {
+    let mut rng = Rng::new(37, 11);
+    let glass = Facet::Dielectric { eta: 1.5 };
+    let mut tested = 0;
+    let mut worst_rel_sigma: f64 = 0.0;
+    for (kind, alpha, facet) in [
+        (NullNdfKind::Ggx, 0.8f32, GOLD),
+        (NullNdfKind::Vmf, 1.0, GOLD),
+        (NullNdfKind::Beckmann, 0.7, glass),
+    ] {
+        let ndf = NullNdf::new(kind, alpha, alpha, 3.0).unwrap();
+        let model = NullScattering::new(ndf, facet, 0);
+        let dielectric = matches!(facet, Facet::Dielectric { .. });
+        for k in 0..4 {
+            let transmit = dielectric && k % 2 == 1;
+            // Transmission pairs near the refracted lobe (a random pair
+            // far from it carries almost nothing): wi 20-50 degrees, wo
+            // 15-30 degrees below on the far side.
+            let (wi, wo) = if transmit {
+                let ti = (20.0 + 30.0 * rng.next_f32()).to_radians();
+                let to = (15.0 + 15.0 * rng.next_f32()).to_radians();
+                (
+                    Vec3::new(ti.sin(), 0.0, ti.cos()),
+                    Vec3::new(-to.sin() * 0.9, to.sin() * 0.1f32.sqrt(), -to.cos()).normalize(),
+                )
+            } else {
+                (cosine_dir(&mut rng), cosine_dir(&mut rng))
+            };
+            let n = if dielectric { 100_000 } else { 30_000 };
+            let mut st = WalkStats::default();
+            let mut one_way =
+                |a: Vec3, b: Vec3| {
+                    mean_and_error((0..n).map(|_| {
+                        (model.eval_with_stats(a, b, &mut rng, &mut st).y / b.z.abs()) as f64
+                    }))
+                };
+            let (f_io, se_io) = one_way(wi, wo);
+            let (f_oi, se_oi) = one_way(wo, wi);
+            // wi is above (index 1); below the surface it is 1.5.
+            let ratio = if transmit { 1.5f64 * 1.5 } else { 1.0 };
+            let (lhs, rhs) = (f_io, f_oi * ratio);
+            let sigma = (se_io * se_io + (se_oi * ratio).powi(2)).sqrt();
+            let scale = lhs.abs().max(rhs.abs());
+            println!(
+                "{kind:?} {alpha} {facet:?} transmit {transmit}: {lhs:.5} vs {rhs:.5} ({:.2} sigma, sigma {:.2}%)",
+                (lhs - rhs) / sigma,
+                100.0 * sigma / scale
+            );
+            worst_rel_sigma = worst_rel_sigma.max(sigma / scale);
+            let bound = if transmit { 0.10 } else { 0.025 };
+            assert!(
+                scale > 0.0 && sigma <= bound * scale,
+                "{kind:?} {facet:?}: sigma {sigma} for {scale}"
+            );
+            assert!(
+                (lhs - rhs).abs() < 4.0 * sigma,
+                "{kind:?} {facet:?} wi {wi} wo {wo}: {lhs} vs {rhs} (sigma {sigma})"
+            );
+            tested += 1;
+        }
+    }
+    println!(
+        "one-way reciprocity: worst sigma {:.2}%",
+        100.0 * worst_rel_sigma
+    );
+    assert_eq!(tested, 12);
 }

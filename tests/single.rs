@@ -105,6 +105,17 @@ fn conductor_albedo_from_samples_equals_quadrature_and_loses_energy() {
         }
         // Alpha 1 loses a visible share of the energy at normal incidence.
         assert!(rows[2][0] < 0.95, "{ndf:?}: alpha 1 albedo {}", rows[2][0]);
+        if ndf == NdfId::Ggx {
+            // Closed form: at alpha 1, D = 1 / pi and Lambda(wo) = (1 /
+            // cos(theta_o) - 1) / 2, so with wi = z the albedo is
+            // 2 * int_0^{pi/4} (2 cos^2 t - 1) tan t dt = 1 - ln 2.
+            let exact = 1.0 - std::f64::consts::LN_2;
+            assert!(
+                (rows[2][0] - exact).abs() < 2e-5,
+                "GGX alpha 1 normal incidence: {} vs 1 - ln 2 = {exact}",
+                rows[2][0]
+            );
+        }
     }
     println!("{table}");
 }
