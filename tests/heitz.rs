@@ -375,6 +375,13 @@ fn heitz_order_one_equals_single_height_correlated() {
                     let expect = s.eval(wi, wo, &mut rng);
                     let (mean, se) = eval_mean(&h, wi, wo, 4_000, &mut rng);
                     for c in 0..3 {
+                        // Decisive: a 4% error is more than 4 sigma.
+                        assert!(
+                            se[c] <= 0.01 * expect[c] + 1e-7,
+                            "sigma {} for {}",
+                            se[c],
+                            expect[c]
+                        );
                         let tol = 4.0 * se[c] + 1e-4 * expect[c] + 1e-6;
                         worst = worst.max((mean[c] - expect[c]).abs() / tol);
                         assert!(

@@ -324,6 +324,12 @@ fn eval_integrates_to_the_sample_albedo() {
         let (em, sm) = ((e.x + e.y + e.z) / 3.0, (s.x + s.y + s.z) / 3.0);
         println!("{:?} {th}: eval {e} sample {s}", desc.facet);
         let tol = 4.0 * (ee * ee + se * se).sqrt();
+        // Decisive: a 3% disagreement is more than 4 combined sigma
+        // (measured worst 4 sigma: 2.5%, rough glass eta 1.33).
+        assert!(
+            tol < 0.03 * sm as f64,
+            "{desc:?} {th}: 4 sigma {tol} for {sm}"
+        );
         assert!(
             ((em - sm) as f64).abs() < tol,
             "{desc:?} {th}: eval {em} sample {sm} tol {tol}"
@@ -481,7 +487,23 @@ fn reciprocity_within_noise() {
             let fb = b / wi.z.abs() as f64 / (ei * ei);
             let sa = (va / n as f64).sqrt() / wo.z.abs() as f64 / (eo * eo);
             let sb = (vb / n as f64).sqrt() / wi.z.abs() as f64;
-            let tol = 4.0 * (sa * sa + sb * sb).sqrt() + 1e-5 * fa.abs();
+            // Decisive: sigma below 2.5% of the value in reflection (a 10%
+            // asymmetry fails), 15% in transmission (the effect there is a
+            // lost or doubled eta^2: 125%; these random pairs can be far
+            // from the refracted lobe, measured up to 10.7%).
+            let bound = if wo.z < 0.0 { 0.15 } else { 0.025 };
+            let sigma = (sa * sa + sb * sb).sqrt();
+            println!(
+                "reciprocity {:?} {wi} {wo}: {fa:.5} vs {fb:.5}, sigma {:.2}%",
+                desc.facet,
+                100.0 * sigma / fa.abs().max(fb.abs())
+            );
+            assert!(
+                sigma < bound * fa.abs().max(fb.abs()),
+                "{:?} {wi} {wo}: sigma {sigma} for {fa}",
+                desc.facet
+            );
+            let tol = 4.0 * sigma + 1e-5 * fa.abs();
             assert!(
                 (fa - fb).abs() < tol,
                 "{:?} {wi} {wo}: {fa} vs {fb} (tol {tol})",
