@@ -40,7 +40,7 @@
 //! `cargo run --release --example gen_compensation` computes from the SINGLE
 //! model by deterministic quadrature ([`single_albedo`]); they are Rust
 //! constants, so there is no file I/O and no allocation, and the tables
-//! derived from them ([`KAPPA`], [`COARSE_W`], [`E_AVG_ANISO`]) are
+//! derived from them (`KAPPA`, `COARSE_W`, `E_AVG_ANISO`) are
 //! computed at compile time.
 //!
 //! Anisotropic conductors read `E` from a 4D table over (alpha_x, alpha_y,
@@ -547,16 +547,16 @@ fn conductor4(c: Vec4, eta: f32, k: f32) -> Vec4 {
 ///
 /// At creation the conductor's Fresnel reflectance is replaced by Schlick's
 /// curve `S(c; F0)` plus a correction `sum_k a_k phi_k(c)` (three terms,
-/// [`phi`]; a generalisation of Lazanyi and Szirmay-Kalos 2005's
+/// `phi`; a generalisation of Lazanyi and Szirmay-Kalos 2005's
 /// `c (1 - c)^6` term) through its exact values at normal incidence and at
-/// the cosines [`KNOTS`]. Since that form is linear in `F0` and `a_k`, the
+/// the cosines `KNOTS`. Since that form is linear in `F0` and `a_k`, the
 /// Schlick curve with the same mean over a cell's histogram of reflection
-/// cosines has `F0' = F0 + sum_k a_k kappa_k(cell)` ([`KAPPA`]; against
+/// cosines has `F0' = F0 + sum_k a_k kappa_k(cell)` (`KAPPA`; against
 /// the exact Fresnel at the bin centres, the histogram means of gold,
 /// copper, aluminium, chromium and silver are within 0.0035), and `T` is
 /// `CONDUCTOR_MS_TINT` read at `F0'`: a few table reads per direction,
 /// nothing per material but four Fresnel evaluations and the normalisation
-/// `norm` (from [`COARSE_W`]).
+/// `norm` (from `COARSE_W`).
 ///
 /// The lobe is `f_ms |o.z| = (1 - E(wi)) (1 - E(wo)) T(mu_i) T(mu_o) norm |o.z|`:
 /// for isotropic roughness `norm = 1 / (2 pi int (1 - E) T mu dmu)`, so the
