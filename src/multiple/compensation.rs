@@ -263,10 +263,14 @@ pub fn grid_eta(k: usize) -> f32 {
     1.0 + (MAX_ETA - 1.0) * s * s
 }
 
+/// Lower node, upper node and weight of the upper one for the abscissa `x`
+/// (clamped to the grid of `n` nodes).
 #[inline]
 fn split(x: f32, n: usize) -> (usize, usize, f32) {
     let x = x.clamp(0.0, (n - 1) as f32);
-    let i0 = (x as usize).min(n - 2);
+    // x >= 0 (or NaN, which casts to 0): truncation is the floor, and an
+    // i32 cast is cheaper than a usize one.
+    let i0 = ((x as i32) as usize).min(n - 2);
     (i0, i0 + 1, x - i0 as f32)
 }
 
@@ -603,9 +607,10 @@ impl Tint {
         let f = u - q;
         let row = &ms::CONDUCTOR_MS_TINT[ndf][j][i];
         let read = |q: f32| {
-            // q is in [0, F0_N - 2] (clamped above); `min` keeps the
-            // bounds check provably false.
-            let q = (q as usize).min(ms::F0_N - 2);
+            // q is an integer in [0, F0_N - 2] (clamped above): adding 2^23
+            // puts it in the low mantissa bits (exact, and cheaper than a
+            // saturating cast); `min` keeps the bounds check provably false.
+            let q = (((q + 8_388_608.0).to_bits() & 0xff) as usize).min(ms::F0_N - 2);
             (row[q], row[q + 1])
         };
         let (r0, r1) = (read(q.x), read(q.y));
