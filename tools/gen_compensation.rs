@@ -21,6 +21,9 @@
 //! in `src/multiple/compensation.rs`; `tests/compensation.rs` checks
 //! random table entries against SINGLE's sampled albedo.
 
+#[path = "harness/git.rs"]
+mod git;
+
 use glam::Vec3;
 use msbsdf::Rng;
 use msbsdf::bsdf::ScatterModel;
@@ -133,27 +136,6 @@ fn parallel<J: Sync, R: Send>(
     all.into_iter().map(|(_, r)| r).collect()
 }
 
-/// The commit the generator runs at (`git rev-parse HEAD`, marked
-/// `-dirty` when the worktree has changes), or "unknown".
-fn commit() -> String {
-    let git = |args: &[&str]| {
-        std::process::Command::new("git")
-            .args(args)
-            .current_dir(env!("CARGO_MANIFEST_DIR"))
-            .output()
-            .ok()
-            .filter(|o| o.status.success())
-            .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
-    };
-    match git(&["rev-parse", "HEAD"]) {
-        Some(h) => {
-            let dirty = git(&["status", "--porcelain"]).is_some_and(|s| !s.is_empty());
-            if dirty { format!("{h}-dirty") } else { h }
-        }
-        None => "unknown".into(),
-    }
-}
-
 /// Writes `src/tables/{name}.bin` (format `msbsdf::multiple::bintable`)
 /// with `text` and the command line and commit as its header.
 fn write_table(name: &str, text: &str, values: &[f32], t0: std::time::Instant) {
@@ -162,7 +144,7 @@ fn write_table(name: &str, text: &str, values: &[f32], t0: std::time::Instant) {
         "{text}Command: cargo run --release --example gen_compensation{}{}\nCommit: {}\n",
         if command.is_empty() { "" } else { " -- " },
         command.join(" "),
-        commit()
+        git::commit()
     );
     let path = format!("{}/src/tables/{name}.bin", env!("CARGO_MANIFEST_DIR"));
     let bytes = msbsdf::multiple::bintable::encode(&header, values);

@@ -58,8 +58,9 @@ pub struct Candidate {
     pub evaluations: u32,
     /// Relative RMS error of a query.
     pub error: f32,
-    /// Median nanoseconds per query.
-    pub ns: f32,
+    /// Median time per query relative to SINGLE's (same NDF, facet and
+    /// roughness).
+    pub cost: f32,
 }
 
 /// The candidates measured for one NDF, facet and roughness.
@@ -92,7 +93,9 @@ pub struct Choice {
     /// Error the table predicts (worst over the rows used); infinite when
     /// unknown (no table row applies, or the model was not AUTO).
     pub error: f32,
-    /// Cost the table predicts (ns per query); infinite when unknown.
+    /// Cost the table predicts in ns per query: the relative cost times
+    /// SINGLE's time on the machine that measured the table
+    /// ([`super::auto_table::REFERENCE_NS`]); infinite when unknown.
     pub ns: f32,
 }
 
@@ -182,7 +185,7 @@ fn predict(
             _ => r.candidates.iter().find(same)?,
         };
         err = err.max(m.error * scale);
-        ns = ns.max(m.ns);
+        ns = ns.max(m.cost * super::auto_table::REFERENCE_NS);
         any = true;
     }
     any.then_some((err, ns))
@@ -201,7 +204,7 @@ pub fn concrete(d: &MaterialDesc, model: Model, estimator: Estimator) -> Materia
 const MAX_CANDIDATES: usize = 128;
 
 /// Per row of the committed table, the candidates' indices by increasing
-/// `ns` (stable: ties keep the table order). Computed at compile time.
+/// `cost` (stable: ties keep the table order). Computed at compile time.
 static BY_COST: [[u8; MAX_CANDIDATES]; super::auto_table::ROWS.len()] = {
     let rows = super::auto_table::ROWS;
     let mut out = [[0u8; MAX_CANDIDATES]; super::auto_table::ROWS.len()];
@@ -213,7 +216,7 @@ static BY_COST: [[u8; MAX_CANDIDATES]; super::auto_table::ROWS.len()] = {
         while i < c.len() {
             // Insertion sort.
             let mut j = i;
-            while j > 0 && c[out[r][j - 1] as usize].ns > c[i].ns {
+            while j > 0 && c[out[r][j - 1] as usize].cost > c[i].cost {
                 out[r][j] = out[r][j - 1];
                 j -= 1;
             }
@@ -242,7 +245,7 @@ pub fn build_from(d: &MaterialDesc, rows: &'static [Row]) -> Result<(Choice, Mat
     if let Some(first) = rel[0] {
         // Candidates by increasing cost in the first row when the table is
         // the committed one (its order is computed at compile time).
-        let order = if std::ptr::eq(rows, super::auto_table::ROWS) {
+        let order = if std::ptr::eq(rows, &super::auto_table::ROWS[..]) {
             rows.iter()
                 .position(|r| std::ptr::eq(r, first))
                 .map(|i| &BY_COST[i])
@@ -259,7 +262,9 @@ pub fn build_from(d: &MaterialDesc, rows: &'static [Row]) -> Result<(Choice, Mat
                 // The predicted cost is the largest over the rows, so the
                 // first row's cost bounds it from below: once it exceeds
                 // the best candidate within tolerance, none later can win.
-                if order.is_some() && best_ok.is_some_and(|b| c.ns > b.ns) {
+                if order.is_some()
+                    && best_ok.is_some_and(|b| c.cost * super::auto_table::REFERENCE_NS > b.ns)
+                {
                     break;
                 }
                 if refused[..n_refused].contains(&Some((c.model, c.estimator))) {
@@ -321,10 +326,10 @@ pub fn choose_from(d: &MaterialDesc, rows: &'static [Row]) -> Result<Choice, Err
 
 /// Chooses for `d` from the committed table.
 pub fn choose(d: &MaterialDesc) -> Result<Choice, Error> {
-    choose_from(d, super::auto_table::ROWS)
+    choose_from(d, &super::auto_table::ROWS)
 }
 
 /// Chooses for `d` from the committed table and builds the material chosen.
 pub fn build(d: &MaterialDesc) -> Result<(Choice, Material), Error> {
-    build_from(d, super::auto_table::ROWS)
+    build_from(d, &super::auto_table::ROWS)
 }
