@@ -62,7 +62,7 @@
 //! The first facet is drawn from the visible normals (Beckmann, GGX; the
 //! paper allows it) or from `D(s) s.z` (Phong), the partner angle
 //! (nonsymmetric) from the tabulated inverse CDF of `P(theta_r | phi)`
-//! (built once, in place, without heap, behind a `std::sync::Once`), and
+//! (compile-time tables, `src/tables/vgroove_partner_*.bin`), and
 //! `k` with probability `G_k / lit`; a count above `N` drops the sample (flag `ABSORBED`). `pdf` sums the same choices over all
 //! `(k, facet)` solutions reaching `o`, so it is the exact density of
 //! `sample` for the symmetric model and a quadrature of it for the
@@ -312,9 +312,6 @@ impl VGroove {
             dist::max_bounces_at_percentile(family, a, DEFAULT_QUANTILE)
         }
         .clamp(1, crate::MAX_BOUNCES);
-        if !symmetric {
-            dist::warm_tables(family);
-        }
         VGroove {
             ndf,
             fresnel: FresnelTable::new(eta, k),
