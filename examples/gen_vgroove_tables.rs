@@ -16,13 +16,16 @@ use msbsdf::multiple::vgroove::dist::{
     PHONG_LEN, PHONG_W, STRIDE, TABLE_N, fill_beckmann, fill_ggx, fill_phong,
 };
 
+/// Name, header text, fill function and length of one table.
+type Table = (&'static str, String, fn(&mut [f32]), usize);
+
 fn main() {
     let commit = git::commit();
     let common = format!(
         "Index j: u = j / {TABLE_N}; value: eta(u) = atan(tan(theta) / scale), f32.\n\
          Command: cargo run --release --example gen_vgroove_tables\nCommit: {commit}\n"
     );
-    let tables: [(&str, String, fn(&mut [f32]), usize); 3] = [
+    let tables: [Table; 3] = [
         (
             "beckmann",
             format!(
