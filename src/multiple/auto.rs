@@ -110,14 +110,27 @@ fn relevant(d: &MaterialDesc, rows: &'static [Row]) -> ([Option<&'static Row>; M
     let pick = move |r: &&Row| (r.ndf == d.ndf) == ndf_rows_exist && r.facet == d.facet;
     let iso = |r: &&Row| r.alpha_x == r.alpha_y;
     let (lo, hi) = (d.alpha_x.min(d.alpha_y), d.alpha_x.max(d.alpha_y));
-    // A row measured for exactly this roughness is used alone.
-    if let Some(r) = rows
-        .iter()
-        .filter(pick)
-        .find(|r| r.alpha_x == d.alpha_x && r.alpha_y == d.alpha_y)
-    {
-        out[0] = Some(r);
-        return (out, 1.0);
+    // One pass: a row measured for exactly this roughness is used alone;
+    // otherwise the isotropic rows bracketing `lo` and `hi` (below: the
+    // largest alpha <= a, the last one on ties; above: the smallest
+    // alpha >= a, the first one on ties).
+    let mut br: [[Option<&'static Row>; 2]; 2] = [[None; 2]; 2];
+    for r in rows.iter().filter(pick) {
+        if r.alpha_x == d.alpha_x && r.alpha_y == d.alpha_y {
+            out[0] = Some(r);
+            return (out, 1.0);
+        }
+        if !iso(&r) {
+            continue;
+        }
+        for (slot, a) in br.iter_mut().zip([lo, hi]) {
+            if r.alpha_x <= a && slot[0].is_none_or(|b| r.alpha_x >= b.alpha_x) {
+                slot[0] = Some(r);
+            }
+            if r.alpha_x >= a && slot[1].is_none_or(|b| r.alpha_x < b.alpha_x) {
+                slot[1] = Some(r);
+            }
+        }
     }
     let mut k = 0;
     let mut push = |r: &'static Row, out: &mut [Option<&'static Row>; MAX_RELEVANT]| {
@@ -131,24 +144,9 @@ fn relevant(d: &MaterialDesc, rows: &'static [Row]) -> ([Option<&'static Row>; M
         }
     };
     let mut max_alpha = 0.0f32;
-    for a in [lo, hi] {
-        // Bracketing isotropic rows.
-        let below = rows
-            .iter()
-            .filter(pick)
-            .filter(iso)
-            .filter(|r| r.alpha_x <= a)
-            .max_by(|x, y| x.alpha_x.total_cmp(&y.alpha_x));
-        let above = rows
-            .iter()
-            .filter(pick)
-            .filter(iso)
-            .filter(|r| r.alpha_x >= a)
-            .min_by(|x, y| x.alpha_x.total_cmp(&y.alpha_x));
-        for r in [below, above].into_iter().flatten() {
-            push(r, &mut out);
-            max_alpha = max_alpha.max(r.alpha_x);
-        }
+    for r in br.into_iter().flatten().flatten() {
+        push(r, &mut out);
+        max_alpha = max_alpha.max(r.alpha_x);
     }
     if d.alpha_x != d.alpha_y {
         for r in rows.iter().filter(pick).filter(|r| r.alpha_x != r.alpha_y) {
@@ -254,42 +252,56 @@ pub fn build_from(d: &MaterialDesc, rows: &'static [Row]) -> Result<(Choice, Mat
         };
         let n = first.candidates.len();
         for n_refused in 0..MAX_REFUSED {
-            let mut best_ok: Option<Choice> = None;
-            let mut best_any: Option<Choice> = None;
-            for k in 0..n {
-                let idx = order.map_or(k, |o| o[k] as usize);
-                let c = &first.candidates[idx];
-                // The predicted cost is the largest over the rows, so the
-                // first row's cost bounds it from below: once it exceeds
-                // the best candidate within tolerance, none later can win.
-                if order.is_some()
-                    && best_ok.is_some_and(|b| c.cost * super::auto_table::REFERENCE_NS > b.ns)
-                {
+            // First the cheapest candidate within tolerance; only when
+            // there is none, the one with the smallest error.
+            let mut best: Option<Choice> = None;
+            for within in [true, false] {
+                for k in 0..n {
+                    let idx = order.map_or(k, |o| o[k] as usize);
+                    let c = &first.candidates[idx];
+                    // The predicted error and cost are the largest over the
+                    // rows, so the first row's bound them from below: a
+                    // candidate whose own error is over tolerance cannot
+                    // meet it, and once the cost exceeds the best
+                    // candidate's, none later can win.
+                    if within {
+                        if order.is_some()
+                            && best.is_some_and(|b| c.cost * super::auto_table::REFERENCE_NS > b.ns)
+                        {
+                            break;
+                        }
+                        if c.error * scale > d.tolerance {
+                            continue;
+                        }
+                    }
+                    if refused[..n_refused].contains(&Some((c.model, c.estimator))) {
+                        continue;
+                    }
+                    let Some((err, ns)) = predict(&rel, scale, idx, c) else {
+                        continue;
+                    };
+                    let choice = Choice {
+                        model: c.model,
+                        estimator: c.estimator,
+                        evaluations: c.evaluations.max(1),
+                        error: err,
+                        ns,
+                    };
+                    let better = if within {
+                        err <= d.tolerance
+                            && best.is_none_or(|b| ns < b.ns || (ns == b.ns && err < b.error))
+                    } else {
+                        best.is_none_or(|b| err < b.error || (err == b.error && ns < b.ns))
+                    };
+                    if better {
+                        best = Some(choice);
+                    }
+                }
+                if best.is_some() {
                     break;
                 }
-                if refused[..n_refused].contains(&Some((c.model, c.estimator))) {
-                    continue;
-                }
-                let Some((err, ns)) = predict(&rel, scale, idx, c) else {
-                    continue;
-                };
-                let choice = Choice {
-                    model: c.model,
-                    estimator: c.estimator,
-                    evaluations: c.evaluations.max(1),
-                    error: err,
-                    ns,
-                };
-                if err <= d.tolerance
-                    && best_ok.is_none_or(|b| ns < b.ns || (ns == b.ns && err < b.error))
-                {
-                    best_ok = Some(choice);
-                }
-                if best_any.is_none_or(|b| err < b.error || (err == b.error && ns < b.ns)) {
-                    best_any = Some(choice);
-                }
             }
-            let Some(c) = best_ok.or(best_any) else {
+            let Some(c) = best else {
                 break;
             };
             match Material::new(&concrete(d, c.model, c.estimator)) {
