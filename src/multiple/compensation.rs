@@ -38,10 +38,12 @@
 //!
 //! `E` comes from tables (`compensation_tables.rs`) that the committed tool
 //! `cargo run --release --example gen_compensation` computes from the SINGLE
-//! model by deterministic quadrature ([`single_albedo`]); they are Rust
-//! constants, so there is no file I/O and no allocation, and the tables
-//! derived from them (`KAPPA`, `COARSE_W`, `E_AVG_ANISO`) are
-//! computed at compile time.
+//! model by deterministic quadrature ([`single_albedo`]); all the tables are
+//! compact binary files under `src/tables/` (their headers record command,
+//! seeds, sample counts and commit) decoded into `static` arrays at compile
+//! time, so there is no file I/O, no allocation and no lazy initialisation,
+//! and the tables derived from them (`KAPPA`, `COARSE_W`, `E_AVG_ANISO`) are
+//! computed at compile time too.
 //!
 //! Anisotropic conductors read `E` from a 4D table over (alpha_x, alpha_y,
 //! azimuth, mu) (`compensation_aniso_tables`, `-- --aniso`; 16 x 16 alphas,
