@@ -1,6 +1,7 @@
 //! MSBSDF_MODEL_ENERGY_COMPENSATED: white furnace through sample and eval,
 //! dielectric furnace from both sides, sample against pdf, reciprocity of
-//! the conductor lobe, and the committed tables against a fresh quadrature.
+//! the conductor lobe, and the committed tables against independent
+//! estimates (SINGLE's sampled albedo) on random cells.
 
 mod common;
 use common::*;
