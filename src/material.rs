@@ -410,8 +410,7 @@ impl Material {
             }
             Model::Auto => {
                 // The choice comes from the measured table (multiple/auto.rs).
-                let c = auto::choose(&d)?;
-                let inner = Material::new(&auto::concrete(&d, c.model, c.estimator))?;
+                let (c, inner) = auto::build(&d)?;
                 return Ok(Material {
                     imp: inner.imp,
                     desc: d,

@@ -12,7 +12,7 @@ use harness::reference::{self, RefMaterial};
 use harness::suite::{self, c_desc};
 use msbsdf::capi::*;
 use msbsdf::multiple::auto::{self, concrete};
-use msbsdf::multiple::auto_table::ROWS;
+use msbsdf::multiple::auto_table::{REFERENCE_NS, ROWS};
 use msbsdf::{Estimator, FacetKind, Material, MaterialDesc, Model, NdfId, Rng};
 
 const TOLERANCE: f32 = 0.01;
@@ -153,7 +153,7 @@ fn auto_never_costs_more_than_the_cheapest_config_meeting_it_in_the_table() {
             .iter()
             .filter(|x| x.error <= TOLERANCE)
             .filter(|x| Material::new(&concrete(&d, x.model, x.estimator)).is_ok())
-            .map(|x| x.ns)
+            .map(|x| x.cost * REFERENCE_NS)
             .fold(f32::INFINITY, f32::min);
         assert!(
             cheapest.is_finite(),

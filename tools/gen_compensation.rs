@@ -1,19 +1,28 @@
-//! Generates `src/multiple/compensation_tables.rs`, the single-scattering
-//! albedo tables of `MSBSDF_MODEL_ENERGY_COMPENSATED`, by deterministic
-//! quadrature of the SINGLE model (`msbsdf::multiple::compensation::single_albedo`).
+//! Generates `src/tables/conductor_e.bin`, `conductor_e_avg.bin` and
+//! `dielectric_e.bin`, the single-scattering albedo tables of
+//! `MSBSDF_MODEL_ENERGY_COMPENSATED` (compact binary,
+//! `msbsdf::multiple::bintable`; decoded at compile time by
+//! `src/multiple/compensation_tables.rs`), by deterministic quadrature of
+//! the SINGLE model (`msbsdf::multiple::compensation::single_albedo`). Each
+//! file's header records the command, the grid, seeds and sample counts
+//! where there are any, and the commit the generator ran at.
 //!
 //! `cargo run --release --example gen_compensation` (about a minute on 2 cores).
 //!
 //! `cargo run --release --example gen_compensation -- --ms` instead generates
-//! `src/multiple/compensation_ms_tables.rs`, the Fresnel tint tables of the
+//! `src/tables/conductor_ms_cos_hist.bin` and `conductor_ms_tint.bin`, the
+//! Fresnel tint tables of the
 //! conductor multiple-scattering lobe, from a random walk of the Heitz 2016
 //! microsurface (see [`ms_tables`]; under a minute on 2 cores), and
-//! `-- --aniso` generates `src/multiple/compensation_aniso_tables.rs`, the
+//! `-- --aniso` generates `src/tables/conductor_e_aniso.bin`, the
 //! conductor albedo with F = 1 for anisotropic roughness (see
 //! [`aniso_tables`]; under a minute).
 //! The grid formulas here must match `grid_mu`, `grid_alpha` and `grid_eta`
-//! in `src/multiple/compensation.rs`; `tests/compensation.rs` checks table
-//! entries against a fresh quadrature at those grid points.
+//! in `src/multiple/compensation.rs`; `tests/compensation.rs` checks
+//! random table entries against SINGLE's sampled albedo.
+
+#[path = "harness/git.rs"]
+mod git;
 
 use glam::Vec3;
 use msbsdf::Rng;
@@ -22,8 +31,6 @@ use msbsdf::facet::Facet;
 use msbsdf::multiple::compensation::single_albedo;
 use msbsdf::ndf::{Ndf, NdfKind};
 use msbsdf::single::{G2Form, Single};
-use std::fmt::Write as _;
-use std::io::Write as _;
 
 const MU_N: usize = 32;
 const ALPHA_N: usize = 24;
@@ -87,11 +94,6 @@ fn dielectric(kind: NdfKind, alpha: f32, eta: f32, mu: f32) -> f32 {
     ) as f32
 }
 
-fn fmt_row(v: &[f32]) -> String {
-    let items: Vec<String> = v.iter().map(|x| format!("{x:.6}")).collect();
-    format!("[{}]", items.join(", "))
-}
-
 /// Runs `f(index, job)` on every job over two threads (job `i` on thread
 /// `i % 2`), printing progress every `every` jobs; results in job order.
 fn parallel<J: Sync, R: Send>(
@@ -134,43 +136,25 @@ fn parallel<J: Sync, R: Send>(
     all.into_iter().map(|(_, r)| r).collect()
 }
 
-/// A nested table that writes itself as Rust array items, one row of
-/// numbers per line, two spaces of indent per level (rustfmt re-indents).
-trait Nested {
-    fn write_items(&self, s: &mut String, indent: usize);
-}
-
-impl Nested for Vec<f32> {
-    fn write_items(&self, s: &mut String, indent: usize) {
-        writeln!(s, "{:indent$}{},", "", fmt_row(self)).ok();
-    }
-}
-
-impl<T: Nested> Nested for Vec<T> {
-    fn write_items(&self, s: &mut String, indent: usize) {
-        writeln!(s, "{:indent$}[", "").ok();
-        for x in self {
-            x.write_items(s, indent + 2);
-        }
-        writeln!(s, "{:indent$}],", "").ok();
-    }
-}
-
-/// `/// doc` + `pub static DECL = [...];` for a nested table.
-fn write_static<T: Nested>(s: &mut String, doc: &str, decl: &str, v: &[T]) {
-    writeln!(s, "/// {doc}\npub static {decl} = [").ok();
-    for x in v {
-        x.write_items(s, 2);
-    }
-    writeln!(s, "];").ok();
-}
-
-/// Writes the generated source `src/multiple/{file}`.
-fn write_source(file: &str, s: &str, t0: std::time::Instant) {
-    let path = format!("{}/src/multiple/{file}", env!("CARGO_MANIFEST_DIR"));
-    let mut f = std::fs::File::create(&path).expect("create the tables file");
-    f.write_all(s.as_bytes()).expect("write the tables file");
+/// Writes `src/tables/{name}.bin` (format `msbsdf::multiple::bintable`)
+/// with `text` and the command line and commit as its header.
+fn write_table(name: &str, text: &str, values: &[f32], t0: std::time::Instant) {
+    let command: Vec<String> = std::env::args().skip(1).collect();
+    let header = format!(
+        "{text}Command: cargo run --release --example gen_compensation{}{}\nCommit: {}\n",
+        if command.is_empty() { "" } else { " -- " },
+        command.join(" "),
+        git::commit()
+    );
+    let path = format!("{}/src/tables/{name}.bin", env!("CARGO_MANIFEST_DIR"));
+    let bytes = msbsdf::multiple::bintable::encode(&header, values);
+    std::fs::write(&path, bytes).expect("write the table file");
     eprintln!("wrote {path} in {:.0} s", t0.elapsed().as_secs_f32());
+}
+
+/// The values of a nested table in index order.
+fn flat3(v: &[Vec<Vec<f32>>]) -> Vec<f32> {
+    v.iter().flatten().flatten().copied().collect()
 }
 
 fn main() {
@@ -223,71 +207,47 @@ fn main() {
             diel[n][kind - 1][k][j] = row;
         }
     }
-    let mut s = String::new();
-    writeln!(
-        s,
-        "//! Generated by `cargo run --release --example gen_compensation`: do not edit."
-    )
-    .ok();
-    writeln!(
-        s,
-        "//! Single-scattering directional albedo (height-correlated Smith G2) by"
-    )
-    .ok();
-    writeln!(
-        s,
-        "//! quadrature on a {QUAD_N} x {QUAD_N} grid of normals per entry. Index order:"
-    )
-    .ok();
-    writeln!(
-        s,
-        "//! [ndf: Beckmann, GGX][side: eta >= 1, 1/eta]?[eta][alpha][mu]."
-    )
-    .ok();
-    writeln!(
-        s,
-        "#![allow(clippy::excessive_precision, clippy::approx_constant)]\n"
-    )
-    .ok();
-    writeln!(
-        s,
-        "/// Number of mu (cosine) grid points.\npub const MU_N: usize = {MU_N};"
-    )
-    .ok();
-    writeln!(
-        s,
-        "/// Number of alpha grid points.\npub const ALPHA_N: usize = {ALPHA_N};"
-    )
-    .ok();
-    writeln!(
-        s,
-        "/// Number of eta grid points.\npub const ETA_N: usize = {ETA_N};"
-    )
-    .ok();
-    writeln!(
-        s,
-        "/// Smallest tabulated mu.\npub const MU_MIN: f32 = {MU_MIN:?};"
-    )
-    .ok();
-    write_static(
-        &mut s,
-        "Conductor albedo with F = 1.",
-        "CONDUCTOR_E: [[[f32; MU_N]; ALPHA_N]; 2]",
-        &cond,
+    let quad = format!(
+        "Single-scattering directional albedo (height-correlated Smith G2) of the SINGLE \
+         model by deterministic quadrature (msbsdf::multiple::compensation::single_albedo) \
+         on a {QUAD_N} x {QUAD_N} grid of normals per entry; no random numbers.\n\
+         Grid: mu = {MU_MIN} + {} i / {}, alpha = {MAX_ALPHA} (j / {})^2, eta = 1 + {} (k / {})^2.\n",
+        1.0 - MU_MIN,
+        MU_N - 1,
+        ALPHA_N - 1,
+        MAX_ETA - 1.0,
+        ETA_N - 1
     );
-    write_static(
-        &mut s,
-        "Cosine-weighted average of the conductor albedo.",
-        "CONDUCTOR_E_AVG: [[f32; ALPHA_N]; 2]",
-        &cond_avg,
+    write_table(
+        "conductor_e",
+        &format!(
+            "CONDUCTOR_E: albedo of conductor facets with F = 1.\n\
+             Shape: [ndf: Beckmann, GGX][alpha: {ALPHA_N}][mu: {MU_N}] f32.\n{quad}"
+        ),
+        &flat3(&cond),
+        t0,
     );
-    write_static(
-        &mut s,
-        "Dielectric reflected + transmitted albedo.",
-        "DIELECTRIC_E: [[[[[f32; MU_N]; ALPHA_N]; ETA_N]; 2]; 2]",
-        &diel,
+    write_table(
+        "conductor_e_avg",
+        &format!(
+            "CONDUCTOR_E_AVG: 2 int E(mu) mu dmu of the conductor albedo with F = 1, by 32 \
+             midpoints in mu^2 of the same quadrature.\n\
+             Shape: [ndf: Beckmann, GGX][alpha: {ALPHA_N}] f32.\n{quad}"
+        ),
+        &cond_avg.iter().flatten().copied().collect::<Vec<f32>>(),
+        t0,
     );
-    write_source("compensation_tables.rs", &s, t0);
+    let diel_flat: Vec<f32> = diel.iter().flatten().flat_map(|x| flat3(x)).collect();
+    write_table(
+        "dielectric_e",
+        &format!(
+            "DIELECTRIC_E: reflected + transmitted albedo of dielectric facets, relative \
+             index eta (side 0) or 1 / eta (side 1) seen from wi.\n\
+             Shape: [ndf: Beckmann, GGX][side: 2][eta: {ETA_N}][alpha: {ALPHA_N}][mu: {MU_N}] f32.\n{quad}"
+        ),
+        &diel_flat,
+        t0,
+    );
 }
 
 /// Cosine bins of the multiple-scattering bounce histogram.
@@ -441,46 +401,36 @@ fn ms_tables() {
         "{walks} walks; single-reflection fraction vs CONDUCTOR_E: worst |z| {worst_z:.2}; \
          fewest multiply scattered paths where E < 0.99: {fewest}"
     );
-    let mut s = String::new();
-    writeln!(
-        s,
-        "//! Generated by `cargo run --release --example gen_compensation -- --ms`: do not edit.\n\
-         //! Heitz 2016 walks with F = 1 per (NDF, alpha, mu) grid cell of\n\
-         //! `compensation_tables` (seed 20261122 + cell, until {MS_TARGET_PATHS} paths with\n\
-         //! two or more reflections or {MS_MAX_WALKS} walks; {walks} walks in all).\n\
-         //! Single-reflection fraction vs `CONDUCTOR_E`: worst |z| {worst_z:.2}.\n\
-         //! Index order: [ndf: Beckmann, GGX][alpha][mu][bin or F0 node]."
-    )
-    .ok();
-    writeln!(
-        s,
-        "#![allow(clippy::excessive_precision, clippy::approx_constant)]\n\n\
-         use super::compensation_tables::{{ALPHA_N, MU_N}};\n"
-    )
-    .ok();
-    writeln!(
-        s,
-        "/// Uniform cosine bins of [`CONDUCTOR_MS_COS_HIST`].\npub const MS_BINS: usize = {MS_BINS};"
-    )
-    .ok();
-    writeln!(
-        s,
-        "/// Schlick `F0` nodes (uniform on [0, 1]) of [`CONDUCTOR_MS_TINT`].\npub const F0_N: usize = {F0_N};"
-    )
-    .ok();
-    write_static(
-        &mut s,
-        "Distribution of the reflection cosines `|w.m|` of multiply scattered paths (every reflection counts once).",
-        "CONDUCTOR_MS_COS_HIST: [[[[f32; MS_BINS]; MU_N]; ALPHA_N]; 2]",
-        &hist,
+    let walk = format!(
+        "Heitz et al. 2016 random walks on the microsurface with conductor facets and F = 1, \
+         per (NDF, alpha, mu) grid cell of CONDUCTOR_E (heights by the log of the uniform \
+         height CDF, at most {MS_MAX_BOUNCES} reflections): msbsdf::Rng seed 20261122 + cell \
+         index (cell = (ndf * {ALPHA_N} + alpha) * {MU_N} + mu), stream 7; per cell until \
+         {MS_TARGET_PATHS} paths with two or more reflections or {MS_MAX_WALKS} walks; \
+         {walks} walks in all. Single-reflection fraction vs CONDUCTOR_E: worst |z| {worst_z:.2}.\n"
     );
-    write_static(
-        &mut s,
-        "Mean over multiply scattered paths of `prod_j S(c_j; F0)`, Schlick's reflectance.",
-        "CONDUCTOR_MS_TINT: [[[[f32; F0_N]; MU_N]; ALPHA_N]; 2]",
-        &tint,
+    write_table(
+        "conductor_ms_cos_hist",
+        &format!(
+            "CONDUCTOR_MS_COS_HIST: distribution of the reflection cosines |w.m| of the paths \
+             that leave after two or more reflections (every reflection counts once), \
+             {MS_BINS} uniform bins.\n\
+             Shape: [ndf: Beckmann, GGX][alpha: {ALPHA_N}][mu: {MU_N}][bin: {MS_BINS}] f32.\n{walk}"
+        ),
+        &hist.iter().flat_map(|x| flat3(x)).collect::<Vec<f32>>(),
+        t0,
     );
-    write_source("compensation_ms_tables.rs", &s, t0);
+    write_table(
+        "conductor_ms_tint",
+        &format!(
+            "CONDUCTOR_MS_TINT: mean over the paths that leave after two or more reflections \
+             of prod_j S(c_j; F0), Schlick's reflectance, at F0 = q / {}.\n\
+             Shape: [ndf: Beckmann, GGX][alpha: {ALPHA_N}][mu: {MU_N}][F0: {F0_N}] f32.\n{walk}",
+            F0_N - 1
+        ),
+        &tint.iter().flat_map(|x| flat3(x)).collect::<Vec<f32>>(),
+        t0,
+    );
 }
 
 /// Grid of the anisotropic albedo table: mu (quadratic spacing, dense
@@ -531,42 +481,27 @@ fn aniso_tables() {
     for (&(n, jx, jy), block) in jobs.iter().zip(results) {
         table[n][jx][jy] = block;
     }
-    let mut s = String::new();
-    writeln!(
-        s,
-        "//! Generated by `cargo run --release --example gen_compensation -- --aniso`: do not edit.\n\
-         //! Single-scattering directional albedo with F = 1 (height-correlated Smith G2)\n\
-         //! of anisotropic conductor facets by quadrature on a {AN_QUAD_N} x {AN_QUAD_N} grid of\n\
-         //! normals per entry. Index order: [ndf: Beckmann, GGX][alpha_x][alpha_y][phi][mu]."
-    )
-    .ok();
-    writeln!(
-        s,
-        "#![allow(clippy::excessive_precision, clippy::approx_constant)]\n"
-    )
-    .ok();
-    writeln!(
-        s,
-        "/// Number of mu grid points.\npub const AN_MU: usize = {AN_MU};"
-    )
-    .ok();
-    writeln!(
-        s,
-        "/// Number of azimuth grid points on [0, pi/2].\npub const AN_PHI: usize = {AN_PHI};"
-    )
-    .ok();
-    writeln!(
-        s,
-        "/// Number of alpha grid points per axis.\npub const AN_A: usize = {AN_A};"
-    )
-    .ok();
-    write_static(
-        &mut s,
-        "Conductor albedo with F = 1.",
-        "CONDUCTOR_E_ANISO: [[[[[f32; AN_MU]; AN_PHI]; AN_A]; AN_A]; 2]",
-        &table,
+    write_table(
+        "conductor_e_aniso",
+        &format!(
+            "CONDUCTOR_E_ANISO: single-scattering directional albedo with F = 1 \
+             (height-correlated Smith G2) of anisotropic conductor facets by deterministic \
+             quadrature (msbsdf::multiple::compensation::single_albedo) on a {AN_QUAD_N} x \
+             {AN_QUAD_N} grid of normals per entry; no random numbers.\n\
+             Shape: [ndf: Beckmann, GGX][alpha_x: {AN_A}][alpha_y: {AN_A}][phi: {AN_PHI}][mu: {AN_MU}] f32.\n\
+             Grid: mu = {MU_MIN} + {} (i / {})^2, phi = (pi / 2) k / {}, alpha = {MAX_ALPHA} (j / {})^2 \
+             (0 stored at 1e-4).\n",
+            1.0 - MU_MIN,
+            AN_MU - 1,
+            AN_PHI - 1,
+            AN_A - 1
+        ),
+        &table
+            .iter()
+            .flat_map(|a| a.iter().flat_map(|b| flat3(b)))
+            .collect::<Vec<f32>>(),
+        t0,
     );
-    write_source("compensation_aniso_tables.rs", &s, t0);
 }
 
 /// One entry of the anisotropic table (also used by the tests' recomputation).

@@ -12,7 +12,7 @@
 //! `docs/convergence.svg` (MSE vs evaluations), `docs/lobes_*.svg` (BRDF and
 //! inverse efficiency in the plane of incidence), `docs/speed_accuracy.md`
 //! (Pareto fronts, cost ratios) and the AUTO table
-//! `src/multiple/auto_table.rs`.
+//! `src/tables/auto.bin` (decoded by `src/multiple/auto_table.rs`).
 
 #[path = "harness/mod.rs"]
 mod harness;
@@ -337,8 +337,7 @@ fn main() {
     let ref_path =
         harness::arg_value("--reference").unwrap_or_else(|| "data/reference_values.csv".into());
     let docs = harness::arg_value("--docs").unwrap_or_else(|| "docs".into());
-    let table =
-        harness::arg_value("--table").unwrap_or_else(|| "src/multiple/auto_table.rs".into());
+    let table = harness::arg_value("--table").unwrap_or_else(|| "src/tables/auto.bin".into());
     let text = std::fs::read_to_string(&ref_path).expect("read the reference CSV");
     let refs = reference::read_values(&text).expect("parse the reference CSV");
     let o = if quick {
@@ -400,7 +399,12 @@ fn main() {
     if !table.is_empty() && table != "none" {
         std::fs::write(
             &table,
-            speed::auto_table_source(&run, &refs, "cargo run --release --example speed_accuracy"),
+            speed::auto_table_bytes(
+                &run,
+                &refs,
+                "cargo run --release --example speed_accuracy",
+                &harness::git::commit(),
+            ),
         )
         .expect("write table");
     }

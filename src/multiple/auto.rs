@@ -58,8 +58,9 @@ pub struct Candidate {
     pub evaluations: u32,
     /// Relative RMS error of a query.
     pub error: f32,
-    /// Median nanoseconds per query.
-    pub ns: f32,
+    /// Median time per query relative to SINGLE's (same NDF, facet and
+    /// roughness).
+    pub cost: f32,
 }
 
 /// The candidates measured for one NDF, facet and roughness.
@@ -92,7 +93,9 @@ pub struct Choice {
     /// Error the table predicts (worst over the rows used); infinite when
     /// unknown (no table row applies, or the model was not AUTO).
     pub error: f32,
-    /// Cost the table predicts (ns per query); infinite when unknown.
+    /// Cost the table predicts in ns per query: the relative cost times
+    /// SINGLE's time on the machine that measured the table
+    /// ([`super::auto_table::REFERENCE_NS`]); infinite when unknown.
     pub ns: f32,
 }
 
@@ -107,14 +110,27 @@ fn relevant(d: &MaterialDesc, rows: &'static [Row]) -> ([Option<&'static Row>; M
     let pick = move |r: &&Row| (r.ndf == d.ndf) == ndf_rows_exist && r.facet == d.facet;
     let iso = |r: &&Row| r.alpha_x == r.alpha_y;
     let (lo, hi) = (d.alpha_x.min(d.alpha_y), d.alpha_x.max(d.alpha_y));
-    // A row measured for exactly this roughness is used alone.
-    if let Some(r) = rows
-        .iter()
-        .filter(pick)
-        .find(|r| r.alpha_x == d.alpha_x && r.alpha_y == d.alpha_y)
-    {
-        out[0] = Some(r);
-        return (out, 1.0);
+    // One pass: a row measured for exactly this roughness is used alone;
+    // otherwise the isotropic rows bracketing `lo` and `hi` (below: the
+    // largest alpha <= a, the last one on ties; above: the smallest
+    // alpha >= a, the first one on ties).
+    let mut br: [[Option<&'static Row>; 2]; 2] = [[None; 2]; 2];
+    for r in rows.iter().filter(pick) {
+        if r.alpha_x == d.alpha_x && r.alpha_y == d.alpha_y {
+            out[0] = Some(r);
+            return (out, 1.0);
+        }
+        if !iso(&r) {
+            continue;
+        }
+        for (slot, a) in br.iter_mut().zip([lo, hi]) {
+            if r.alpha_x <= a && slot[0].is_none_or(|b| r.alpha_x >= b.alpha_x) {
+                slot[0] = Some(r);
+            }
+            if r.alpha_x >= a && slot[1].is_none_or(|b| r.alpha_x < b.alpha_x) {
+                slot[1] = Some(r);
+            }
+        }
     }
     let mut k = 0;
     let mut push = |r: &'static Row, out: &mut [Option<&'static Row>; MAX_RELEVANT]| {
@@ -128,24 +144,9 @@ fn relevant(d: &MaterialDesc, rows: &'static [Row]) -> ([Option<&'static Row>; M
         }
     };
     let mut max_alpha = 0.0f32;
-    for a in [lo, hi] {
-        // Bracketing isotropic rows.
-        let below = rows
-            .iter()
-            .filter(pick)
-            .filter(iso)
-            .filter(|r| r.alpha_x <= a)
-            .max_by(|x, y| x.alpha_x.total_cmp(&y.alpha_x));
-        let above = rows
-            .iter()
-            .filter(pick)
-            .filter(iso)
-            .filter(|r| r.alpha_x >= a)
-            .min_by(|x, y| x.alpha_x.total_cmp(&y.alpha_x));
-        for r in [below, above].into_iter().flatten() {
-            push(r, &mut out);
-            max_alpha = max_alpha.max(r.alpha_x);
-        }
+    for r in br.into_iter().flatten().flatten() {
+        push(r, &mut out);
+        max_alpha = max_alpha.max(r.alpha_x);
     }
     if d.alpha_x != d.alpha_y {
         for r in rows.iter().filter(pick).filter(|r| r.alpha_x != r.alpha_y) {
@@ -161,21 +162,28 @@ fn relevant(d: &MaterialDesc, rows: &'static [Row]) -> ([Option<&'static Row>; M
 }
 
 /// Predicted (error, ns) of a configuration over the relevant rows; `None`
-/// when a row lacks it.
+/// when a row lacks it. `idx` is its position in the first row: the rows
+/// list the same configurations in the same order, so that position is
+/// tried before a search.
 fn predict(
     rel: &[Option<&'static Row>; MAX_RELEVANT],
     scale: f32,
+    idx: usize,
     c: &Candidate,
 ) -> Option<(f32, f32)> {
+    let same = |x: &&Candidate| {
+        x.model == c.model && x.estimator == c.estimator && x.evaluations == c.evaluations
+    };
     let mut err = 0.0f32;
     let mut ns = 0.0f32;
     let mut any = false;
     for r in rel.iter().flatten() {
-        let m = r.candidates.iter().find(|x| {
-            x.model == c.model && x.estimator == c.estimator && x.evaluations == c.evaluations
-        })?;
+        let m = match r.candidates.get(idx) {
+            Some(x) if same(&x) => x,
+            _ => r.candidates.iter().find(same)?,
+        };
         err = err.max(m.error * scale);
-        ns = ns.max(m.ns);
+        ns = ns.max(m.cost * super::auto_table::REFERENCE_NS);
         any = true;
     }
     any.then_some((err, ns))
@@ -190,53 +198,131 @@ pub fn concrete(d: &MaterialDesc, model: Model, estimator: Estimator) -> Materia
     }
 }
 
-/// Chooses for `d` from `rows` (the committed table in normal use).
-pub fn choose_from(d: &MaterialDesc, rows: &'static [Row]) -> Result<Choice, Error> {
+/// Largest number of candidates in one row of the committed table.
+const MAX_CANDIDATES: usize = 128;
+
+/// Per row of the committed table, the candidates' indices by increasing
+/// `cost` (stable: ties keep the table order). Computed at compile time.
+static BY_COST: [[u8; MAX_CANDIDATES]; super::auto_table::ROWS.len()] = {
+    let rows = super::auto_table::ROWS;
+    let mut out = [[0u8; MAX_CANDIDATES]; super::auto_table::ROWS.len()];
+    let mut r = 0;
+    while r < rows.len() {
+        let c = rows[r].candidates;
+        assert!(c.len() <= MAX_CANDIDATES, "too many candidates in a row");
+        let mut i = 0;
+        while i < c.len() {
+            // Insertion sort.
+            let mut j = i;
+            while j > 0 && c[out[r][j - 1] as usize].cost > c[i].cost {
+                out[r][j] = out[r][j - 1];
+                j -= 1;
+            }
+            out[r][j] = i as u8;
+            i += 1;
+        }
+        r += 1;
+    }
+    out
+};
+
+/// Largest number of (model, estimator) pairs `Material::new` may refuse
+/// before the lookup gives up on the table.
+const MAX_REFUSED: usize = 16;
+
+/// Chooses for `d` from `rows` (the committed table in normal use) and
+/// builds the material chosen.
+///
+/// The best candidate is found from the table alone and then built; only
+/// when `Material::new` refuses it (e.g. NULL_SCATTERING below its smallest
+/// roughness) is its (model, estimator) excluded and the search repeated.
+/// So a lookup builds one material in the common case.
+pub fn build_from(d: &MaterialDesc, rows: &'static [Row]) -> Result<(Choice, Material), Error> {
     let (rel, scale) = relevant(d, rows);
-    let accepted = |m: Model, e: Estimator| Material::new(&concrete(d, m, e)).is_ok();
-    let mut best_ok: Option<Choice> = None;
-    let mut best_any: Option<Choice> = None;
+    let mut refused = [None::<(Model, Estimator)>; MAX_REFUSED];
     if let Some(first) = rel[0] {
-        for c in first.candidates {
-            let Some((err, ns)) = predict(&rel, scale, c) else {
-                continue;
-            };
-            let choice = Choice {
-                model: c.model,
-                estimator: c.estimator,
-                evaluations: c.evaluations.max(1),
-                error: err,
-                ns,
-            };
-            let better_ok = err <= d.tolerance
-                && best_ok.is_none_or(|b| ns < b.ns || (ns == b.ns && err < b.error));
-            let better_any =
-                best_any.is_none_or(|b| err < b.error || (err == b.error && ns < b.ns));
-            if (better_ok || better_any) && accepted(c.model, c.estimator) {
-                if better_ok {
-                    best_ok = Some(choice);
+        // Candidates by increasing cost in the first row when the table is
+        // the committed one (its order is computed at compile time).
+        let order = if std::ptr::eq(rows, &super::auto_table::ROWS[..]) {
+            rows.iter()
+                .position(|r| std::ptr::eq(r, first))
+                .map(|i| &BY_COST[i])
+        } else {
+            None
+        };
+        let n = first.candidates.len();
+        for n_refused in 0..MAX_REFUSED {
+            // First the cheapest candidate within tolerance; only when
+            // there is none, the one with the smallest error.
+            let mut best: Option<Choice> = None;
+            for within in [true, false] {
+                for k in 0..n {
+                    let idx = order.map_or(k, |o| o[k] as usize);
+                    let c = &first.candidates[idx];
+                    // The predicted error and cost are the largest over the
+                    // rows, so the first row's bound them from below: a
+                    // candidate whose own error is over tolerance cannot
+                    // meet it, and once the cost exceeds the best
+                    // candidate's, none later can win.
+                    if within {
+                        if order.is_some()
+                            && best.is_some_and(|b| c.cost * super::auto_table::REFERENCE_NS > b.ns)
+                        {
+                            break;
+                        }
+                        if c.error * scale > d.tolerance {
+                            continue;
+                        }
+                    }
+                    if refused[..n_refused].contains(&Some((c.model, c.estimator))) {
+                        continue;
+                    }
+                    let Some((err, ns)) = predict(&rel, scale, idx, c) else {
+                        continue;
+                    };
+                    let choice = Choice {
+                        model: c.model,
+                        estimator: c.estimator,
+                        evaluations: c.evaluations.max(1),
+                        error: err,
+                        ns,
+                    };
+                    let better = if within {
+                        err <= d.tolerance
+                            && best.is_none_or(|b| ns < b.ns || (ns == b.ns && err < b.error))
+                    } else {
+                        best.is_none_or(|b| err < b.error || (err == b.error && ns < b.ns))
+                    };
+                    if better {
+                        best = Some(choice);
+                    }
                 }
-                if better_any {
-                    best_any = Some(choice);
+                if best.is_some() {
+                    break;
                 }
             }
+            let Some(c) = best else {
+                break;
+            };
+            match Material::new(&concrete(d, c.model, c.estimator)) {
+                Ok(m) => return Ok((c, m)),
+                Err(_) => refused[n_refused] = Some((c.model, c.estimator)),
+            }
         }
-    }
-    if let Some(c) = best_ok.or(best_any) {
-        return Ok(c);
     }
     // No measured row: the reference walk or, for NDFs it lacks, null scattering.
     for model in [Model::HeitzRandomWalk, Model::NullScattering] {
         let e = Estimator::Pt;
         match Material::new(&concrete(d, model, e)) {
-            Ok(_) => {
-                return Ok(Choice {
+            Ok(m) => {
+                let c = Choice {
                     model,
                     estimator: e,
                     evaluations: 1,
                     error: f32::INFINITY,
                     ns: f32::INFINITY,
-                });
+                };
+                return Ok((c, m));
             }
             Err(Error::InvalidArgument) => return Err(Error::InvalidArgument),
             Err(_) => {}
@@ -245,7 +331,17 @@ pub fn choose_from(d: &MaterialDesc, rows: &'static [Row]) -> Result<Choice, Err
     Err(Error::Unsupported)
 }
 
+/// Chooses for `d` from `rows` (the committed table in normal use).
+pub fn choose_from(d: &MaterialDesc, rows: &'static [Row]) -> Result<Choice, Error> {
+    build_from(d, rows).map(|(c, _)| c)
+}
+
 /// Chooses for `d` from the committed table.
 pub fn choose(d: &MaterialDesc) -> Result<Choice, Error> {
-    choose_from(d, super::auto_table::ROWS)
+    choose_from(d, &super::auto_table::ROWS)
+}
+
+/// Chooses for `d` from the committed table and builds the material chosen.
+pub fn build(d: &MaterialDesc) -> Result<(Choice, Material), Error> {
+    build_from(d, &super::auto_table::ROWS)
 }

@@ -22,12 +22,15 @@
 //!   `cargo run --release --example gen_compensation -- --ms`): per (NDF,
 //!   alpha, mu) the histogram of reflection cosines of the paths that reflect
 //!   twice or more, and the mean over those paths of `prod_j S(c_j; F0)` for
-//!   Schlick's `S` at 17 values of `F0`. At creation the conductor's exact
-//!   Fresnel is replaced, per channel and mu, by the Schlick curve with the
-//!   same mean over that histogram (Schlick is linear in `F0`), and `T` is
-//!   read at that `F0`. Against a walk with the exact Fresnel this `T` is
-//!   within about 1% (gold, copper, aluminium, alpha 0.3-1, both NDFs; a
-//!   plain Schlick `F0` fit errs by up to 20% for aluminium).
+//!   Schlick's `S` at 17 values of `F0`. The conductor's exact Fresnel is
+//!   replaced, per channel and cell, by the Schlick curve with the same mean
+//!   over that histogram (Schlick is linear in `F0`), and `T` is read at that
+//!   `F0`; the mean comes from a fit of the Fresnel curve that is linear in
+//!   its parameters (see [`Tint`]), so that a material stores seven numbers
+//!   per channel and `T` is read per direction: creating a material builds
+//!   no table. Against a walk with the exact Fresnel this `T` is within
+//!   about 1% (gold, copper, aluminium, alpha 0.3-1, both NDFs; a plain
+//!   Schlick `F0` fit errs by up to 20% for aluminium).
 //! - Dielectrics: Turquin 2019-style scaling. The single-scattering lobe
 //!   (reflection and transmission) divided by its own reflected + transmitted
 //!   albedo `E(mu_i, alpha, eta)` for the side `wi` is on, so a non-absorbing
@@ -35,8 +38,12 @@
 //!
 //! `E` comes from tables (`compensation_tables.rs`) that the committed tool
 //! `cargo run --release --example gen_compensation` computes from the SINGLE
-//! model by deterministic quadrature ([`single_albedo`]); they are Rust
-//! constants, so there is no file I/O and no allocation.
+//! model by deterministic quadrature ([`single_albedo`]); all the tables are
+//! compact binary files under `src/tables/` (their headers record command,
+//! seeds, sample counts and commit) decoded into `static` arrays at compile
+//! time, so there is no file I/O, no allocation and no lazy initialisation,
+//! and the tables derived from them (`KAPPA`, `COARSE_W`, `E_AVG_ANISO`) are
+//! computed at compile time too.
 //!
 //! Anisotropic conductors read `E` from a 4D table over (alpha_x, alpha_y,
 //! azimuth, mu) (`compensation_aniso_tables`, `-- --aniso`; 16 x 16 alphas,
@@ -61,7 +68,7 @@ use crate::fresnel;
 use crate::ndf::{Ndf, NdfKind};
 use crate::rng::Rng;
 use crate::single::{G2Form, Single};
-use glam::Vec3;
+use glam::{Vec3, Vec3A, Vec4};
 use std::f32::consts::PI;
 
 /// Largest roughness the tables cover.
@@ -104,7 +111,7 @@ fn aniso_alpha_coord(alpha: f32) -> f32 {
 }
 
 /// Grid value of mu point `i` of the anisotropic table.
-pub fn aniso_grid_mu(i: usize) -> f32 {
+pub const fn aniso_grid_mu(i: usize) -> f32 {
     let s = i as f32 / (an::AN_MU - 1) as f32;
     t::MU_MIN + (1.0 - t::MU_MIN) * s * s
 }
@@ -178,36 +185,71 @@ impl Aniso {
         )
     }
 
-    /// `E_avg = (1 / pi) int E(w) cos dw` of exactly the interpolant `e`:
-    /// piecewise linear in mu (each interval integrated exactly against
-    /// mu), constant below the first node, and the azimuth average of a
-    /// piecewise linear function by the trapezoid rule.
+    /// `E_avg = (1 / pi) int E(w) cos dw` of exactly the interpolant `e`,
+    /// bilinear in the alphas like `e` itself (it is linear in the nodes).
     fn e_avg(&self) -> f32 {
-        let mut acc = 0.0f32;
-        for k in 0..an::AN_PHI {
-            // 2 int_0^1 E(mu) mu dmu for this azimuth node.
-            let m0 = aniso_grid_mu(0);
-            let mut a = self.node(k, 0) * m0 * m0;
-            for i in 0..an::AN_MU - 1 {
-                let (x0, x1) = (aniso_grid_mu(i), aniso_grid_mu(i + 1));
-                let (e0, e1) = (self.node(k, i), self.node(k, i + 1));
-                let h = x1 - x0;
-                // int (e0 + (e1 - e0) (x - x0) / h) x dx over [x0, x1], times 2.
-                a += 2.0 * (e0 * h * (x0 + 0.5 * h) + (e1 - e0) * h * (0.5 * x0 + h / 3.0));
-            }
-            let w = if k == 0 || k == an::AN_PHI - 1 {
-                0.5
-            } else {
-                1.0
-            };
-            acc += w * a;
-        }
-        acc / (an::AN_PHI - 1) as f32
+        let e = &E_AVG_ANISO[self.ndf];
+        lerp(
+            lerp(e[self.jx][self.jy], e[self.jx][self.jy + 1], self.fy),
+            lerp(
+                e[self.jx + 1][self.jy],
+                e[self.jx + 1][self.jy + 1],
+                self.fy,
+            ),
+            self.fx,
+        )
     }
 }
 
+/// Per (NDF, alpha_x node, alpha_y node), the hemispherical average
+/// `(1 / pi) int E(w) cos dw` of the anisotropic table's interpolant:
+/// piecewise linear in mu (each interval integrated exactly against mu),
+/// constant below the first node, and the azimuth average of a piecewise
+/// linear function by the trapezoid rule. Computed at compile time from
+/// `CONDUCTOR_E_ANISO`.
+static E_AVG_ANISO: [[[f32; an::AN_A]; an::AN_A]; 2] = {
+    let mut out = [[[0.0f32; an::AN_A]; an::AN_A]; 2];
+    let mut n = 0;
+    while n < 2 {
+        let mut jx = 0;
+        while jx < an::AN_A {
+            let mut jy = 0;
+            while jy < an::AN_A {
+                let e = &an::CONDUCTOR_E_ANISO[n][jx][jy];
+                let mut acc = 0.0f32;
+                let mut k = 0;
+                while k < an::AN_PHI {
+                    // 2 int_0^1 E(mu) mu dmu for this azimuth node.
+                    let m0 = aniso_grid_mu(0);
+                    let mut a = e[k][0] * m0 * m0;
+                    let mut i = 0;
+                    while i + 1 < an::AN_MU {
+                        let (x0, x1) = (aniso_grid_mu(i), aniso_grid_mu(i + 1));
+                        let (e0, e1) = (e[k][i], e[k][i + 1]);
+                        let h = x1 - x0;
+                        a += 2.0 * (e0 * h * (x0 + 0.5 * h) + (e1 - e0) * h * (0.5 * x0 + h / 3.0));
+                        i += 1;
+                    }
+                    let w = if k == 0 || k == an::AN_PHI - 1 {
+                        0.5
+                    } else {
+                        1.0
+                    };
+                    acc += w * a;
+                    k += 1;
+                }
+                out[n][jx][jy] = acc / (an::AN_PHI - 1) as f32;
+                jy += 1;
+            }
+            jx += 1;
+        }
+        n += 1;
+    }
+    out
+};
+
 /// The grid value of each abscissa (used by the generator).
-pub fn grid_mu(i: usize) -> f32 {
+pub const fn grid_mu(i: usize) -> f32 {
     t::MU_MIN + (1.0 - t::MU_MIN) * i as f32 / (t::MU_N - 1) as f32
 }
 
@@ -223,10 +265,14 @@ pub fn grid_eta(k: usize) -> f32 {
     1.0 + (MAX_ETA - 1.0) * s * s
 }
 
+/// Lower node, upper node and weight of the upper one for the abscissa `x`
+/// (clamped to the grid of `n` nodes).
 #[inline]
 fn split(x: f32, n: usize) -> (usize, usize, f32) {
     let x = x.clamp(0.0, (n - 1) as f32);
-    let i0 = (x as usize).min(n - 2);
+    // x >= 0 (or NaN, which casts to 0): truncation is the floor, and an
+    // i32 cast is cheaper than a usize one.
+    let i0 = ((x as i32) as usize).min(n - 2);
     (i0, i0 + 1, x - i0 as f32)
 }
 
@@ -247,12 +293,6 @@ fn conductor_e(ndf: usize, alpha_c: f32, mu: f32) -> f32 {
     )
 }
 
-/// Cosine-weighted average of [`conductor_e`].
-fn conductor_e_avg(ndf: usize, alpha_c: f32) -> f32 {
-    let (a0, a1, fa) = split(alpha_c, t::ALPHA_N);
-    lerp(t::CONDUCTOR_E_AVG[ndf][a0], t::CONDUCTOR_E_AVG[ndf][a1], fa)
-}
-
 /// Reflected + transmitted single-scattering albedo of a dielectric for the
 /// relative index `eta` seen from `wi`'s side, trilinear in the tables.
 fn dielectric_e(ndf: usize, alpha_c: f32, eta: f32, mu: f32) -> f32 {
@@ -269,13 +309,10 @@ fn dielectric_e(ndf: usize, alpha_c: f32, eta: f32, mu: f32) -> f32 {
     )
 }
 
-// The tint is stored inline (384 bytes): materials live in caller storage
-// and never allocate.
-#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Kind {
-    /// Kulla-Conty: `e_avg` and the multiple-scattering Fresnel tint.
-    Conductor { e_avg: f32, tint: Tint },
+    /// Kulla-Conty with the walk-derived Fresnel tint (see [`Tint`]).
+    Conductor { tint: Tint },
     /// Turquin-style scaling with the relative index.
     Dielectric { eta: f32 },
 }
@@ -292,130 +329,359 @@ pub struct Compensated {
     kind: Kind,
 }
 
-/// The Fresnel tint `T(mu)` of the multiple-scattering lobe on the mu grid
-/// of the tables, in one of two forms:
+/// Bin centres `c_b` of the cosine histogram.
+const fn bin_centre(b: usize) -> f32 {
+    (b as f32 + 0.5) / ms::MS_BINS as f32
+}
+
+/// `(1 - c)^n` in a const context.
+const fn one_minus_pow(c: f32, n: u32) -> f32 {
+    let mut r = 1.0;
+    let mut i = 0;
+    while i < n {
+        r *= 1.0 - c;
+        i += 1;
+    }
+    r
+}
+
+/// `sqrt(x)` for `x` in [0, 1] in a const context (Newton from 1).
+const fn const_sqrt(x: f32) -> f32 {
+    if x <= 0.0 {
+        return 0.0;
+    }
+    let mut r = 1.0f32;
+    let mut i = 0;
+    while i < 40 {
+        r = 0.5 * (r + x / r);
+        i += 1;
+    }
+    r
+}
+
+/// Number of correction terms of the Fresnel form (see [`Tint`]).
+const N_CORR: usize = 3;
+
+/// The correction terms `phi_k(c)`: `c (1 - c)^10`, `c (1 - c)^4` and
+/// `c (1 - c)^1.5`, peaking near grazing, at mid and at near-normal
+/// cosines, where metals' reflectances leave Schlick's curve.
+const fn phi(k: usize, c: f32) -> f32 {
+    match k {
+        0 => c * one_minus_pow(c, 10),
+        1 => c * one_minus_pow(c, 4),
+        _ => c * (1.0 - c) * const_sqrt(1.0 - c),
+    }
+}
+
+/// Cosines at which the correction matches the exact reflectance.
+const KNOTS: [f32; N_CORR] = [0.06, 0.2, 0.5];
+
+/// Inverse of the matrix `phi_k(KNOTS[s])` (row `s`, column `k`): the
+/// correction weights are `A^-1 (F(c_s) - S(c_s; F0))`. Compile time.
+static KNOT_INV: [[f32; N_CORR]; N_CORR] = {
+    let mut m = [[0.0f32; N_CORR]; N_CORR];
+    let mut s = 0;
+    while s < N_CORR {
+        let mut k = 0;
+        while k < N_CORR {
+            m[s][k] = phi(k, KNOTS[s]);
+            k += 1;
+        }
+        s += 1;
+    }
+    // 3 x 3 inverse by cofactors.
+    let det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+        - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+        + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+    let mut inv = [[0.0f32; N_CORR]; N_CORR];
+    let mut r = 0;
+    while r < 3 {
+        let mut c = 0;
+        while c < 3 {
+            // inv[r][c] = cofactor(c, r) / det.
+            let (r0, r1) = (if c == 0 { 1 } else { 0 }, if c == 2 { 1 } else { 2 });
+            let (c0, c1) = (if r == 0 { 1 } else { 0 }, if r == 2 { 1 } else { 2 });
+            let minor = m[r0][c0] * m[r1][c1] - m[r0][c1] * m[r1][c0];
+            let sign = if (r + c) % 2 == 0 { 1.0 } else { -1.0 };
+            inv[r][c] = sign * minor / det;
+            c += 1;
+        }
+        r += 1;
+    }
+    inv
+};
+
+/// Per (NDF, alpha, mu) cell and correction term `k`,
+/// `kappa_k = <phi_k(c)> / (1 - <(1 - c)^5>)` with `<.>` the mean over the
+/// cell's histogram of reflection cosines (`CONDUCTOR_MS_COS_HIST`, at the
+/// bin centres): for a reflectance `S(c; F0) + sum_k a_k phi_k(c)`, the
+/// Schlick curve with the same mean over the histogram has
+/// `F0' = F0 + sum_k a_k kappa_k` (see [`Tint`]). Compile time.
+static KAPPA: [[[[f32; N_CORR]; t::MU_N]; t::ALPHA_N]; 2] = {
+    let mut out = [[[[0.0f32; N_CORR]; t::MU_N]; t::ALPHA_N]; 2];
+    let mut n = 0;
+    while n < 2 {
+        let mut j = 0;
+        while j < t::ALPHA_N {
+            let mut i = 0;
+            while i < t::MU_N {
+                let h = &ms::CONDUCTOR_MS_COS_HIST[n][j][i];
+                let mut s = 0.0f32;
+                let mut l = [0.0f32; N_CORR];
+                let mut b = 0;
+                while b < ms::MS_BINS {
+                    let c = bin_centre(b);
+                    s += one_minus_pow(c, 5) * h[b];
+                    let mut k = 0;
+                    while k < N_CORR {
+                        l[k] += phi(k, c) * h[b];
+                        k += 1;
+                    }
+                    b += 1;
+                }
+                let d = if 1.0 - s > 1e-6 { 1.0 - s } else { 1e-6 };
+                let mut k = 0;
+                while k < N_CORR {
+                    out[n][j][i][k] = l[k] / d;
+                    k += 1;
+                }
+                i += 1;
+            }
+            j += 1;
+        }
+        n += 1;
+    }
+    out
+};
+
+/// `max(1 - e, 0)` in a const context.
+const fn loss(e: f32) -> f32 {
+    if e < 1.0 { 1.0 - e } else { 0.0 }
+}
+
+/// Grid nodes (indices into the mu grid) at which the tint is read to
+/// integrate it over mu: the tint is smooth in mu, and linear
+/// interpolation between these nodes stands for it in the normalisation.
+const COARSE: [usize; 5] = [0, 4, 10, 19, t::MU_N - 1];
+
+/// Per (NDF, alpha node), weights `V_c` with
+/// `int_0^1 (1 - E(mu)) T(mu) mu dmu = sum_c V_c T(mu_c)` when `T` is
+/// linear between the [`COARSE`] nodes and `E` and `T` are linear between
+/// the grid's mu nodes (each interval integrated exactly: its integrand is
+/// a cubic, so Simpson's rule is exact) and constant below the first node.
+/// Computed at compile time from `CONDUCTOR_E`; linear in `E`, so the
+/// weights of an alpha between nodes are the interpolated weights.
+static COARSE_W: [[[f32; COARSE.len()]; t::ALPHA_N]; 2] = {
+    let mut out = [[[0.0f32; COARSE.len()]; t::ALPHA_N]; 2];
+    let mut n = 0;
+    while n < 2 {
+        let mut j = 0;
+        while j < t::ALPHA_N {
+            let e = &t::CONDUCTOR_E[n][j];
+            // Weights of every fine node first.
+            let mut w = [0.0f32; t::MU_N];
+            let m0 = grid_mu(0);
+            w[0] = loss(e[0]) * m0 * m0 * 0.5;
+            let mut i = 0;
+            while i + 1 < t::MU_N {
+                let (x0, x1) = (grid_mu(i), grid_mu(i + 1));
+                let h = x1 - x0;
+                let xm = 0.5 * (x0 + x1);
+                let (l0, l1) = (loss(e[i]), loss(e[i + 1]));
+                let lm = 0.5 * (l0 + l1);
+                // Simpson on (1 - E) T mu with T = hat functions of i, i + 1.
+                w[i] += h / 6.0 * (l0 * x0 + 4.0 * lm * 0.5 * xm);
+                w[i + 1] += h / 6.0 * (4.0 * lm * 0.5 * xm + l1 * x1);
+                i += 1;
+            }
+            // Lump fine nodes onto the coarse nodes (linear interpolation).
+            let mut c = 0;
+            while c + 1 < COARSE.len() {
+                let (a, b) = (COARSE[c], COARSE[c + 1]);
+                let mut i = a;
+                while i <= b {
+                    let f = (i - a) as f32 / (b - a) as f32;
+                    // Node `a` is shared with the previous segment.
+                    if i != a || c == 0 {
+                        out[n][j][c] += (1.0 - f) * w[i];
+                    }
+                    if i != a {
+                        out[n][j][c + 1] += f * w[i];
+                    }
+                    i += 1;
+                }
+                c += 1;
+            }
+            j += 1;
+        }
+        n += 1;
+    }
+    out
+};
+
+/// Unpolarised conductor reflectance of one channel at four cosines at
+/// once: the real closed form of `crate::fresnel::conductor_rgb` (Born and
+/// Wolf, Sec. 14.4) on four lanes; a non-finite lane falls back to
+/// `crate::fresnel::conductor_scalar`.
+fn conductor4(c: Vec4, eta: f32, k: f32) -> Vec4 {
+    let c = c.clamp(Vec4::ZERO, Vec4::ONE);
+    let c2 = c * c;
+    let s2 = Vec4::ONE - c2;
+    let (eta2, k2) = (eta * eta, k * k);
+    let t0 = Vec4::splat(eta2 - k2) - s2;
+    let ab2 = (t0 * t0 + Vec4::splat(4.0 * eta2 * k2)).max(Vec4::ZERO);
+    let ab2 = Vec4::new(ab2.x.sqrt(), ab2.y.sqrt(), ab2.z.sqrt(), ab2.w.sqrt());
+    let t1 = ab2 + c2;
+    let a = (0.5 * (ab2 + t0)).max(Vec4::ZERO);
+    let a = Vec4::new(a.x.sqrt(), a.y.sqrt(), a.z.sqrt(), a.w.sqrt());
+    let t2 = 2.0 * c * a;
+    let rs = (t1 - t2) / (t1 + t2);
+    let t3 = c2 * ab2 + s2 * s2;
+    let t4 = t2 * s2;
+    let rp = rs * (t3 - t4) / (t3 + t4);
+    let f = 0.5 * (rs + rp);
+    if f.is_finite() {
+        f.clamp(Vec4::ZERO, Vec4::ONE)
+    } else {
+        let g = |i: usize| fresnel::conductor_scalar(c[i], eta, k);
+        Vec4::new(g(0), g(1), g(2), g(3))
+    }
+}
+
+/// The Fresnel tint `T(mu)` (per RGB channel) of the multiple-scattering
+/// lobe of a conductor, read from the walk-derived tables per direction.
 ///
-/// - `folded` (isotropic roughness): `g(mu) = (1 - E(mu)) T(mu) / sqrt(Z)`
-///   with `Z = 2 pi int g_raw mu dmu` over exactly the interpolant the
-///   lookup uses (linear between nodes, constant below the first), so that
-///   `f_ms |o.z| = g(mu_i) g(mu_o) |o.z|` has the multiply scattered
-///   albedo `(1 - E(mu_i)) T(mu_i)` and costs one lookup per direction;
-/// - otherwise (anisotropic roughness, where `E` depends on the azimuth):
-///   `T(mu) / sqrt(T_avg)`, combined with `1 - E(w)` at eval time.
+/// At creation the conductor's Fresnel reflectance is replaced by Schlick's
+/// curve `S(c; F0)` plus a correction `sum_k a_k phi_k(c)` (three terms,
+/// `phi`; a generalisation of Lazanyi and Szirmay-Kalos 2005's
+/// `c (1 - c)^6` term) through its exact values at normal incidence and at
+/// the cosines `KNOTS`. Since that form is linear in `F0` and `a_k`, the
+/// Schlick curve with the same mean over a cell's histogram of reflection
+/// cosines has `F0' = F0 + sum_k a_k kappa_k(cell)` (`KAPPA`; against
+/// the exact Fresnel at the bin centres, the histogram means of gold,
+/// copper, aluminium, chromium and silver are within 0.0035), and `T` is
+/// `CONDUCTOR_MS_TINT` read at `F0'`: a few table reads per direction,
+/// nothing per material but four Fresnel evaluations and the normalisation
+/// `norm` (from `COARSE_W`).
+///
+/// The lobe is `f_ms |o.z| = (1 - E(wi)) (1 - E(wo)) T(mu_i) T(mu_o) norm |o.z|`:
+/// for isotropic roughness `norm = 1 / (2 pi int (1 - E) T mu dmu)`, so the
+/// multiply scattered albedo from `wi` is `(1 - E(mu_i)) T(mu_i)` (up to the
+/// coarse integration of `T`, and exactly for F = 1); for anisotropic
+/// roughness, where `E` depends on the azimuth,
+/// `norm = 1 / (pi (1 - E_avg) T_avg)` (Kulla and Conty 2017, with `T_avg`
+/// the `(1 - E) mu`-weighted mean of `T`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Tint {
-    t: [Vec3; t::MU_N],
-    folded: bool,
-    /// `sqrt(Z)` (folded form): the multiply scattered albedo from `wi` is
-    /// `g(mu_i) sqrt(Z)`.
-    sqrt_z: Vec3,
+    /// `F0` per channel.
+    f0: Vec3A,
+    /// Weights of the correction terms per channel.
+    a: [Vec3A; N_CORR],
+    /// Normalisation of the lobe per channel (0: no multiple scattering).
+    norm: Vec3A,
+    /// NDF table, lower alpha node and weight of the upper one.
+    ndf: u32,
+    a0: u32,
+    fa: f32,
 }
 
 impl Tint {
-    /// No multiple scattering (diffuse facets reuse the conductor arm).
+    /// No multiple scattering.
     const ZERO: Tint = Tint {
-        t: [Vec3::ZERO; t::MU_N],
-        folded: true,
-        sqrt_z: Vec3::ZERO,
+        f0: Vec3A::ZERO,
+        a: [Vec3A::ZERO; N_CORR],
+        norm: Vec3A::ZERO,
+        ndf: 0,
+        a0: 0,
+        fa: 0.0,
     };
 
-    /// The table at `mu`, linear in the mu grid.
+    /// The tint at alpha node `j` and mu node `i` for this material.
     #[inline]
-    fn at(&self, mu: f32) -> Vec3 {
-        let (m0, m1, fm) = split(mu_coord(mu), t::MU_N);
-        self.t[m0].lerp(self.t[m1], fm)
+    fn node(&self, ndf: usize, j: usize, i: usize) -> Vec3A {
+        let kappa = &KAPPA[ndf][j][i];
+        let x = self.f0 + self.a[0] * kappa[0] + self.a[1] * kappa[1] + self.a[2] * kappa[2];
+        // Table abscissa, clamped (`max`/`min` send NaN to the bound).
+        let u = (x * (ms::F0_N - 1) as f32)
+            .max(Vec3A::ZERO)
+            .min(Vec3A::splat((ms::F0_N - 1) as f32 - 1e-3));
+        let q = u.floor();
+        let f = u - q;
+        let row = &ms::CONDUCTOR_MS_TINT[ndf][j][i];
+        let read = |q: f32| {
+            // q is an integer in [0, F0_N - 2] (clamped above): adding 2^23
+            // puts it in the low mantissa bits (exact, and cheaper than a
+            // saturating cast); `min` keeps the bounds check provably false.
+            let q = (((q + 8_388_608.0).to_bits() & 0xff) as usize).min(ms::F0_N - 2);
+            (row[q], row[q + 1])
+        };
+        let (r0, r1) = (read(q.x), read(q.y));
+        let r2 = read(q.z);
+        let lo = Vec3A::new(r0.0, r1.0, r2.0);
+        let hi = Vec3A::new(r0.1, r1.1, r2.1);
+        lo + (hi - lo) * f
     }
 
-    /// Builds the tint of a conductor (complex IOR per channel) for the
-    /// NDF table `ndf` at alpha coordinate `alpha_c`, with `e(mu)` the
-    /// single-scattering albedo with F = 1 at that alpha; `fold` selects
-    /// the folded form. Runs once per material.
-    fn conductor(
-        ndf: usize,
-        alpha_c: f32,
-        eta: Vec3,
-        k: Vec3,
-        e: impl Fn(f32) -> f32,
-        fold: bool,
-    ) -> Tint {
-        // The exact Fresnel and Schlick's `(1 - c)^5` at the bin centres.
-        let mut f_bin = [Vec3::ZERO; ms::MS_BINS];
-        let mut s_bin = [0.0f32; ms::MS_BINS];
-        for b in 0..ms::MS_BINS {
-            let c = (b as f32 + 0.5) / ms::MS_BINS as f32;
-            f_bin[b] = fresnel::conductor(c, eta, k);
-            s_bin[b] = (1.0 - c).powi(5);
-        }
+    /// `T(mu)`: bilinear in (alpha, mu) between the nodes.
+    #[inline]
+    fn at(&self, mu: f32) -> Vec3A {
+        let (n, a0, fa) = (self.ndf as usize, self.a0 as usize, self.fa);
+        let (m0, m1, fm) = split(mu_coord(mu), t::MU_N);
+        let t0 = self.node(n, a0, m0).lerp(self.node(n, a0, m1), fm);
+        let t1 = self.node(n, a0 + 1, m0).lerp(self.node(n, a0 + 1, m1), fm);
+        t0.lerp(t1, fa)
+    }
+
+    /// Builds the tint of a conductor (complex index `eta + i k` per
+    /// channel) for NDF table `ndf` at alpha coordinate `alpha_c`; for
+    /// anisotropic roughness `e_avg` is the hemispherical average of its
+    /// albedo with F = 1 (`None` for isotropic roughness).
+    fn conductor(ndf: usize, alpha_c: f32, eta: Vec3, k: Vec3, e_avg: Option<f32>) -> Tint {
+        // Per channel, F at (1, KNOTS) at once, then the residuals of
+        // Schlick's curve at the knots and the weights.
+        let c = Vec4::new(1.0, KNOTS[0], KNOTS[1], KNOTS[2]);
+        let s5 = Vec4::new(
+            0.0,
+            one_minus_pow(KNOTS[0], 5),
+            one_minus_pow(KNOTS[1], 5),
+            one_minus_pow(KNOTS[2], 5),
+        );
+        let fit = |eta: f32, k: f32| {
+            let f = conductor4(c, eta, k);
+            let f0 = f.x;
+            let r = f - (Vec4::splat(f0) + (1.0 - f0) * s5);
+            let w = KNOT_INV.map(|row| r.y * row[0] + r.z * row[1] + r.w * row[2]);
+            (f0, w)
+        };
+        let (fx, wx) = fit(eta.x, k.x);
+        let (fy, wy) = fit(eta.y, k.y);
+        let (fz, wz) = fit(eta.z, k.z);
+        let f0 = Vec3A::new(fx, fy, fz);
+        let a: [Vec3A; N_CORR] = std::array::from_fn(|q| Vec3A::new(wx[q], wy[q], wz[q]));
         let (a0, a1, fa) = split(alpha_c, t::ALPHA_N);
-        let tint_at = |a: usize, i: usize| -> Vec3 {
-            let hist = &ms::CONDUCTOR_MS_COS_HIST[ndf][a][i];
-            let (mut fm, mut sm) = (Vec3::ZERO, 0.0f32);
-            for b in 0..ms::MS_BINS {
-                fm += f_bin[b] * hist[b];
-                sm += s_bin[b] * hist[b];
-            }
-            // Schlick with the same mean over the histogram:
-            // F0 (1 - sm) + sm = fm.
-            let f0 = ((fm - Vec3::splat(sm)) / (1.0 - sm).max(1e-6)).clamp(Vec3::ZERO, Vec3::ONE);
-            let row = &ms::CONDUCTOR_MS_TINT[ndf][a][i];
-            let read = |x: f32| {
-                let (q0, q1, fq) = split(x * (ms::F0_N - 1) as f32, ms::F0_N);
-                lerp(row[q0], row[q1], fq)
-            };
-            Vec3::new(read(f0.x), read(f0.y), read(f0.z))
-        };
         let mut tint = Tint {
-            folded: fold,
-            ..Tint::ZERO
+            f0,
+            a,
+            norm: Vec3A::ZERO,
+            ndf: ndf as u32,
+            a0: a0 as u32,
+            fa,
         };
-        if fold {
-            for i in 0..t::MU_N {
-                let ti = tint_at(a0, i).lerp(tint_at(a1, i), fa);
-                tint.t[i] = ti * (1.0 - e(grid_mu(i))).max(0.0);
-            }
-            // Z = 2 pi int g mu dmu of the interpolant: constant below the
-            // first node, linear between nodes (exact per interval).
-            let m0 = grid_mu(0);
-            let mut z = tint.t[0] * (m0 * m0 * 0.5);
-            for i in 0..t::MU_N - 1 {
-                let (x0, x1) = (grid_mu(i), grid_mu(i + 1));
-                let h = x1 - x0;
-                let (g0, g1) = (tint.t[i], tint.t[i + 1]);
-                z += g0 * (h * (x0 + 0.5 * h)) + (g1 - g0) * (h * (0.5 * x0 + h / 3.0));
-            }
-            let z = z * (2.0 * PI);
-            for c in 0..3 {
-                if z[c] > 0.0 {
-                    let r = z[c].sqrt();
-                    tint.sqrt_z[c] = r;
-                    for g in tint.t.iter_mut() {
-                        g[c] /= r;
-                    }
-                } else {
-                    for g in tint.t.iter_mut() {
-                        g[c] = 0.0;
-                    }
-                }
-            }
-            return tint;
+        // int (1 - E) T mu dmu (and int (1 - E) mu dmu) from the coarse
+        // nodes, bilinear in alpha like every lookup.
+        let (mut z, mut z1) = (Vec3A::ZERO, 0.0f32);
+        for (c, &i) in COARSE.iter().enumerate() {
+            let w = lerp(COARSE_W[ndf][a0][c], COARSE_W[ndf][a1][c], fa);
+            z += w * tint.node(ndf, a0, i).lerp(tint.node(ndf, a1, i), fa);
+            z1 += w;
         }
-        // T_avg = int (1 - E) T mu dmu / int (1 - E) mu dmu (trapezoid on the grid).
-        let (mut num, mut den) = (Vec3::ZERO, 0.0f32);
-        for i in 0..t::MU_N {
-            let ti = tint_at(a0, i).lerp(tint_at(a1, i), fa);
-            tint.t[i] = ti;
-            let mu = grid_mu(i);
-            let w = if i == 0 || i == t::MU_N - 1 { 0.5 } else { 1.0 };
-            let loss = (1.0 - e(mu)).max(0.0) * mu * w;
-            num += ti * loss;
-            den += loss;
-        }
-        if den > 0.0 {
-            let avg = num / den;
-            for ti in tint.t.iter_mut() {
-                *ti = (*ti / avg.max(Vec3::splat(1e-12)).powf(0.5)).max(Vec3::ZERO);
-            }
-        }
+        let z = match e_avg {
+            None => z * (2.0 * PI),
+            Some(e_avg) if z1 > 0.0 => z * (PI * (1.0 - e_avg) / z1),
+            Some(_) => Vec3A::ZERO,
+        };
+        let safe = z.cmpgt(Vec3A::splat(1e-12));
+        tint.norm = Vec3A::select(safe, Vec3A::ONE / z.max(Vec3A::splat(1e-12)), Vec3A::ZERO);
         tint
     }
 }
@@ -439,25 +705,10 @@ impl Compensated {
         };
         let kind = match facet {
             Facet::Dielectric { eta } => Kind::Dielectric { eta },
-            Facet::Conductor { eta, k } => {
-                let e_avg = match aniso {
-                    Some(a) => a.e_avg(),
-                    None => conductor_e_avg(ndf_index, alpha_c),
-                };
-                let tint = Tint::conductor(
-                    ndf_index,
-                    alpha_c,
-                    eta,
-                    k,
-                    |mu| conductor_e(ndf_index, alpha_c, mu),
-                    aniso.is_none(),
-                );
-                Kind::Conductor { e_avg, tint }
-            }
-            Facet::Diffuse { .. } => Kind::Conductor {
-                e_avg: 1.0,
-                tint: Tint::ZERO,
+            Facet::Conductor { eta, k } => Kind::Conductor {
+                tint: Tint::conductor(ndf_index, alpha_c, eta, k, aniso.map(|a| a.e_avg())),
             },
+            Facet::Diffuse { .. } => Kind::Conductor { tint: Tint::ZERO },
         };
         Compensated {
             single: Single::new(ndf, facet, G2Form::HeightCorrelated),
@@ -468,50 +719,44 @@ impl Compensated {
         }
     }
 
-    /// Table coordinate of the isotropic roughness standing for an
-    /// anisotropic one in the dielectric scaling: the RMS alpha.
-    #[inline]
-    fn alpha_coord_dir(&self, _w: Vec3) -> f32 {
-        self.alpha_rms_coord
-    }
-
     /// Single-scattering albedo with F = 1 seen from `w`.
     #[inline]
     fn e_dir(&self, w: Vec3) -> f32 {
         match &self.aniso {
             Some(a) => a.e(w),
-            None => conductor_e(self.ndf_index, self.alpha_coord_dir(w), w.z.abs()),
+            None => conductor_e(self.ndf_index, self.alpha_rms_coord, w.z.abs()),
         }
+    }
+
+    /// The multiply scattered albedo from `w` up to the normalisation,
+    /// `(1 - E(w)) T(mu)`.
+    #[inline]
+    fn ms_factor(&self, w: Vec3, tint: &Tint) -> Vec3A {
+        let e = self.e_dir(w);
+        tint.at(w.z.abs()) * (1.0 - e).max(0.0)
     }
 
     /// Multiple-scattering lobe times |cos theta_o| for two directions on the
     /// same side.
     #[inline]
-    fn ms_lobe(&self, wi: Vec3, wo: Vec3, e_avg: f32, tint: &Tint) -> Vec3 {
-        if tint.folded {
-            return tint.at(wi.z.abs()) * tint.at(wo.z.abs()) * wo.z.abs();
-        }
-        if e_avg >= 1.0 {
+    fn ms_lobe(&self, wi: Vec3, wo: Vec3, tint: &Tint) -> Vec3 {
+        if tint.norm == Vec3A::ZERO {
             return Vec3::ZERO;
         }
-        let (ei, eo) = (self.e_dir(wi), self.e_dir(wo));
-        let t = tint.at(wi.z.abs()) * tint.at(wo.z.abs());
-        t * ((1.0 - ei).max(0.0) * (1.0 - eo).max(0.0) / (PI * (1.0 - e_avg)) * wo.z.abs())
+        (self.ms_factor(wi, tint) * self.ms_factor(wo, tint) * tint.norm * wo.z.abs()).into()
     }
 
     /// Probability of sampling the single-scattering lobe from `wi`.
     #[inline]
-    fn p_single(&self, wi: Vec3, e_avg: f32, tint: &Tint) -> f32 {
+    fn p_single(&self, wi: Vec3, tint: &Tint) -> f32 {
         let e = self.e_dir(wi);
-        // The multiply scattered albedo: exactly g(mu_i) sqrt(Z) in the
-        // folded form; (1 - E(mu_i)) T(mu_i) otherwise, where the stored
-        // tint carries 1 / sqrt(T_avg), close enough for a sampling weight.
-        let ms = if tint.folded {
-            (tint.at(wi.z.abs()) * tint.sqrt_z).element_sum() / 3.0
+        // The multiply scattered albedo, (1 - E(mu_i)) T(mu_i) (exactly so
+        // for isotropic roughness; close enough for a sampling weight
+        // otherwise).
+        let ms = if tint.norm == Vec3A::ZERO {
+            0.0
         } else {
-            tint.at(wi.z.abs()).element_sum() / 3.0
-                * (1.0 - e).max(0.0)
-                * if e_avg < 1.0 { 1.0 } else { 0.0 }
+            tint.at(wi.z.abs()).element_sum() / 3.0 * (1.0 - e).max(0.0)
         };
         let ss = e.max(1e-4);
         ss / (ss + ms)
@@ -520,7 +765,7 @@ impl Compensated {
     #[inline]
     fn dielectric_scale(&self, wi: Vec3, eta: f32) -> f32 {
         let ratio = if wi.z > 0.0 { eta } else { 1.0 / eta };
-        let e = dielectric_e(self.ndf_index, self.alpha_coord_dir(wi), ratio, wi.z.abs());
+        let e = dielectric_e(self.ndf_index, self.alpha_rms_coord, ratio, wi.z.abs());
         1.0 / e.max(1e-3)
     }
 }
@@ -530,11 +775,11 @@ impl ScatterModel for Compensated {
         let ss = self.single.eval(wi, wo, rng);
         match &self.kind {
             Kind::Dielectric { eta } => ss * self.dielectric_scale(wi, *eta),
-            Kind::Conductor { e_avg, tint } => {
+            Kind::Conductor { tint } => {
                 if !same_side(wi, wo) {
                     return ss;
                 }
-                ss + self.ms_lobe(wi, wo, *e_avg, tint)
+                ss + self.ms_lobe(wi, wo, tint)
             }
         }
     }
@@ -546,10 +791,10 @@ impl ScatterModel for Compensated {
                 s.weight *= self.dielectric_scale(wi, *eta);
                 s
             }
-            Kind::Conductor { e_avg, tint } => {
+            Kind::Conductor { tint } => {
                 let flipped = wi.z < 0.0;
                 let wi_l = if flipped { flip_z(wi) } else { wi };
-                let p_ss = self.p_single(wi_l, *e_avg, tint);
+                let p_ss = self.p_single(wi_l, tint);
                 let wo = if rng.next_f32() < p_ss {
                     let s = self.single.sample(wi_l, rng);
                     if s.flags == crate::bsdf::SAMPLE_ABSORBED {
@@ -580,11 +825,11 @@ impl ScatterModel for Compensated {
     fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
         match &self.kind {
             Kind::Dielectric { .. } => self.single.pdf(wi, wo),
-            Kind::Conductor { e_avg, tint } => {
+            Kind::Conductor { tint } => {
                 if !same_side(wi, wo) {
                     return 0.0;
                 }
-                let p_ss = self.p_single(wi, *e_avg, tint);
+                let p_ss = self.p_single(wi, tint);
                 p_ss * self.single.pdf(wi, wo) + (1.0 - p_ss) * wo.z.abs() / PI
             }
         }

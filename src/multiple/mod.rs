@@ -2,6 +2,7 @@
 
 pub mod auto;
 pub mod auto_table;
+pub mod bintable;
 pub mod bitterli_deon;
 pub mod compensation;
 #[doc(hidden)]

@@ -21,8 +21,6 @@
 use crate::ndf::{Ndf, NdfKind};
 use glam::{DVec3, Vec3};
 use std::f64::consts::{FRAC_PI_2, PI};
-use std::sync::Once;
-use std::sync::atomic::{AtomicU32, Ordering};
 
 const FRAC_1_SQRT_PI: f64 = 0.564_189_583_547_756_3;
 
@@ -232,11 +230,11 @@ impl GrooveNdf {
     pub fn sample_partner(&self, shape: f64, u: f32) -> f64 {
         match self.family {
             Family::Beckmann => {
-                let eta = lookup(BECKMANN.get(fill_beckmann), u as f64);
+                let eta = lookup(&BECKMANN, u as f64);
                 (shape * eta.tan()).atan()
             }
             Family::Ggx => {
-                let eta = lookup(GGX.get(fill_ggx), u as f64);
+                let eta = lookup(&GGX, u as f64);
                 (shape * eta.tan()).atan()
             }
             Family::Phong => {
@@ -266,42 +264,29 @@ fn phong_z(e: f64) -> f64 {
     0.25 * PI.sqrt() * lz.exp()
 }
 
-/// Entries of each inverse-CDF table (u in `[0, 1]`).
-const TABLE_N: usize = 1024;
+/// Entries of each inverse-CDF table (u in `[0, 1]`) minus one.
+pub const TABLE_N: usize = 1024;
 /// Phong columns (w = sqrt(2 / (e + 2)) in `[0, 1]`).
-const PHONG_W: usize = 64;
-const STRIDE: usize = TABLE_N + 1;
+pub const PHONG_W: usize = 64;
+/// Entries of each inverse-CDF table.
+pub const STRIDE: usize = TABLE_N + 1;
 
-/// An inverse-CDF table filled once, in place, on first use: a `Once` and
-/// `f32` bit patterns in atomics. No heap and no large stack temporaries,
-/// so building it inside `msbsdf_material_init` allocates nothing; after
-/// the first call, reading is an acquire load of the `Once` state plus
-/// relaxed loads (no lock).
-struct Table<const N: usize> {
-    once: Once,
-    data: [AtomicU32; N],
-}
-
-impl<const N: usize> Table<N> {
-    const fn new() -> Self {
-        Table {
-            once: Once::new(),
-            data: [const { AtomicU32::new(0) }; N],
-        }
-    }
-
-    #[inline]
-    fn get(&self, fill: fn(&[AtomicU32])) -> &[AtomicU32] {
-        self.once.call_once(|| fill(&self.data));
-        &self.data
-    }
-}
-
-/// Inverse CDFs of `P(theta_r)` in the variable `eta = atan(tan theta / scale)`.
-static BECKMANN: Table<STRIDE> = Table::new();
-static GGX: Table<STRIDE> = Table::new();
+/// Inverse CDFs of `P(theta_r)` in the variable `eta = atan(tan theta / scale)`,
+/// computed by `cargo run --release --example gen_vgroove_tables` with
+/// [`fill_beckmann`], [`fill_ggx`] and [`fill_phong`] (deterministic) into
+/// compact binary files (`src/tables/`, format
+/// `crate::multiple::bintable`) decoded at compile time: nothing is built
+/// at run time, and no call waits for a table.
+static BECKMANN: [f32; STRIDE] =
+    crate::multiple::bintable::decode(include_bytes!("../../tables/vgroove_partner_beckmann.bin"));
+static GGX: [f32; STRIDE] =
+    crate::multiple::bintable::decode(include_bytes!("../../tables/vgroove_partner_ggx.bin"));
 /// `PHONG_W + 1` columns of `STRIDE` entries; column 0 is the Beckmann limit.
-static PHONG: Table<{ (PHONG_W + 1) * STRIDE }> = Table::new();
+static PHONG: [f32; PHONG_LEN] =
+    crate::multiple::bintable::decode(include_bytes!("../../tables/vgroove_partner_phong.bin"));
+
+/// Entries of the Phong table.
+pub const PHONG_LEN: usize = (PHONG_W + 1) * STRIDE;
 
 /// Beckmann in `eta = atan t`: `CDF(t) = erf(t) - 2 t exp(-t^2) / sqrt(pi)`.
 fn beckmann_cdf(eta: f64) -> f64 {
@@ -317,27 +302,30 @@ fn ggx_cdf(eta: f64) -> f64 {
     (2.0 * eta - (2.0 * eta).sin()) / PI
 }
 
-fn fill_beckmann(out: &[AtomicU32]) {
+/// Computes the Beckmann partner table (`STRIDE` entries; the generator's).
+pub fn fill_beckmann(out: &mut [f32]) {
     invert(beckmann_cdf, out);
 }
 
-fn fill_ggx(out: &[AtomicU32]) {
+/// Computes the GGX partner table (`STRIDE` entries; the generator's).
+pub fn fill_ggx(out: &mut [f32]) {
     invert(ggx_cdf, out);
 }
 
-fn fill_phong(out: &[AtomicU32]) {
-    invert(beckmann_cdf, &out[..STRIDE]);
+/// Computes the Phong partner table (`PHONG_LEN` entries; the generator's).
+pub fn fill_phong(out: &mut [f32]) {
+    invert(beckmann_cdf, &mut out[..STRIDE]);
     for c in 1..=PHONG_W {
         phong_column(
             c as f64 / PHONG_W as f64,
-            &out[c * STRIDE..(c + 1) * STRIDE],
+            &mut out[c * STRIDE..(c + 1) * STRIDE],
         );
     }
 }
 
 /// Inverse of a CDF on `[0, pi/2]` at `u_j = j / TABLE_N`, by bisection.
-fn invert(cdf: fn(f64) -> f64, out: &[AtomicU32]) {
-    for (j, slot) in out.iter().enumerate() {
+fn invert(cdf: fn(f64) -> f64, out: &mut [f32]) {
+    for (j, slot) in out.iter_mut().enumerate() {
         let u = j as f64 / TABLE_N as f64;
         let (mut lo, mut hi) = (0.0f64, FRAC_PI_2);
         for _ in 0..60 {
@@ -348,7 +336,7 @@ fn invert(cdf: fn(f64) -> f64, out: &[AtomicU32]) {
                 hi = mid;
             }
         }
-        slot.store(((0.5 * (lo + hi)) as f32).to_bits(), Ordering::Relaxed);
+        *slot = (0.5 * (lo + hi)) as f32;
     }
 }
 
@@ -356,7 +344,7 @@ fn invert(cdf: fn(f64) -> f64, out: &[AtomicU32]) {
 /// `cos^e theta sin^2 theta dtheta`, `e = 2 / w^2 - 2`, integrated by the
 /// trapezoid rule on a fine grid (twice: once for the total, once emitting
 /// the inverse at each `u_j` by linear interpolation).
-fn phong_column(w: f64, out: &[AtomicU32]) {
+fn phong_column(w: f64, out: &mut [f32]) {
     let e = 2.0 / (w * w) - 2.0;
     const M: usize = 1 << 14;
     let dens = |eta: f64| {
@@ -369,18 +357,19 @@ fn phong_column(w: f64, out: &[AtomicU32]) {
         if v.is_finite() { v } else { 0.0 }
     };
     let h = FRAC_PI_2 / M as f64;
-    let integrate = |mut emit: Option<(&[AtomicU32], f64)>| {
+    let integrate = |mut emit: Option<(&mut [f32], f64)>| {
         let mut acc = 0.0;
         let mut prev = dens(0.0);
         let mut next_j = 0usize;
         if let Some((out, _)) = emit.as_mut() {
-            out[0].store(0.0f32.to_bits(), Ordering::Relaxed);
+            out[0] = 0.0;
             next_j = 1;
         }
         for step in 1..=M {
             let cur = dens(step as f64 * h);
             let inc = 0.5 * (prev + cur) * h;
-            if let Some((out, total)) = emit {
+            if let Some((out, total)) = emit.as_mut() {
+                let total = *total;
                 while next_j < STRIDE && acc + inc >= next_j as f64 / TABLE_N as f64 * total {
                     let target = next_j as f64 / TABLE_N as f64 * total;
                     let f = if inc > 0.0 {
@@ -389,7 +378,7 @@ fn phong_column(w: f64, out: &[AtomicU32]) {
                         0.0
                     };
                     let eta = ((step - 1) as f64 + f) * h;
-                    out[next_j].store((eta as f32).to_bits(), Ordering::Relaxed);
+                    out[next_j] = eta as f32;
                     next_j += 1;
                 }
             }
@@ -397,8 +386,8 @@ fn phong_column(w: f64, out: &[AtomicU32]) {
             prev = cur;
         }
         if let Some((out, _)) = emit {
-            for slot in &out[next_j..] {
-                slot.store((FRAC_PI_2 as f32).to_bits(), Ordering::Relaxed);
+            for slot in &mut out[next_j..] {
+                *slot = FRAC_PI_2 as f32;
             }
         }
         acc
@@ -408,12 +397,12 @@ fn phong_column(w: f64, out: &[AtomicU32]) {
 }
 
 #[inline]
-fn load(t: &[AtomicU32], j: usize) -> f64 {
-    f32::from_bits(t[j].load(Ordering::Relaxed)) as f64
+fn load(t: &[f32], j: usize) -> f64 {
+    t[j] as f64
 }
 
 #[inline]
-fn lookup(t: &[AtomicU32], u: f64) -> f64 {
+fn lookup(t: &[f32], u: f64) -> f64 {
     let x = u.clamp(0.0, 1.0) * TABLE_N as f64;
     let j = (x as usize).min(TABLE_N - 1);
     let f = x - j as f64;
@@ -423,29 +412,13 @@ fn lookup(t: &[AtomicU32], u: f64) -> f64 {
 
 #[inline]
 fn lookup_phong(w: f64, u: f64) -> f64 {
-    let t = PHONG.get(fill_phong);
+    let t = &PHONG;
     let x = w.clamp(0.0, 1.0) * PHONG_W as f64;
     let c = (x as usize).min(PHONG_W - 1);
     let f = x - c as f64;
     let a = lookup(&t[c * STRIDE..(c + 1) * STRIDE], u);
     let b = lookup(&t[(c + 1) * STRIDE..(c + 2) * STRIDE], u);
     a + f * (b - a)
-}
-
-/// Builds the partner table of `family` (the nonsymmetric model calls it at
-/// material creation, so sampling never builds a table).
-pub fn warm_tables(family: Family) {
-    match family {
-        Family::Beckmann => {
-            BECKMANN.get(fill_beckmann);
-        }
-        Family::Ggx => {
-            GGX.get(fill_ggx);
-        }
-        Family::Phong => {
-            PHONG.get(fill_phong);
-        }
-    }
 }
 
 /// The quantile `theta_p` of the facet angle under the projected-area

@@ -29,11 +29,10 @@
 //! `G_k` is the fraction of the first facet's projected width whose light
 //! leaves after exactly `k` reflections ([`kaleido::Hit::g`]); Fresnel is
 //! applied per reflection with the conductor reflectance at each
-//! reflection's own cosine (eq. 11; complex IOR per RGB channel), read from
-//! a per-material table ([`ftable`]: cubic interpolation in `sqrt(cos)`,
-//! checked against the closed form when the material is built, within
-//! 1e-6 relative of `crate::fresnel::conductor_rgb`, else that closed form
-//! is used). `k = 1` is Cook-Torrance with the V-groove `G` (eq. 25), and
+//! reflection's own cosine (eq. 11; complex IOR per RGB channel), in closed
+//! form on the three channels at once ([`ftable`]; it replaced a
+//! per-material table whose construction made creating a material cost
+//! 7-8 us). `k = 1` is Cook-Torrance with the V-groove `G` (eq. 25), and
 //! the symmetric eval computes it that way (see Cost).
 //!
 //! With F = 1 the model conserves energy exactly when no count is dropped:
@@ -63,7 +62,7 @@
 //! The first facet is drawn from the visible normals (Beckmann, GGX; the
 //! paper allows it) or from `D(s) s.z` (Phong), the partner angle
 //! (nonsymmetric) from the tabulated inverse CDF of `P(theta_r | phi)`
-//! (built once, in place, without heap, behind a `std::sync::Once`), and
+//! (compile-time tables, `src/tables/vgroove_partner_*.bin`), and
 //! `k` with probability `G_k / lit`; a count above `N` drops the sample (flag `ABSORBED`). `pdf` sums the same choices over all
 //! `(k, facet)` solutions reaching `o`, so it is the exact density of
 //! `sample` for the symmetric model and a quadrature of it for the
@@ -121,7 +120,7 @@
 //! first count out of the window, and per solution `D`, `G_k` without
 //! trigonometry ([`kaleido::Hit::g_sines`] with the wall sines in closed
 //! form, `symmetric_tail_sines`), a Taylor `sin`/`cos` of its facet angle
-//! and `k` lookups in the per-material Fresnel table ([`ftable`]). When
+//! and `k` evaluations of the SIMD Fresnel reflectance ([`ftable`]). When
 //! `N = 2` (Beckmann and Phong at low roughness) the pre-test is done
 //! before the in-plane angles are computed, from the half-angle tangents
 //! (`two_reflections_possible`: `k = 2` has a solution iff
@@ -223,13 +222,12 @@
 //! SINGLE); Beckmann: 61k / 98k / 142k -> 31k / 48k / 66k (27x / 43x /
 //! 63x).
 //!
-//! The material is larger for the table (33 nodes of 16 bytes,
-//! `ftable::TABLE_M = 32`): `size_of::<Material>()` is 736 bytes, the
-//! largest model (ENERGY_COMPENSATED's tint table makes it 544; 192 before
-//! both). The original instruction counts above were taken with
-//! `TABLE_M = 104` (1904-byte materials); re-measured at `TABLE_M = 32`,
-//! the first round's agree within 10 instructions (the lookup cost does
-//! not depend on `TABLE_M`).
+//! These counts were taken with the per-material Fresnel table (33 nodes,
+//! cubic interpolation) that [`ftable`]'s closed form replaced: eval now
+//! costs about 10% more instructions (GGX, roughness 0.2-0.9: 4131 -> 4528
+//! per eval, `cargo bench --bench init -- --callgrind VGROOVE`), creating a
+//! material about 50x less (37962 -> 732 instructions), and
+//! `size_of::<Material>()` no longer carries the 528-byte table.
 
 // `!(x > 0.0)` is used on purpose: it is also true for NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -314,9 +312,6 @@ impl VGroove {
             dist::max_bounces_at_percentile(family, a, DEFAULT_QUANTILE)
         }
         .clamp(1, crate::MAX_BOUNCES);
-        if !symmetric {
-            dist::warm_tables(family);
-        }
         VGroove {
             ndf,
             fresnel: FresnelTable::new(eta, k),
@@ -404,7 +399,7 @@ impl VGroove {
         })
     }
 
-    /// The per-material Fresnel table.
+    /// The conductor reflectance used per reflection.
     pub fn fresnel_table(&self) -> &FresnelTable {
         &self.fresnel
     }
