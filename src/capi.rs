@@ -11,7 +11,8 @@
 #![allow(non_camel_case_types)]
 
 use crate::bsdf::Sample;
-use crate::material::{Estimator, FacetKind, Material, MaterialDesc, Model, NdfId};
+use crate::desc::{Estimator, FacetKind, MaterialDesc, Model, NdfId};
+use crate::material::Material;
 use crate::rng::Rng;
 use crate::status::Error;
 use glam::Vec3;
@@ -103,7 +104,7 @@ pub const MSBSDF_SAMPLE_ABSORBED: u32 = 4;
 
 /// Largest allowed `max_bounces`.
 pub const MSBSDF_MAX_BOUNCES: u32 = 256;
-const _: () = assert!(MSBSDF_MAX_BOUNCES == crate::material::MAX_BOUNCES);
+const _: () = assert!(MSBSDF_MAX_BOUNCES == crate::desc::MAX_BOUNCES);
 
 /// A direction or vector in the local frame (z = macro-surface normal).
 #[repr(C)]

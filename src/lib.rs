@@ -35,6 +35,7 @@
 
 pub mod bsdf;
 pub mod capi;
+pub mod desc;
 pub mod facet;
 pub mod frame;
 pub mod fresnel;
@@ -48,7 +49,8 @@ pub mod specfun;
 pub mod status;
 
 pub use bsdf::{SAMPLE_ABSORBED, SAMPLE_REFLECTION, SAMPLE_TRANSMISSION, Sample};
-pub use material::{Estimator, FacetKind, MAX_BOUNCES, Material, MaterialDesc, Model, NdfId};
+pub use desc::{Estimator, FacetKind, MAX_BOUNCES, MaterialDesc, Model, NdfId};
+pub use material::Material;
 pub use rng::Rng;
 pub use status::Error;
 

@@ -13,7 +13,7 @@
 //! HEITZ_RANDOM_WALK's error is its noise alone (it is the reference).
 
 use super::auto::{Candidate, Row};
-use crate::material::{Estimator, FacetKind, Model, NdfId};
+use crate::desc::{Estimator, FacetKind, Model, NdfId};
 
 /// Every measured row.
 pub const ROWS: &[Row] = &[

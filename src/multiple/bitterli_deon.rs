@@ -40,9 +40,9 @@
 //! refused here.
 
 use crate::bsdf::{Sample, ScatterModel};
+use crate::desc::MAX_BOUNCES;
 use crate::facet::Facet;
 use crate::frame::flip_z;
-use crate::material::MAX_BOUNCES;
 use crate::multiple::invariance::{
     CAP_MAX, CAP_SMALL, ExitState, RR_DEPTH, RR_MIN_Q, default_max_bounces_for, lambda_signed,
     sample_walk, scatter, two_sided_hapke_pdf,

@@ -68,10 +68,10 @@
 //! side, throughput) lives in a few registers.
 
 use crate::bsdf::{Sample, ScatterModel, opposite_sides, same_side};
+use crate::desc::MAX_BOUNCES;
 use crate::facet::Facet;
 use crate::frame::{RefractionHalf, flip_z, reflect, refract, refraction_half};
 use crate::fresnel;
-use crate::material::MAX_BOUNCES;
 use crate::ndf::Ndf;
 use crate::rng::Rng;
 use crate::single::{G2Form, Single};

@@ -128,9 +128,9 @@
 //! the Beckmann NDF gives nearly the same surface at a quarter of the cost.
 
 use crate::bsdf::{Sample, ScatterModel};
+use crate::desc::{Estimator, MAX_BOUNCES};
 use crate::facet::Facet;
 use crate::frame::flip_z;
-use crate::material::{Estimator, MAX_BOUNCES};
 use crate::ndf::Ndf;
 use crate::rng::Rng;
 use glam::{DVec3, Vec3};

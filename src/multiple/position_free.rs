@@ -224,10 +224,10 @@
 //! furnace.
 
 use crate::bsdf::{Sample, ScatterModel};
+use crate::desc::{Estimator, MAX_BOUNCES};
 use crate::facet::Facet;
 use crate::frame::{RefractionHalf, flip_z, reflect, refract, refraction_half};
 use crate::fresnel;
-use crate::material::{Estimator, MAX_BOUNCES};
 use crate::ndf::Ndf;
 use crate::rng::Rng;
 use glam::Vec3;
