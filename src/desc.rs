@@ -10,6 +10,11 @@ use glam::Vec3;
 /// stack is bounded by it).
 pub const MAX_BOUNCES: u32 = 256;
 
+/// Below this roughness (along both axes) a conductor or dielectric surface
+/// is smooth: a Dirac lobe with the SPECULAR flag, eval and pdf 0 elsewhere
+/// (the threshold of pbrt-v4's `EffectivelySmooth`, Pharr et al. 2023).
+pub const SPECULAR_ALPHA: f32 = 1e-3;
+
 /// Smallest roughness used internally; smaller positive values are clamped
 /// to it (the lobe is then a near-mirror in f32 anyway).
 pub const MIN_ALPHA: f32 = 1e-4;
@@ -122,6 +127,10 @@ pub struct MaterialDesc {
     /// [`Model::NullScattering`] supports it, with an opaque (conductor or
     /// diffuse) inner material that is not itself a composition.
     pub inner: Option<&'static Material>,
+    /// Conductors only: true for a one-sided conductor (a `wi` below the
+    /// surface is absorbed: eval, pdf and sample weight 0); false (the
+    /// default) mirrors the back face onto the front face.
+    pub one_sided: bool,
 }
 
 impl Default for MaterialDesc {
@@ -141,6 +150,7 @@ impl Default for MaterialDesc {
             max_bounces: 0,
             tolerance: 0.1,
             inner: None,
+            one_sided: false,
         }
     }
 }

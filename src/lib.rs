@@ -36,6 +36,7 @@
 pub mod bsdf;
 pub mod capi;
 pub mod desc;
+pub mod dispatch;
 pub mod facet;
 pub mod frame;
 pub mod fresnel;
@@ -46,6 +47,7 @@ pub mod ndf;
 pub mod rng;
 pub mod single;
 pub mod specfun;
+pub mod specular;
 pub mod status;
 
 pub use bsdf::{SAMPLE_ABSORBED, SAMPLE_REFLECTION, SAMPLE_TRANSMISSION, Sample};

@@ -36,7 +36,7 @@
 //! tends to 1 as `Lambda_i` grows, and front-facing facets reflect grazing
 //! light upwards, so a rough surface keeps more energy than a smooth one.
 
-use crate::bsdf::{Sample, ScatterModel};
+use crate::bsdf::{LOBE_ALL, LOBE_REFLECTION, LOBE_TRANSMISSION, Sample, ScatterModel};
 use crate::facet::Facet;
 use crate::frame::{RefractionHalf, flip_z, reflect, refract, refraction_half};
 use crate::fresnel;
@@ -114,19 +114,51 @@ impl Single {
     }
 }
 
-impl ScatterModel for Single {
-    fn eval(&self, wi: Vec3, wo: Vec3, _rng: &mut Rng) -> Vec3 {
+impl Single {
+    /// `(f |wo.z|, pdf)` restricted to `lobes` (`LOBE_*`), computing the half
+    /// vector, D and the masking once for both. `want_f` / `want_pdf` are
+    /// constants at every call site (the unused half is compiled out); eval
+    /// and pdf are this function, so each half equals them bit for bit.
+    #[inline(always)]
+    pub fn eval_pdf(
+        &self,
+        wi: Vec3,
+        wo: Vec3,
+        lobes: u32,
+        want_f: bool,
+        want_pdf: bool,
+    ) -> (Vec3, f32) {
+        let both = lobes & LOBE_ALL == LOBE_ALL;
         match self.facet {
             Facet::Dielectric { eta } => {
                 let (wi, wo, eta, _) = orient(wi, wo, eta);
                 if wo.z > 0.0 {
-                    match self.reflection(wi, wo) {
-                        Some((h, v)) => {
-                            Vec3::splat(fresnel::dielectric(sym_cos(wi, wo, h), eta) * v)
-                        }
-                        None => Vec3::ZERO,
+                    if lobes & LOBE_REFLECTION == 0 {
+                        return (Vec3::ZERO, 0.0);
                     }
+                    let h = (wi + wo).normalize_or_zero();
+                    let ci = wi.dot(h);
+                    if ci <= 0.0 {
+                        return (Vec3::ZERO, 0.0);
+                    }
+                    let fr = fresnel::dielectric(sym_cos(wi, wo, h), eta);
+                    let d = self.ndf.d(h);
+                    let f = if want_f {
+                        Vec3::splat(fr * (d * self.g2_reflection(wi, wo) / (4.0 * wi.z)))
+                    } else {
+                        Vec3::ZERO
+                    };
+                    let p = if want_pdf {
+                        let p_lobe = if both { fr } else { 1.0 };
+                        p_lobe * self.ndf.d_visible(wi, h) / (4.0 * ci)
+                    } else {
+                        0.0
+                    };
+                    (f, p)
                 } else {
+                    if lobes & LOBE_TRANSMISSION == 0 {
+                        return (Vec3::ZERO, 0.0);
+                    }
                     let Some(RefractionHalf {
                         h,
                         ci,
@@ -134,12 +166,24 @@ impl ScatterModel for Single {
                         jacobian: jac,
                     }) = refraction_half(wi, wo, eta)
                     else {
-                        return Vec3::ZERO;
+                        return (Vec3::ZERO, 0.0);
                     };
-                    let f = fresnel::dielectric_pair(ci, co, eta);
-                    let v =
-                        (1.0 - f) * self.ndf.d(h) * self.g2_transmission(wi, wo) * ci * jac / wi.z;
-                    Vec3::splat(v)
+                    let fr = fresnel::dielectric_pair(ci, co, eta);
+                    let f = if want_f {
+                        Vec3::splat(
+                            (1.0 - fr) * self.ndf.d(h) * self.g2_transmission(wi, wo) * ci * jac
+                                / wi.z,
+                        )
+                    } else {
+                        Vec3::ZERO
+                    };
+                    let p = if want_pdf {
+                        let p_lobe = if both { 1.0 - fr } else { 1.0 };
+                        p_lobe * self.ndf.d_visible(wi, h) * jac
+                    } else {
+                        0.0
+                    };
+                    (f, p)
                 }
             }
             _ => {
@@ -148,22 +192,41 @@ impl ScatterModel for Single {
                 } else {
                     (wi, wo)
                 };
-                if wo.z <= 0.0 {
-                    return Vec3::ZERO;
+                if wo.z <= 0.0 || lobes & LOBE_REFLECTION == 0 {
+                    return (Vec3::ZERO, 0.0);
                 }
                 match self.reflection(wi, wo) {
-                    Some((h, v)) => self.facet.conductor_fresnel(wi.dot(h)) * v,
-                    None => Vec3::ZERO,
+                    Some((h, v)) => {
+                        let f = if want_f {
+                            self.facet.conductor_fresnel(wi.dot(h)) * v
+                        } else {
+                            Vec3::ZERO
+                        };
+                        let p = if want_pdf {
+                            self.ndf.d_visible(wi, h) / (4.0 * wi.dot(h))
+                        } else {
+                            0.0
+                        };
+                        (f, p)
+                    }
+                    None => (Vec3::ZERO, 0.0),
                 }
             }
         }
     }
 
-    fn sample(&self, wi: Vec3, rng: &mut Rng) -> Sample {
-        let (u1, u2) = (rng.next_f32(), rng.next_f32());
+    /// Samples `wo` restricted to `lobes`: `u[0]` picks reflection or
+    /// refraction at the sampled facet (dielectrics, both lobes allowed),
+    /// `u[1], u[2]` the visible normal. With one lobe only, that lobe is
+    /// taken with probability 1 and the weight carries its Fresnel factor.
+    pub fn sample_lobes(&self, wi: Vec3, u: [f32; 3], lobes: u32) -> Sample {
+        let (u1, u2) = (u[1], u[2]);
+        let both = lobes & LOBE_ALL == LOBE_ALL;
         match self.facet {
             Facet::Dielectric { eta } => {
-                let u3 = rng.next_f32();
+                if lobes & LOBE_ALL == 0 {
+                    return Sample::ABSORBED;
+                }
                 let (wi_l, _, eta_l, flipped) = orient(wi, Vec3::Z, eta);
                 let m = self.ndf.sample_visible(wi_l, u1, u2);
                 let ci = wi_l.dot(m);
@@ -173,12 +236,22 @@ impl ScatterModel for Single {
                 let g1 = self.ndf.g1(wi_l);
                 let dvis = self.ndf.d_visible(wi_l, m);
                 let f = fresnel::dielectric(ci, eta_l);
-                let (wo, weight, pdf) = if u3 < f {
+                let reflect_here = if both {
+                    u[0] < f
+                } else {
+                    lobes & LOBE_REFLECTION != 0
+                };
+                let (wo, weight, pdf) = if reflect_here {
                     let wo = reflect(wi_l, m);
                     if wo.z <= 0.0 {
                         return Sample::ABSORBED;
                     }
-                    (wo, self.g2_reflection(wi_l, wo) / g1, f * dvis / (4.0 * ci))
+                    let g = self.g2_reflection(wi_l, wo) / g1;
+                    if both {
+                        (wo, g, f * dvis / (4.0 * ci))
+                    } else {
+                        (wo, f * g, dvis / (4.0 * ci))
+                    }
                 } else {
                     let Some(wo) = refract(wi_l, m, eta_l) else {
                         return Sample::ABSORBED;
@@ -186,16 +259,24 @@ impl ScatterModel for Single {
                     if wo.z >= 0.0 {
                         return Sample::ABSORBED;
                     }
-                    let pdf = match refraction_half(wi_l, wo, eta_l) {
-                        Some(r) => (1.0 - f) * dvis * r.jacobian,
+                    let jac = match refraction_half(wi_l, wo, eta_l) {
+                        Some(r) => r.jacobian,
                         None => 0.0, // index-matched: a Dirac lobe, no density
                     };
-                    (wo, self.g2_transmission(wi_l, wo) / g1, pdf)
+                    let g = self.g2_transmission(wi_l, wo) / g1;
+                    if both {
+                        (wo, g, (1.0 - f) * dvis * jac)
+                    } else {
+                        (wo, (1.0 - f) * g, dvis * jac)
+                    }
                 };
                 let wo = if flipped { flip_z(wo) } else { wo };
                 Sample::new(wi, wo, Vec3::splat(weight), pdf)
             }
             _ => {
+                if lobes & LOBE_REFLECTION == 0 {
+                    return Sample::ABSORBED;
+                }
                 let flipped = wi.z < 0.0;
                 let wi_l = if flipped { flip_z(wi) } else { wi };
                 let m = self.ndf.sample_visible(wi_l, u1, u2);
@@ -215,37 +296,27 @@ impl ScatterModel for Single {
             }
         }
     }
+}
+
+impl ScatterModel for Single {
+    fn eval(&self, wi: Vec3, wo: Vec3, _rng: &mut Rng) -> Vec3 {
+        self.eval_pdf(wi, wo, LOBE_ALL, true, false).0
+    }
+
+    fn sample(&self, wi: Vec3, rng: &mut Rng) -> Sample {
+        let (u1, u2) = (rng.next_f32(), rng.next_f32());
+        let u0 = match self.facet {
+            Facet::Dielectric { .. } => rng.next_f32(),
+            _ => 0.0,
+        };
+        self.sample_lobes(wi, [u0, u1, u2], LOBE_ALL)
+    }
+
+    fn sample_with(&self, wi: Vec3, u: [f32; 3], _rng: &mut Rng) -> Sample {
+        self.sample_lobes(wi, u, LOBE_ALL)
+    }
 
     fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
-        let eta = match self.facet {
-            Facet::Dielectric { eta } => eta,
-            _ => 1.0,
-        };
-        let dielectric = matches!(self.facet, Facet::Dielectric { .. });
-        let (wi, wo, eta, _) = orient(wi, wo, eta);
-        if wo.z > 0.0 {
-            let h = (wi + wo).normalize_or_zero();
-            let ci = wi.dot(h);
-            if ci <= 0.0 {
-                return 0.0;
-            }
-            let f = if dielectric {
-                fresnel::dielectric(sym_cos(wi, wo, h), eta)
-            } else {
-                1.0
-            };
-            f * self.ndf.d_visible(wi, h) / (4.0 * ci)
-        } else if dielectric {
-            match refraction_half(wi, wo, eta) {
-                Some(r) => {
-                    (1.0 - fresnel::dielectric_pair(r.ci, r.co, eta))
-                        * self.ndf.d_visible(wi, r.h)
-                        * r.jacobian
-                }
-                None => 0.0,
-            }
-        } else {
-            0.0
-        }
+        self.eval_pdf(wi, wo, LOBE_ALL, false, true).1
     }
 }

@@ -21,6 +21,13 @@
 
 mod clib;
 
+/// Whether the five random-walk models take `msbsdf_sample_with`'s uniforms
+/// for their first vertex. False while they forward to `sample` (the
+/// placeholders of this branch); set to true when the walk kernel's
+/// implementation is merged, which turns on the check of
+/// `sample_with_uniforms_walks`.
+const WALKS_TAKE_UNIFORMS: bool = false;
+
 use clib::{repo, run_ok};
 use msbsdf::capi::msbsdf_material_size;
 use std::path::{Path, PathBuf};
@@ -412,4 +419,67 @@ fn c_example_minimal_builds_and_prints_albedo_table() {
             "row {i} has albedos outside [0, 1.05]:\n{text}"
         );
     }
+}
+
+/// Frozen 0.2 desc layout, a larger future layout, the init macros and the
+/// growth of the context and sample record (tests/c/growth.c).
+#[test]
+fn struct_growth_old_and_future_layouts() {
+    for (name, link) in [
+        ("growth_shared", Link::Shared),
+        ("growth_static", Link::Static),
+    ] {
+        let exe = compile(name, &["growth.c"], &[], link);
+        assert_program_passes(&exe, "growth");
+    }
+}
+
+/// The integrator calls: eval_pdf against eval and pdf bit for bit, same
+/// uniforms same sample, stratification, radiance against importance,
+/// restricted lobes, the specular regime (tests/c/integrator.c).
+#[test]
+fn integrator_calls_eval_pdf_uniforms_transport_lobes_specular() {
+    let exe = compile(
+        "integrator",
+        &["integrator.c"],
+        &["-lm".into()],
+        Link::Shared,
+    );
+    let text = assert_program_passes(&exe, "integrator");
+    assert!(text.contains("pdf integrates to"), "{text}");
+}
+
+/// `msbsdf_sample_with` on the walks (tests/c/uniforms_walks.c); the check
+/// that their first vertex follows the uniforms is on when
+/// [`WALKS_TAKE_UNIFORMS`] is.
+#[test]
+fn sample_with_uniforms_walks() {
+    let define = format!("-DWALKS_TAKE_UNIFORMS={}", u8::from(WALKS_TAKE_UNIFORMS));
+    let exe = compile(
+        "uniforms_walks",
+        &["uniforms_walks.c"],
+        &[define, "-lm".into()],
+        Link::Shared,
+    );
+    assert_program_passes(&exe, "uniforms_walks");
+}
+
+/// A composition outlives its inner material: AddressSanitizer watches the
+/// program destroy the inner material first and then use the outer one.
+#[test]
+fn inner_material_destroyed_first_under_asan() {
+    let asan = ["-fsanitize=address", "-fno-omit-frame-pointer"];
+    assert!(
+        clib::compiler_supports("cc", &asan),
+        "cc cannot build and run -fsanitize=address programs (libasan missing)"
+    );
+    let flags: Vec<String> = asan.iter().map(|s| s.to_string()).collect();
+    let exe = compile(
+        "inner_lifetime_asan",
+        &["inner_lifetime.c"],
+        &flags,
+        Link::Shared,
+    );
+    let text = assert_program_passes(&exe, "inner_lifetime");
+    assert!(!text.contains("AddressSanitizer"), "{text}");
 }

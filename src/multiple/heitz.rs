@@ -460,6 +460,11 @@ impl Heitz {
 }
 
 impl ScatterModel for Heitz {
+    // PLACEHOLDER(kernel branch): replaced at merge
+    fn sample_with(&self, wi: Vec3, _u: [f32; 3], rng: &mut Rng) -> Sample {
+        self.sample(wi, rng)
+    }
+
     fn eval(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3 {
         if !same_side(wi, wo) && !matches!(self.facet, Facet::Dielectric { .. }) {
             return Vec3::ZERO;

@@ -706,6 +706,11 @@ impl Invariance {
 }
 
 impl ScatterModel for Invariance {
+    // PLACEHOLDER(kernel branch): replaced at merge
+    fn sample_with(&self, wi: Vec3, _u: [f32; 3], rng: &mut Rng) -> Sample {
+        self.sample(wi, rng)
+    }
+
     fn eval(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3 {
         let (wi, wo) = if wi.z < 0.0 {
             (flip_z(wi), flip_z(wo))

@@ -561,7 +561,7 @@ pub struct NullScattering {
     max_bounces: u32,
     /// Composition (seed 001 section 4): the facets scatter as this opaque
     /// material, in a frame whose z is the facet normal.
-    inner: Option<&'static crate::Material>,
+    inner: Option<crate::dispatch::Inner>,
 }
 
 /// Outcome of one walk.
@@ -603,7 +603,7 @@ impl NullScattering {
     /// frame is built from its normal alone, so an anisotropic `inner` has an
     /// arbitrary azimuth on each facet. `eval` uses next-event estimation at
     /// real collisions with the sampled normal (as for diffuse facets).
-    pub fn with_inner(self, inner: &'static crate::Material) -> Self {
+    pub fn with_inner(self, inner: crate::dispatch::Inner) -> Self {
         NullScattering {
             inner: Some(inner),
             ..self
@@ -766,7 +766,7 @@ impl NullScattering {
             if ci <= 0.0 {
                 continue; // rounding at the rim: treat as null
             }
-            if let Some(inner) = self.inner {
+            if let Some(inner) = &self.inner {
                 // Scatter by the inner material in the facet's frame.
                 let (t1, t2) = basis(m.as_dvec3());
                 let (t1, t2) = (t1.as_vec3(), t2.as_vec3());
@@ -932,6 +932,11 @@ impl NullScattering {
 }
 
 impl ScatterModel for NullScattering {
+    // PLACEHOLDER(kernel branch): replaced at merge
+    fn sample_with(&self, wi: Vec3, _u: [f32; 3], rng: &mut Rng) -> Sample {
+        self.sample(wi, rng)
+    }
+
     fn eval(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3 {
         let mut st = WalkStats::default();
         self.eval_reciprocal(wi, wo, rng, &mut st)
