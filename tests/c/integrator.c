@@ -439,8 +439,49 @@ static void flags_and_parameter_checks(void)
     CHECK_STATUS(msbsdf_material_create(&d, &m), MSBSDF_STATUS_INVALID_ARGUMENT);
 }
 
+/* pdf > 0 wherever sample goes, near the horizon too (the cases the
+   integration report found: SINGLE glass near alpha 1e-3 with wi within
+   3e-6 of the horizon, and ENERGY_COMPENSATED). */
+static void pdf_positive_where_sample_goes(void)
+{
+    msbsdf_rng r;
+    int k, i, taken = 0, zero = 0;
+    msbsdf_rng_seed(&r, 61, 7);
+    for (k = 0; k < 40; k++) {
+        float a = 1e-3f * powf(30.0f, msbsdf_rng_next_float(&r));
+        float eta = 0.4f + 2.5f * msbsdf_rng_next_float(&r);
+        uint32_t model = k % 2 ? MSBSDF_MODEL_ENERGY_COMPENSATED : MSBSDF_MODEL_SINGLE;
+        uint32_t facet = k % 4 < 3 ? MSBSDF_FACET_DIELECTRIC : MSBSDF_FACET_CONDUCTOR;
+        msbsdf_material *m = make(model, facet, a, a, facet == MSBSDF_FACET_DIELECTRIC ? eta : 1.0f);
+        for (i = 0; i < 20000; i++) {
+            float z = 3e-6f * msbsdf_rng_next_float(&r), phi = 6.2831853f * msbsdf_rng_next_float(&r);
+            float rr = sqrtf(1.0f - z * z);
+            msbsdf_vec3 wi = v3(rr * cosf(phi), rr * sinf(phi), i % 2 ? z : -z);
+            msbsdf_sample_result s;
+            float p = 0.0f;
+            CHECK_STATUS(msbsdf_sample(m, wi, &r, &s), MSBSDF_STATUS_OK);
+            if (s.flags == MSBSDF_SAMPLE_ABSORBED)
+                continue;
+            taken++;
+            CHECK_STATUS(msbsdf_pdf(m, wi, s.wo, &p), MSBSDF_STATUS_OK);
+            if (!(p > 0.0f)) {
+                zero++;
+                if (zero < 4)
+                    printf("pdf 0: model %u facet %u alpha %g eta %g wi (%.9g %.9g %.9g) wo (%.9g %.9g %.9g)\n",
+                           (unsigned)model, (unsigned)facet, (double)a, (double)eta, (double)wi.x, (double)wi.y,
+                           (double)wi.z, (double)s.wo.x, (double)s.wo.y, (double)s.wo.z);
+            }
+        }
+        msbsdf_material_destroy(m);
+    }
+    printf("near-horizon samples taken: %d, with pdf 0: %d\n", taken, zero);
+    CHECK(taken > 200000, "only %d samples taken", taken);
+    CHECK(zero == 0, "%d samples where pdf is 0", zero);
+}
+
 int main(void)
 {
+    pdf_positive_where_sample_goes();
     eval_pdf_equals_eval_and_pdf();
     same_uniforms_same_sample();
     stratified_uniforms_reduce_variance();
