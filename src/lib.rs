@@ -10,8 +10,10 @@
 //! - [`Material::pdf`]: the density `sample` uses.
 //!
 //! Transmission is the flux-conserving form (with non-absorbing facets the
-//! reflected plus transmitted albedo is 1); renderers that track radiance
-//! across an interface apply the `1 / eta^2` scaling themselves.
+//! reflected plus transmitted albedo is 1); the context-taking queries
+//! ([`Material::eval_pdf`], [`Material::sample_ctx`]) apply the `1 / eta^2`
+//! of radiance transport when asked ([`bsdf::Context`]). The conventions, the
+//! ABI rules and the models' ranges: `docs/design.md`.
 //!
 //! The C API (`include/msbsdf.h`, generated from [`capi`]) is a thin skin
 //! over this Rust API. Nothing in eval/sample/pdf allocates, locks or uses
