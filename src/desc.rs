@@ -125,7 +125,9 @@ pub struct MaterialDesc {
     /// [`FacetKind::Material`]: the facets scatter as this material
     /// (composition, e.g. biscale roughness; d'Eon 2023, section 4). Only
     /// [`Model::NullScattering`] supports it, with an opaque (conductor or
-    /// diffuse) inner material that is not itself a composition.
+    /// diffuse) inner material that is not itself a null-scattering one.
+    /// The new material keeps a copy ([`Material::with_inner`] takes one
+    /// that need not be `'static`).
     pub inner: Option<&'static Material>,
     /// Conductors only: true for a one-sided conductor (a `wi` below the
     /// surface is absorbed: eval, pdf and sample weight 0); false (the
