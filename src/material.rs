@@ -80,6 +80,8 @@ pub struct Material {
     desc: MaterialDesc,
     /// The model actually built (differs from `desc.model` for AUTO).
     chosen: auto::Choice,
+    /// `MATERIAL_*` flags, computed once at construction.
+    flags: u32,
 }
 
 fn valid_rgb(v: Vec3, lo: f32) -> bool {
@@ -201,14 +203,14 @@ impl Material {
                 ..d
             };
             let at_threshold = Material::with_inner(&rough, inner)?;
-            return Ok(Material {
-                imp: ModelImpl::Base(BaseModel::Specular(Specular::new(facet))),
-                desc: d,
-                chosen: auto::Choice {
+            return Ok(Material::finish(
+                ModelImpl::Base(BaseModel::Specular(Specular::new(facet))),
+                d,
+                auto::Choice {
                     evaluations: 1,
                     ..at_threshold.chosen
                 },
-            });
+            ));
         }
         let imp = match d.model {
             Model::Single => {
@@ -354,11 +356,7 @@ impl Material {
                 // The choice comes from the measured table (multiple/auto.rs).
                 let c = auto::choose(&d)?;
                 let built = Material::with_inner(&auto::concrete(&d, c.model, c.estimator), inner)?;
-                return Ok(Material {
-                    imp: built.imp,
-                    desc: d,
-                    chosen: c,
-                });
+                return Ok(Material::finish(built.imp, d, c));
             }
         };
         let chosen = auto::Choice {
@@ -368,11 +366,36 @@ impl Material {
             error: f32::INFINITY,
             ns: f32::INFINITY,
         };
-        Ok(Material {
+        Ok(Material::finish(imp, d, chosen))
+    }
+
+    /// The material of a built model, with its flags.
+    fn finish(imp: ModelImpl, desc: MaterialDesc, chosen: auto::Choice) -> Material {
+        let stochastic = match &imp {
+            ModelImpl::Base(b) => b.is_stochastic(),
+            ModelImpl::NullScattering(_) => true,
+        };
+        let mut flags = MATERIAL_REFLECTION;
+        if desc.facet == FacetKind::Dielectric {
+            flags |= MATERIAL_TRANSMISSION;
+        }
+        if matches!(imp, ModelImpl::Base(BaseModel::Specular(_))) {
+            flags |= MATERIAL_SPECULAR;
+        } else {
+            flags |= MATERIAL_GLOSSY;
+            if desc.alpha_x != desc.alpha_y {
+                flags |= MATERIAL_ANISOTROPIC;
+            }
+        }
+        if stochastic {
+            flags |= MATERIAL_STOCHASTIC_EVAL | MATERIAL_APPROXIMATE_PDF;
+        }
+        Material {
             imp,
-            desc: d,
+            desc,
             chosen,
-        })
+            flags,
+        }
     }
 
     /// The model, estimator and evaluations per eval query actually used:
@@ -388,30 +411,12 @@ impl Material {
 
     /// True when eval is a Monte Carlo estimate (it then needs an [`Rng`]).
     pub fn is_stochastic(&self) -> bool {
-        match &self.imp {
-            ModelImpl::Base(b) => b.is_stochastic(),
-            ModelImpl::NullScattering(_) => true,
-        }
+        self.flags & MATERIAL_STOCHASTIC_EVAL != 0
     }
 
     /// What the material does (`MATERIAL_*` of [`crate::bsdf`]).
     pub fn flags(&self) -> u32 {
-        let mut f = MATERIAL_REFLECTION;
-        if self.desc.facet == FacetKind::Dielectric {
-            f |= MATERIAL_TRANSMISSION;
-        }
-        if matches!(self.imp, ModelImpl::Base(BaseModel::Specular(_))) {
-            f |= MATERIAL_SPECULAR;
-        } else {
-            f |= MATERIAL_GLOSSY;
-            if self.desc.alpha_x != self.desc.alpha_y {
-                f |= MATERIAL_ANISOTROPIC;
-            }
-        }
-        if self.is_stochastic() {
-            f |= MATERIAL_STOCHASTIC_EVAL | MATERIAL_APPROXIMATE_PDF;
-        }
-        f
+        self.flags
     }
 
     /// True when `wi` (unit, off the horizon) hits the absorbing back face
