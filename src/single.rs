@@ -27,6 +27,14 @@ use crate::ndf::Ndf;
 use crate::rng::Rng;
 use glam::Vec3;
 
+/// Below this `wi.m` of a sampled reflection, sample checks that eval and
+/// pdf recompute a half vector facing `wi` (`half_vector_sees`): the f32
+/// rounding of `wo` turns that half vector by about `6e-8 / (2 wi.m)`
+/// radians, harmless against any roughness above the specular threshold
+/// (1e-3) unless `wi.m` is below about 1e-4; the gate keeps the check off
+/// the common path (it costs about 180 instructions).
+const GRAZING_HALF_COS: f32 = 1e-2;
+
 /// Which masking-shadowing function couples `wi` and `wo`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum G2Form {
@@ -89,8 +97,9 @@ impl Single {
     /// half vector they recompute from `wi + wo` faces `wi`. Within about
     /// 1e-5 of the horizon `wi + wo` nearly cancels and f32 rounding of `wo`
     /// can turn it away; such samples are absorbed, so that the pdf is
-    /// positive wherever sample goes (issue: 5 of 4e5 glass queries with
-    /// `wi.z` below 3e-6 had pdf 0).
+    /// positive wherever sample goes (5 of 4e5 glass queries with `wi.z`
+    /// below 3e-6 had pdf 0 before). Called only for `wi.m` below
+    /// [`GRAZING_HALF_COS`].
     #[inline]
     fn half_vector_sees(&self, wi: Vec3, wo: Vec3) -> bool {
         let h = (wi + wo.normalize()).normalize_or_zero();
@@ -215,6 +224,7 @@ impl Single {
     /// refraction at the sampled facet (dielectrics, both lobes allowed),
     /// `u[1], u[2]` the visible normal. With one lobe only, that lobe is
     /// taken with probability 1 and the weight carries its Fresnel factor.
+    #[inline]
     pub fn sample_lobes(&self, wi: Vec3, u: [f32; 3], lobes: u32) -> Sample {
         let (u1, u2) = (u[1], u[2]);
         let both = lobes & LOBE_ALL == LOBE_ALL;
@@ -239,7 +249,7 @@ impl Single {
                 };
                 let (wo, weight, pdf) = if reflect_here {
                     let wo = reflect(wi_l, m);
-                    if wo.z <= 0.0 || !self.half_vector_sees(wi_l, wo) {
+                    if wo.z <= 0.0 || (ci < GRAZING_HALF_COS && !self.half_vector_sees(wi_l, wo)) {
                         return Sample::ABSORBED;
                     }
                     let g = self.g2_reflection(wi_l, wo) / g1;
@@ -281,7 +291,7 @@ impl Single {
                     return Sample::ABSORBED;
                 }
                 let wo = reflect(wi_l, m);
-                if wo.z <= 0.0 || !self.half_vector_sees(wi_l, wo) {
+                if wo.z <= 0.0 || (ci < GRAZING_HALF_COS && !self.half_vector_sees(wi_l, wo)) {
                     return Sample::ABSORBED;
                 }
                 let weight = self.facet.conductor_fresnel(ci) * self.g2_reflection(wi_l, wo)
