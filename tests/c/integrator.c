@@ -479,8 +479,62 @@ static void pdf_positive_where_sample_goes(void)
     CHECK(zero == 0, "%d samples where pdf is 0", zero);
 }
 
+/* sample_with from independent uniforms estimates the same albedo as
+   msbsdf_sample (both unbiased): means within 4 combined standard errors,
+   for the deterministic models whose uniforms map to their own choices
+   (ENERGY_COMPENSATED: single or multiple lobe; V-groove: bounce count). */
+static void sample_with_albedo_equals_sample(void)
+{
+    static const uint32_t models[3] = {MSBSDF_MODEL_ENERGY_COMPENSATED, MSBSDF_MODEL_VGROOVE,
+                                       MSBSDF_MODEL_VGROOVE_NONSYMMETRIC};
+    /* Samples per model: the V-groove models sample slowly (tens of us). */
+    static const int counts[3] = {200000, 40000, 20000};
+    msbsdf_context ctx;
+    msbsdf_rng r;
+    int k, i;
+    msbsdf_vec3 wi = v3(0.6f, 0.1f, 0.7937254f);
+    msbsdf_context_init(&ctx);
+    ctx.transport = MSBSDF_TRANSPORT_IMPORTANCE;
+    msbsdf_rng_seed(&r, 71, 3);
+    ctx.rng = &r;
+    for (k = 0; k < 3; k++) {
+        msbsdf_material *m = make(models[k], MSBSDF_FACET_CONDUCTOR, 0.7f, 0.7f, 1.0f);
+        double s1[2] = {0, 0}, s2[2] = {0, 0}, mean[2], se[2];
+        int mode;
+        const int n = counts[k];
+        for (i = 0; i < n; i++) {
+            msbsdf_sample_result a;
+            msbsdf_sample_record b;
+            CHECK_STATUS(msbsdf_sample(m, wi, &r, &a), MSBSDF_STATUS_OK);
+            msbsdf_sample_record_init(&b);
+            CHECK_STATUS(msbsdf_sample_with(m, &ctx, wi, msbsdf_rng_next_float(&r), msbsdf_rng_next_float(&r),
+                                            msbsdf_rng_next_float(&r), &b),
+                         MSBSDF_STATUS_OK);
+            s1[0] += a.weight.g;
+            s2[0] += (double)a.weight.g * a.weight.g;
+            s1[1] += b.weight.g;
+            s2[1] += (double)b.weight.g * b.weight.g;
+        }
+        for (mode = 0; mode < 2; mode++) {
+            mean[mode] = s1[mode] / n;
+            se[mode] = sqrt((s2[mode] / n - mean[mode] * mean[mode]) / n);
+        }
+        printf("model %u albedo: sample %.5f +- %.5f, sample_with %.5f +- %.5f\n", (unsigned)models[k], mean[0],
+               se[0], mean[1], se[1]);
+        /* The effect to detect: a uniform mapped to the wrong choice shifts
+           the albedo by percents; 4 sigma here is below 0.6%. (Measured with
+           2e6 samples: V-groove 0.71792 / 0.71797 +- 8e-5, nonsymmetric
+           0.70770 / 0.70761 +- 4e-5.) */
+        CHECK(se[0] < 1e-3 && se[1] < 1e-3, "standard errors %g %g too large", se[0], se[1]);
+        CHECK(fabs(mean[0] - mean[1]) < 4.0 * sqrt(se[0] * se[0] + se[1] * se[1]),
+              "model %u: sample_with albedo %g, sample %g", (unsigned)models[k], mean[1], mean[0]);
+        msbsdf_material_destroy(m);
+    }
+}
+
 int main(void)
 {
+    sample_with_albedo_equals_sample();
     pdf_positive_where_sample_goes();
     eval_pdf_equals_eval_and_pdf();
     same_uniforms_same_sample();
