@@ -639,6 +639,8 @@ msbsdf_status msbsdf_material_init(const struct msbsdf_material_desc *desc, void
  * `f(wi, wo) * |cos theta_o|` per channel. Directions need not be
  * normalised. `rng` may be NULL for deterministic models (SINGLE, V-groove,
  * energy-compensated); stochastic models need it and advance it.
+ * Flux-conserving (importance transport); 0 for a specular material
+ * (`MSBSDF_MATERIAL_SPECULAR`: Dirac lobes have no density).
  * `*out` is zero on any failure.
  *
  * # Safety
@@ -647,8 +649,10 @@ msbsdf_status msbsdf_material_init(const struct msbsdf_material_desc *desc, void
 msbsdf_status msbsdf_eval(const struct msbsdf_material *material, struct msbsdf_vec3 wi, struct msbsdf_vec3 wo, struct msbsdf_rng *rng, struct msbsdf_rgb *out);
 
 /**
- * Samples an outgoing direction for `wi`. `rng` is required. On failure
- * `*out` is all zeros.
+ * Samples an outgoing direction for `wi`. `rng` is required. For a
+ * specular material the direction is the mirror or refracted one and `pdf`
+ * the probability of that lobe (`msbsdf_sample_with` also flags it
+ * `MSBSDF_SAMPLE_SPECULAR`). On failure `*out` is all zeros.
  *
  * # Safety
  * `material` NULL or live; `rng` NULL or valid; `out` NULL or writable.
@@ -658,7 +662,8 @@ msbsdf_status msbsdf_sample(const struct msbsdf_material *material, struct msbsd
 /**
  * Density per solid angle with which `msbsdf_sample` picks `wo` given `wi`
  * (exact for deterministic models, an approximation positive wherever
- * sampling can go for stochastic ones). `*out` is 0 on failure.
+ * sampling can go for stochastic ones; 0 everywhere for a specular
+ * material). `*out` is 0 on failure.
  *
  * # Safety
  * `material` NULL or live; `out` NULL or writable.

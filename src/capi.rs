@@ -878,6 +878,8 @@ pub unsafe extern "C" fn msbsdf_material_init(
 /// `f(wi, wo) * |cos theta_o|` per channel. Directions need not be
 /// normalised. `rng` may be NULL for deterministic models (SINGLE, V-groove,
 /// energy-compensated); stochastic models need it and advance it.
+/// Flux-conserving (importance transport); 0 for a specular material
+/// (`MSBSDF_MATERIAL_SPECULAR`: Dirac lobes have no density).
 /// `*out` is zero on any failure.
 ///
 /// # Safety
@@ -931,8 +933,10 @@ fn with_rng<T>(
     }
 }
 
-/// Samples an outgoing direction for `wi`. `rng` is required. On failure
-/// `*out` is all zeros.
+/// Samples an outgoing direction for `wi`. `rng` is required. For a
+/// specular material the direction is the mirror or refracted one and `pdf`
+/// the probability of that lobe (`msbsdf_sample_with` also flags it
+/// `MSBSDF_SAMPLE_SPECULAR`). On failure `*out` is all zeros.
 ///
 /// # Safety
 /// `material` NULL or live; `rng` NULL or valid; `out` NULL or writable.
@@ -969,7 +973,8 @@ pub unsafe extern "C" fn msbsdf_sample(
 
 /// Density per solid angle with which `msbsdf_sample` picks `wo` given `wi`
 /// (exact for deterministic models, an approximation positive wherever
-/// sampling can go for stochastic ones). `*out` is 0 on failure.
+/// sampling can go for stochastic ones; 0 everywhere for a specular
+/// material). `*out` is 0 on failure.
 ///
 /// # Safety
 /// `material` NULL or live; `out` NULL or writable.
