@@ -111,6 +111,24 @@ int main(void)
             CHECK(SAME_BITS(f, f_old), "two-sided: back face = front face");
         }
     }
+    /* msbsdf_material_init reads the 0.2 layout the same way. */
+    {
+        static union {
+            unsigned char bytes[4096];
+            long double align_ld;
+            void *align_p;
+            uint64_t align_u64;
+        } st;
+        msbsdf_material *in_storage = NULL;
+        CHECK(msbsdf_material_size() <= sizeof st.bytes, "storage %u", (unsigned)msbsdf_material_size());
+        CHECK_STATUS(msbsdf_material_init((const msbsdf_material_desc *)(const void *)&old.d, st.bytes,
+                                          sizeof st.bytes, &in_storage),
+                     MSBSDF_STATUS_OK);
+        if (in_storage && m_cur) {
+            msbsdf_rgb a = eval_at(in_storage, -0.4f, 0.8f), b = eval_at(m_cur, -0.4f, 0.8f);
+            CHECK(SAME_BITS(a, b), "init from the 0.2 layout differs");
+        }
+    }
     /* One-sided conductors through the appended field. */
     cur.conductor_sides = MSBSDF_CONDUCTOR_ONE_SIDED;
     {

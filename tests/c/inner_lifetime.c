@@ -56,5 +56,27 @@ int main(void)
     /* Mirror facets through an energy-conserving walk: every path exits. */
     CHECK(sum / 2000.0 > 1.0 - 1e-5 && sum / 2000.0 < 1.0 + 1e-5, "albedo %g", sum / 2000.0);
     msbsdf_material_destroy(outer);
+
+    /* The same with the outer material in caller storage (msbsdf_material_init). */
+    {
+        static union {
+            unsigned char bytes[4096];
+            long double align_ld;
+            void *align_p;
+        } st;
+        msbsdf_material *in_storage = NULL;
+        msbsdf_rgb f0, f1;
+        msbsdf_rng r0, r1;
+        facets = NULL;
+        CHECK_STATUS(msbsdf_material_create(&d, &facets), MSBSDF_STATUS_OK);
+        c.inner = facets;
+        CHECK_STATUS(msbsdf_material_init(&c, st.bytes, sizeof st.bytes, &in_storage), MSBSDF_STATUS_OK);
+        msbsdf_rng_seed(&r0, 3, 3);
+        r1 = r0;
+        CHECK_STATUS(msbsdf_eval(in_storage, wi, wo, &r0, &f0), MSBSDF_STATUS_OK);
+        msbsdf_material_destroy(facets);
+        CHECK_STATUS(msbsdf_eval(in_storage, wi, wo, &r1, &f1), MSBSDF_STATUS_OK);
+        CHECK(SAME_BITS(f0, f1) && f0.g > 0.0f, "init material changed after its inner one was destroyed");
+    }
     return check_finish("inner_lifetime");
 }
