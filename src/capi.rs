@@ -540,8 +540,11 @@ unsafe fn init_versioned<T: Versioned>(p: *mut T, size: usize, defaults: T) -> m
         if p.is_null() {
             return Err(Error::NullPointer);
         }
-        if size < T::OLDEST || size > u32::MAX as usize {
+        if size < T::OLDEST {
             return Err(Error::StructTooSmall);
+        }
+        if size > u32::MAX as usize {
+            return Err(Error::InvalidArgument); // struct_size is 32-bit
         }
         // SAFETY: forwarded contract; size checked.
         unsafe { write_versioned(p, defaults, size) };
