@@ -67,11 +67,13 @@ static void show_queries(const msbsdf_material *m, const char *name)
 
 int main(void)
 {
-    msbsdf_material_desc gd = msbsdf_material_desc_default();
-    msbsdf_material_desc dd = msbsdf_material_desc_default();
+    msbsdf_material_desc gd, dd;
     msbsdf_material *gold = NULL, *glass = NULL;
     msbsdf_rng rng;
     int t, i;
+
+    msbsdf_material_desc_init(&gd); /* defaults, written at this program's sizeof */
+    msbsdf_material_desc_init(&dd);
 
     printf("msbsdf %u.%u.%u\n", (unsigned)(msbsdf_version() >> 16),
            (unsigned)((msbsdf_version() >> 8) & 0xff), (unsigned)(msbsdf_version() & 0xff));

@@ -3,7 +3,8 @@
  * including struct_size, unknown constants, NaN/Inf/huge floats, NULL or a
  * live inner material) -> msbsdf_material_create and msbsdf_material_init
  * (must agree, with a known status and NULL on failure) -> eval / sample /
- * pdf for a few fuzzed directions with the output contract of fuzz_common.h.
+ * pdf and the context calls (eval_pdf, sample_with) for a few fuzzed
+ * directions with the output contract of fuzz_common.h.
  *
  * Build and run: fuzz/run.sh desc_fuzz SECONDS. The corpus in
  * fuzz/corpus/desc_fuzz is replayed by tests/fuzz_corpus.rs.
@@ -96,6 +97,11 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         d->tolerance = 0.05f;
     }
     d->inner = (fz_u8(&r) & 1u) ? inner_material() : NULL;
+    {
+        /* Since 0.3: conductor sides (0, 1 known; others unknown). */
+        uint8_t b = fz_u8(&r);
+        d->conductor_sides = (b & 0x80u) ? fz_u32(&r) : (uint32_t)(b & 1u);
+    }
 
 #ifdef FUZZ_TRACE
     fprintf(stderr,
@@ -110,9 +116,12 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     FZ_ASSERT(create_status_known(sc), "create status %u", (unsigned)sc);
     FZ_ASSERT((sc == MSBSDF_STATUS_OK) == (created != NULL), "create status %u, handle %p",
               (unsigned)sc, (void *)created);
-    if (d->struct_size < sizeof(msbsdf_material_desc)) {
+    /* Only sizes below the first published layout (0.2.0: 88 bytes) are refused. */
+    if (d->struct_size < 88u) {
         FZ_ASSERT(sc == MSBSDF_STATUS_STRUCT_TOO_SMALL, "struct_size %u gave status %u",
                   (unsigned)d->struct_size, (unsigned)sc);
+    } else {
+        FZ_ASSERT(sc != MSBSDF_STATUS_STRUCT_TOO_SMALL, "struct_size %u refused", (unsigned)d->struct_size);
     }
 
     storage = aligned_alloc(msbsdf_material_align(),
@@ -142,6 +151,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             FZ_ASSERT(memcmp(&fa, &fb, sizeof fa) == 0 && memcmp(&a, &b, sizeof a) == 0,
                       "create and init materials differ");
             fz_query(inited, wi, wo, NULL);
+            fz_query_ctx(created, wi, wo, &rng, &r);
         }
     }
     msbsdf_material_destroy(created);

@@ -2,7 +2,8 @@
  * libFuzzer harness: bytes -> a material from a fixed table (every model
  * constant x NDF x facet x a few roughnesses; the ones create refuses as
  * UNSUPPORTED are skipped, so the harness covers new models as they land)
- * -> direction triples -> eval / sample / pdf. Outputs must be finite and
+ * -> direction triples -> eval / sample / pdf, and the context calls
+ * (eval_pdf, sample_with) with a fuzzed context and uniforms. Outputs must be finite and
  * non-negative, statuses in the known set, failures zeroed (fuzz_common.h).
  *
  * Build and run: fuzz/run.sh dirs_fuzz SECONDS. The corpus in
@@ -13,7 +14,7 @@
 #define N_MODELS 10
 #define N_NDFS 7
 #define N_FACETS 3
-#define N_ALPHAS 4
+#define N_ALPHAS 5
 #define N_MATERIALS (N_MODELS * N_NDFS * N_FACETS * N_ALPHAS)
 
 static msbsdf_material *materials[N_MATERIALS];
@@ -23,7 +24,8 @@ static int n_materials = -1;
 
 static void build_materials(void)
 {
-    static const float alphas[N_ALPHAS] = {1e-4f, 0.1f, 0.7f, 10.0f};
+    /* 0 and 1e-4: the specular regime; 0.1 to 10 glossy. */
+    static const float alphas[N_ALPHAS] = {0.0f, 1e-4f, 0.1f, 0.7f, 10.0f};
     int model, ndf, facet, a;
     n_materials = 0;
     for (model = 0; model < N_MODELS; model++) {
@@ -44,7 +46,7 @@ static void build_materials(void)
                         d.k.r = 3.983f, d.k.g = 2.385f, d.k.b = 1.603f;
                     }
                     if (facet == MSBSDF_FACET_DIELECTRIC) {
-                        d.eta.r = (a & 1) ? 1.5f : 1.0f / 1.33f;
+                        d.eta.r = d.eta.g = d.eta.b = (a & 1) ? 1.5f : 1.0f / 1.33f;
                     }
                     if (msbsdf_material_create(&d, &m) == MSBSDF_STATUS_OK) {
 #ifdef FUZZ_TRACE
@@ -91,6 +93,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         msbsdf_vec3 wi = fz_dir(&r);
         msbsdf_vec3 wo = fz_dir(&r);
         fz_query(m, wi, wo, &rng);
+        fz_query_ctx(m, wi, wo, (q & 1) ? &rng : NULL, &r);
     }
     return 0;
 }

@@ -197,6 +197,14 @@ static void fz_query(const msbsdf_material *m, msbsdf_vec3 wi, msbsdf_vec3 wo, m
     msbsdf_sample_result s;
     msbsdf_status st;
     const int valid = fz_dir_valid(wi) && fz_dir_valid(wo);
+    uint32_t mflags = 0;
+    int specular;
+
+    st = msbsdf_material_flags(m, &mflags);
+    FZ_ASSERT(st == MSBSDF_STATUS_OK && (mflags & MSBSDF_MATERIAL_REFLECTION) &&
+                  !(mflags & ~127u) && !(mflags & MSBSDF_MATERIAL_SPECULAR) == !!(mflags & MSBSDF_MATERIAL_GLOSSY),
+              "material flags %u (status %u)", (unsigned)mflags, (unsigned)st);
+    specular = (mflags & MSBSDF_MATERIAL_SPECULAR) != 0;
 
     memset(&f, 0xff, sizeof f);
     st = msbsdf_eval(m, wi, wo, rng, &f);
@@ -256,6 +264,13 @@ static void fz_query(const msbsdf_material *m, msbsdf_vec3 wi, msbsdf_vec3 wo, m
                   "eval of sampled wo (%g %g %g)", f.r, f.g, f.b);
         st = msbsdf_pdf(m, wi, s.wo, &p);
         FZ_ASSERT(st == MSBSDF_STATUS_OK && fz_ok_value(p), "pdf of sampled wo %g", p);
+        if (specular) {
+            /* Dirac lobes: no density anywhere; pdf is the lobe probability. */
+            FZ_ASSERT(f.r == 0.0f && f.g == 0.0f && f.b == 0.0f && p == 0.0f,
+                      "specular material: eval (%g %g %g) pdf %g off a Dirac lobe", f.r, f.g, f.b, p);
+            FZ_ASSERT(s.pdf > 0.0f && s.pdf <= 1.0f, "specular sample pdf %g", s.pdf);
+            return;
+        }
         /* DESIGN.md: pdf is positive wherever sample can go. */
         /* Flags agree with the sides of wi and wo. */
         if (s.flags == MSBSDF_SAMPLE_REFLECTION) {
@@ -278,6 +293,107 @@ static void fz_query(const msbsdf_material *m, msbsdf_vec3 wi, msbsdf_vec3 wo, m
                       "sample pdf %g but msbsdf_pdf %g at wo (%g %g %g) from wi (%g %g %g)",
                       s.pdf, p, s.wo.x, s.wo.y, s.wo.z, wi.x, wi.y, wi.z);
         }
+    }
+}
+
+/* The context calls of 0.3 at (wi, wo), with a context and uniforms read
+   from the input: statuses, finite non-negative outputs, eval_pdf equal to
+   eval and pdf under importance transport with both lobes, a sample record
+   whose flags, eta and lobe agree with the context. */
+static void fz_query_ctx(const msbsdf_material *m, msbsdf_vec3 wi, msbsdf_vec3 wo, msbsdf_rng *rng,
+                         fuzz_reader *r)
+{
+    msbsdf_context ctx;
+    msbsdf_sample_record rec;
+    msbsdf_rgb f, f0;
+    float p = -1.0f, p0 = -1.0f, u0, u1, u2;
+    msbsdf_status st;
+    msbsdf_rng a, b;
+    uint8_t mode = fz_u8(r);
+    const int valid = fz_dir_valid(wi) && fz_dir_valid(wo);
+    uint32_t mflags = 0;
+    int ctx_ok;
+
+    msbsdf_material_flags(m, &mflags);
+    msbsdf_context_init(&ctx);
+    ctx.transport = (mode & 1u) ? MSBSDF_TRANSPORT_IMPORTANCE : MSBSDF_TRANSPORT_RADIANCE;
+    ctx.lobes = (uint32_t)((mode >> 1) & 3u);
+    if (mode & 0x80u) {
+        ctx.lobes = fz_u32(r); /* mostly unknown bits */
+    }
+    ctx.rng = rng;
+    ctx_ok = (ctx.lobes & ~3u) == 0;
+    u0 = fz_float(r, 0.0f, 1.0f);
+    u1 = fz_float(r, 0.0f, 1.0f);
+    u2 = fz_float(r, 0.0f, 1.0f);
+
+    /* eval_pdf under importance + both lobes is eval and pdf, bit for bit. */
+    if (rng != NULL) {
+        msbsdf_context plain;
+        msbsdf_context_init(&plain);
+        plain.transport = MSBSDF_TRANSPORT_IMPORTANCE;
+        a = *rng;
+        b = *rng;
+        plain.rng = &b;
+        st = msbsdf_eval_pdf(m, &plain, wi, wo, &f, &p);
+        FZ_ASSERT(st == MSBSDF_STATUS_OK || st == MSBSDF_STATUS_INVALID_DIRECTION, "eval_pdf status %u",
+                  (unsigned)st);
+        FZ_ASSERT((st == MSBSDF_STATUS_OK) == valid, "eval_pdf status %u, valid %d", (unsigned)st, valid);
+        msbsdf_eval(m, wi, wo, &a, &f0);
+        msbsdf_pdf(m, wi, wo, &p0);
+        FZ_ASSERT(memcmp(&f, &f0, sizeof f) == 0 && memcmp(&p, &p0, sizeof p) == 0 &&
+                      memcmp(&a, &b, sizeof a) == 0,
+                  "eval_pdf (%g %g %g, %g) != eval, pdf (%g %g %g, %g)", f.r, f.g, f.b, p, f0.r, f0.g, f0.b,
+                  p0);
+        *rng = a;
+    }
+
+    memset(&f, 0xff, sizeof f);
+    st = msbsdf_eval_pdf(m, &ctx, wi, wo, &f, &p);
+    FZ_ASSERT(fz_query_status(st) || st == MSBSDF_STATUS_UNKNOWN_CONSTANT, "eval_pdf status %u",
+              (unsigned)st);
+    FZ_ASSERT(fz_ok_value(f.r) && fz_ok_value(f.g) && fz_ok_value(f.b) && fz_ok_value(p),
+              "eval_pdf (%g %g %g) pdf %g", f.r, f.g, f.b, p);
+    if (st != MSBSDF_STATUS_OK) {
+        FZ_ASSERT(f.r == 0.0f && f.g == 0.0f && f.b == 0.0f && p == 0.0f, "eval_pdf failure output not zero");
+    } else if (ctx.lobes == 0) {
+        FZ_ASSERT(f.r == 0.0f && p == 0.0f, "no lobe allowed but eval_pdf (%g, %g)", f.r, p);
+    }
+    if (!ctx_ok) {
+        FZ_ASSERT(st == MSBSDF_STATUS_UNKNOWN_CONSTANT, "lobes %u accepted", (unsigned)ctx.lobes);
+    }
+
+    msbsdf_sample_record_init(&rec);
+    st = msbsdf_sample_with(m, &ctx, wi, u0, u1, u2, &rec);
+    FZ_ASSERT(fz_query_status(st) || st == MSBSDF_STATUS_UNKNOWN_CONSTANT, "sample_with status %u",
+              (unsigned)st);
+    FZ_ASSERT(rec.struct_size == sizeof rec, "sample_with changed struct_size to %u", (unsigned)rec.struct_size);
+    FZ_ASSERT(fz_ok_value(rec.weight.r) && fz_ok_value(rec.weight.g) && fz_ok_value(rec.weight.b) &&
+                  fz_ok_value(rec.pdf) && fz_ok_value(rec.eta),
+              "sample_with weight (%g %g %g) pdf %g eta %g", rec.weight.r, rec.weight.g, rec.weight.b, rec.pdf,
+              rec.eta);
+    if (st != MSBSDF_STATUS_OK) {
+        FZ_ASSERT(rec.flags == 0 && rec.pdf == 0.0f && rec.weight.g == 0.0f, "sample_with failure output not zero");
+        return;
+    }
+    FZ_ASSERT(fz_dir_valid(wi) && ctx_ok, "sample_with accepted an invalid wi or context");
+    if (rec.flags == MSBSDF_SAMPLE_ABSORBED) {
+        FZ_ASSERT(rec.weight.r == 0.0f && rec.weight.g == 0.0f && rec.weight.b == 0.0f && rec.eta == 1.0f,
+                  "absorbed record with weight (%g %g %g) eta %g", rec.weight.r, rec.weight.g, rec.weight.b,
+                  rec.eta);
+        return;
+    }
+    {
+        uint32_t lobe = rec.flags & 3u, kind = rec.flags & ~3u;
+        FZ_ASSERT((lobe == MSBSDF_SAMPLE_REFLECTION || lobe == MSBSDF_SAMPLE_TRANSMISSION) &&
+                      (lobe & ctx.lobes) != 0,
+                  "record flags %u with lobes %u", (unsigned)rec.flags, (unsigned)ctx.lobes);
+        FZ_ASSERT(kind == ((mflags & MSBSDF_MATERIAL_SPECULAR) ? MSBSDF_SAMPLE_SPECULAR : MSBSDF_SAMPLE_GLOSSY),
+                  "record flags %u, material flags %u", (unsigned)rec.flags, (unsigned)mflags);
+        FZ_ASSERT(lobe == MSBSDF_SAMPLE_TRANSMISSION ? rec.eta > 0.0f : rec.eta == 1.0f, "record eta %g",
+                  rec.eta);
+        FZ_ASSERT(lobe == MSBSDF_SAMPLE_REFLECTION || (mflags & MSBSDF_MATERIAL_TRANSMISSION),
+                  "an opaque material transmitted");
     }
 }
 

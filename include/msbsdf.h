@@ -3,9 +3,14 @@
  *
  * Conventions: local frame with z the macro-surface normal and x the tangent
  * along alpha_x; wi and wo both point away from the surface (wo.z < 0 is
- * transmission). msbsdf_eval returns f(wi, wo) * |cos theta_o|. Transmission
- * is flux-conserving: no 1/eta^2 radiance scaling is applied; renderers that
- * track radiance across an interface apply it themselves.
+ * transmission). msbsdf_eval returns f(wi, wo) * |cos theta_o|. The calls
+ * without a context (msbsdf_eval, msbsdf_sample, msbsdf_pdf) are
+ * flux-conserving (importance transport: no 1/eta^2 scaling); the calls with
+ * a msbsdf_context (msbsdf_eval_pdf, msbsdf_sample_with) default to radiance
+ * transport, which divides transmission by the squared relative index.
+ * Conductors are two-sided unless the desc says MSBSDF_CONDUCTOR_ONE_SIDED.
+ * Versioning: structs start with struct_size and only grow; initialise them
+ * with the msbsdf_*_init macros below. See docs/design.md.
  *
  * Threads: a material is immutable after create/init; any number of threads
  * may use it at once, each with its own msbsdf_rng. eval, sample, pdf and the
@@ -23,9 +28,17 @@
 /** Library version this header describes; msbsdf_version() returns
     (MSBSDF_VERSION_MAJOR << 16) | (MSBSDF_VERSION_MINOR << 8) | MSBSDF_VERSION_PATCH. */
 #define MSBSDF_VERSION_MAJOR 0
-#define MSBSDF_VERSION_MINOR 2
+#define MSBSDF_VERSION_MINOR 3
 #define MSBSDF_VERSION_PATCH 0
 #define MSBSDF_VERSION ((MSBSDF_VERSION_MAJOR << 16) | (MSBSDF_VERSION_MINOR << 8) | MSBSDF_VERSION_PATCH)
+
+/** Initialisers that write exactly the struct this program compiled (they
+    pass its sizeof, as Embree's rtcInit*Arguments): use them, not
+    msbsdf_material_desc_default(), so that a program built against this
+    header keeps working with later libraries. Since 0.3.0. */
+#define msbsdf_material_desc_init(desc) msbsdf_material_desc_init_sized((desc), sizeof(*(desc)))
+#define msbsdf_context_init(ctx) msbsdf_context_init_sized((ctx), sizeof(*(ctx)))
+#define msbsdf_sample_record_init(rec) msbsdf_sample_record_init_sized((rec), sizeof(*(rec)))
 
 
 /**
@@ -159,6 +172,93 @@
 #define MSBSDF_SAMPLE_ABSORBED 4
 
 /**
+ * `sample` took a Dirac lobe (`msbsdf_sample_record` only; `pdf` is then
+ * the discrete probability of the lobe).
+ */
+#define MSBSDF_SAMPLE_SPECULAR 8
+
+/**
+ * `sample` took a lobe with a density (`msbsdf_sample_record` only).
+ */
+#define MSBSDF_SAMPLE_GLOSSY 16
+
+/**
+ * Conductor facets mirror the back face onto the front face (default, the
+ * behaviour of 0.2): a `wi` below the surface scatters below it.
+ */
+#define MSBSDF_CONDUCTOR_TWO_SIDED 0
+
+/**
+ * Conductor facets absorb from below: eval, pdf and sample weight are 0
+ * for `wi.z < 0` (as Mitsuba 3's conductors).
+ */
+#define MSBSDF_CONDUCTOR_ONE_SIDED 1
+
+/**
+ * Camera paths: transmission divided by the squared relative index
+ * (`eta` of the side of `wo` over the side of `wi`); the context default.
+ */
+#define MSBSDF_TRANSPORT_RADIANCE 0
+
+/**
+ * Light paths: the flux-conserving values the calls without a context return.
+ */
+#define MSBSDF_TRANSPORT_IMPORTANCE 1
+
+/**
+ * Lobe mask bit: reflection (the side of `wi`).
+ */
+#define MSBSDF_LOBE_REFLECTION 1
+
+/**
+ * Lobe mask bit: transmission (the other side).
+ */
+#define MSBSDF_LOBE_TRANSMISSION 2
+
+/**
+ * Both lobes (the context default).
+ */
+#define MSBSDF_LOBE_ALL 3
+
+/**
+ * Material flag: reflects.
+ */
+#define MSBSDF_MATERIAL_REFLECTION 1
+
+/**
+ * Material flag: transmits (dielectric facets).
+ */
+#define MSBSDF_MATERIAL_TRANSMISSION 2
+
+/**
+ * Material flag: smooth, Dirac lobes only (alpha below 1e-3 along both
+ * axes, or 0): eval and pdf are 0, only sample finds the lobes; skip
+ * next-event estimation.
+ */
+#define MSBSDF_MATERIAL_SPECULAR 4
+
+/**
+ * Material flag: lobes with a density.
+ */
+#define MSBSDF_MATERIAL_GLOSSY 8
+
+/**
+ * Material flag: alpha_x differs from alpha_y.
+ */
+#define MSBSDF_MATERIAL_ANISOTROPIC 16
+
+/**
+ * Material flag: eval is a Monte Carlo estimate (needs an rng).
+ */
+#define MSBSDF_MATERIAL_STOCHASTIC_EVAL 32
+
+/**
+ * Material flag: pdf approximates the sampling density (fine for MIS; it
+ * may integrate to less than 1).
+ */
+#define MSBSDF_MATERIAL_APPROXIMATE_PDF 64
+
+/**
  * Largest allowed `max_bounces`.
  */
 #define MSBSDF_MAX_BOUNCES 256
@@ -208,9 +308,12 @@ typedef struct msbsdf_rgb {
 
 /**
  * Everything that describes a material. Initialise with
- * `msbsdf_material_desc_default()`, then set fields. Fields may be appended
- * in later minor versions, never reordered; `struct_size` tells the library
- * which layout the caller compiled against.
+ * `msbsdf_material_desc_init(&desc)` (a macro passing `sizeof desc`, so it
+ * writes exactly the struct this program compiled), then set fields.
+ * Fields are appended in later minor versions, never reordered;
+ * `struct_size` tells the library which layout the caller compiled against:
+ * it reads `min(struct_size, its own size)` bytes over its defaults and
+ * refuses only sizes below the first published layout (88 bytes, 0.2.0).
  */
 typedef struct msbsdf_material_desc {
   /**
@@ -234,11 +337,14 @@ typedef struct msbsdf_material_desc {
    */
   uint32_t facet;
   /**
-   * Roughness along x, in (0, 10]; values below 1e-4 act as 1e-4.
+   * Roughness along x, in [0, 10]. Conductors and dielectrics with alpha
+   * below 1e-3 along both axes (0 included) are smooth: Dirac lobes with
+   * `MSBSDF_MATERIAL_SPECULAR` (eval and pdf 0, sample finds the lobes);
+   * other facets use at least 1e-4.
    */
   float alpha_x;
   /**
-   * Roughness along y, in (0, 10].
+   * Roughness along y, in [0, 10].
    */
   float alpha_y;
   /**
@@ -248,7 +354,8 @@ typedef struct msbsdf_material_desc {
   /**
    * Conductor: real part of the complex IOR per channel (eta 0, k 1 is a
    * perfect mirror); dielectric: `eta.r` = inside / outside index, in
-   * [0.01, 100].
+   * [0.01, 100]; `eta.g` and `eta.b` must equal `eta.r` or be 0 (no
+   * dispersion: differing channels give `MSBSDF_STATUS_INVALID_ARGUMENT`).
    */
   struct msbsdf_rgb eta;
   /**
@@ -275,10 +382,16 @@ typedef struct msbsdf_material_desc {
    */
   float tolerance;
   /**
-   * `MSBSDF_FACET_MATERIAL`: the facets scatter as this material; the
-   * caller keeps it alive as long as this one.
+   * `MSBSDF_FACET_MATERIAL`: the facets scatter as this material. The new
+   * material keeps a copy: `inner` need only be alive during create/init
+   * and may be destroyed afterwards.
    */
   const struct msbsdf_material *inner;
+  /**
+   * Since 0.3.0. `MSBSDF_CONDUCTOR_TWO_SIDED` (0, default) or
+   * `MSBSDF_CONDUCTOR_ONE_SIDED`; ignored for other facets.
+   */
+  uint32_t conductor_sides;
 } msbsdf_material_desc;
 
 /**
@@ -321,6 +434,68 @@ typedef struct msbsdf_sample_result {
    */
   uint32_t flags;
 } msbsdf_sample_result;
+
+/**
+ * Per-call options of `msbsdf_eval_pdf` and `msbsdf_sample_with` (since
+ * 0.3.0). Initialise with `msbsdf_context_init(&ctx)`; a NULL context means
+ * the defaults (radiance, both lobes, no rng).
+ */
+typedef struct msbsdf_context {
+  /**
+   * `sizeof(msbsdf_context)` as the caller compiled it.
+   */
+  uint32_t struct_size;
+  /**
+   * `MSBSDF_TRANSPORT_RADIANCE` (default) or `MSBSDF_TRANSPORT_IMPORTANCE`.
+   */
+  uint32_t transport;
+  /**
+   * Allowed lobes, `MSBSDF_LOBE_*` bits (default `MSBSDF_LOBE_ALL`).
+   */
+  uint32_t lobes;
+  /**
+   * Generator for stochastic models (advanced by the call); may be NULL
+   * for deterministic ones.
+   */
+  struct msbsdf_rng *rng;
+} msbsdf_context;
+
+/**
+ * The result of `msbsdf_sample_with` (since 0.3.0). Set `struct_size`
+ * (`msbsdf_sample_record_init(&rec)`) before the call: the library writes
+ * `min(struct_size, its own size)` bytes and zeroes the rest.
+ */
+typedef struct msbsdf_sample_record {
+  /**
+   * `sizeof(msbsdf_sample_record)` as the caller compiled it (kept).
+   */
+  uint32_t struct_size;
+  /**
+   * `MSBSDF_SAMPLE_REFLECTION` or `_TRANSMISSION`, with
+   * `MSBSDF_SAMPLE_SPECULAR` or `_GLOSSY`; or `MSBSDF_SAMPLE_ABSORBED`.
+   */
+  uint32_t flags;
+  /**
+   * Outgoing unit direction (zero when absorbed).
+   */
+  struct msbsdf_vec3 wo;
+  /**
+   * `f * |cos theta_o| / pdf` per channel under the context's transport
+   * mode (for a Dirac lobe: its Fresnel factor over its probability).
+   */
+  struct msbsdf_rgb weight;
+  /**
+   * Density of `wo` per solid angle as `msbsdf_eval_pdf` reports it under
+   * the same context; for `MSBSDF_SAMPLE_SPECULAR` the discrete
+   * probability of the lobe.
+   */
+  float pdf;
+  /**
+   * Relative index of the side of `wo` over the side of `wi` (1 for
+   * reflection).
+   */
+  float eta;
+} msbsdf_sample_record;
 
 /**
  * Success.
@@ -379,7 +554,7 @@ typedef struct msbsdf_sample_result {
 
 #ifdef __cplusplus
 extern "C" {
-#endif // __cplusplus
+#endif /* __cplusplus */
 
 /**
  * The library version as `(major << 16) | (minor << 8) | patch`; compare
@@ -413,7 +588,9 @@ float msbsdf_rng_next_float(struct msbsdf_rng *rng);
  * A description with every field at its default: GGX alpha 0.5, perfectly
  * reflecting conductor facets (eta 0, k 1), single scattering, PT estimator,
  * shape 2, albedo 0.8, default bounces, tolerance 0.1, no inner material,
- * and `struct_size` set.
+ * two-sided conductors, and `struct_size` set. Returned by value, it has
+ * this library's size: a program compiled against an older header must use
+ * `msbsdf_material_desc_init` instead (kept for 0.2 source compatibility).
  */
 struct msbsdf_material_desc msbsdf_material_desc_default(void);
 
@@ -462,6 +639,8 @@ msbsdf_status msbsdf_material_init(const struct msbsdf_material_desc *desc, void
  * `f(wi, wo) * |cos theta_o|` per channel. Directions need not be
  * normalised. `rng` may be NULL for deterministic models (SINGLE, V-groove,
  * energy-compensated); stochastic models need it and advance it.
+ * Flux-conserving (importance transport); 0 for a specular material
+ * (`MSBSDF_MATERIAL_SPECULAR`: Dirac lobes have no density).
  * `*out` is zero on any failure.
  *
  * # Safety
@@ -470,8 +649,10 @@ msbsdf_status msbsdf_material_init(const struct msbsdf_material_desc *desc, void
 msbsdf_status msbsdf_eval(const struct msbsdf_material *material, struct msbsdf_vec3 wi, struct msbsdf_vec3 wo, struct msbsdf_rng *rng, struct msbsdf_rgb *out);
 
 /**
- * Samples an outgoing direction for `wi`. `rng` is required. On failure
- * `*out` is all zeros.
+ * Samples an outgoing direction for `wi`. `rng` is required. For a
+ * specular material the direction is the mirror or refracted one and `pdf`
+ * the probability of that lobe (`msbsdf_sample_with` also flags it
+ * `MSBSDF_SAMPLE_SPECULAR`). On failure `*out` is all zeros.
  *
  * # Safety
  * `material` NULL or live; `rng` NULL or valid; `out` NULL or writable.
@@ -481,12 +662,91 @@ msbsdf_status msbsdf_sample(const struct msbsdf_material *material, struct msbsd
 /**
  * Density per solid angle with which `msbsdf_sample` picks `wo` given `wi`
  * (exact for deterministic models, an approximation positive wherever
- * sampling can go for stochastic ones). `*out` is 0 on failure.
+ * sampling can go for stochastic ones; 0 everywhere for a specular
+ * material). `*out` is 0 on failure.
  *
  * # Safety
  * `material` NULL or live; `out` NULL or writable.
  */
 msbsdf_status msbsdf_pdf(const struct msbsdf_material *material, struct msbsdf_vec3 wi, struct msbsdf_vec3 wo, float *out);
+
+/**
+ * Fills `*desc` with the defaults of `msbsdf_material_desc_default()`,
+ * writing exactly `size` bytes: the fields this library knows up to `size`,
+ * zeros after them (every field appended later means its 0.2 behaviour at
+ * 0), and `struct_size = size`. Call it through the macro
+ * `msbsdf_material_desc_init(&desc)`, which passes `sizeof desc` as this
+ * program compiled it. Sizes below the 0.2 layout (88 bytes):
+ * `MSBSDF_STATUS_STRUCT_TOO_SMALL`, nothing written. Since 0.3.0.
+ *
+ * # Safety
+ * `desc` NULL or writable for `size` bytes.
+ */
+msbsdf_status msbsdf_material_desc_init_sized(struct msbsdf_material_desc *desc, size_t size);
+
+/**
+ * Fills `*ctx` with the defaults (radiance transport, both lobes, no rng),
+ * writing exactly `size` bytes as `msbsdf_material_desc_init_sized`; use the
+ * macro `msbsdf_context_init(&ctx)`. Since 0.3.0.
+ *
+ * # Safety
+ * `ctx` NULL or writable for `size` bytes.
+ */
+msbsdf_status msbsdf_context_init_sized(struct msbsdf_context *ctx, size_t size);
+
+/**
+ * Zeroes `*rec` and sets its `struct_size = size`, writing exactly `size`
+ * bytes; use the macro `msbsdf_sample_record_init(&rec)`. Since 0.3.0.
+ *
+ * # Safety
+ * `rec` NULL or writable for `size` bytes.
+ */
+msbsdf_status msbsdf_sample_record_init_sized(struct msbsdf_sample_record *rec, size_t size);
+
+/**
+ * What the material does: `MSBSDF_MATERIAL_*` bits. `*flags` is 0 on
+ * failure. Since 0.3.0.
+ *
+ * # Safety
+ * `material` NULL or live; `flags` NULL or writable.
+ */
+msbsdf_status msbsdf_material_flags(const struct msbsdf_material *material, uint32_t *flags);
+
+/**
+ * `f(wi, wo) * |cos theta_o|` and the pdf of `wo` in one call (SINGLE
+ * shares the half vector, D and masking), under `ctx` (NULL: radiance, both
+ * lobes, no rng). With `MSBSDF_TRANSPORT_IMPORTANCE` and both lobes, bit for
+ * bit what `msbsdf_eval` and `msbsdf_pdf` return; radiance divides
+ * transmission by the squared relative index. Lobes outside `ctx->lobes`
+ * give 0. For SINGLE and the specular regime a single allowed lobe is
+ * sampled with probability 1 and its pdf says so; for the other models the
+ * pdf is the unrestricted one (their restricted samples in the other lobe
+ * come back absorbed). Either output may be NULL (not computed); the others
+ * are zeroed on failure. Stochastic models need `ctx->rng`. Since 0.3.0.
+ *
+ * # Safety
+ * `material` NULL or live; `ctx` NULL or valid for its `struct_size`, its
+ * `rng` NULL or valid; `value`, `pdf` NULL or writable.
+ */
+msbsdf_status msbsdf_eval_pdf(const struct msbsdf_material *material, const struct msbsdf_context *ctx, struct msbsdf_vec3 wi, struct msbsdf_vec3 wo, struct msbsdf_rgb *value, float *pdf);
+
+/**
+ * Samples `wo` for `wi` from the caller's uniforms in [0, 1) (values
+ * outside are clamped into it, NaN acts as 0): `u_lobe` picks the lobe at
+ * the first vertex (reflection or refraction of a dielectric, single or
+ * multiple scattering of ENERGY_COMPENSATED, the bounce count of a
+ * V-groove), `u1, u2` the first visible normal; stochastic models (and the
+ * V-groove's partner facet) draw the rest from `ctx->rng`, which they then
+ * need. Deterministic models give the same record for the same uniforms,
+ * bit for bit. `*rec` must have its `struct_size` set
+ * (`msbsdf_sample_record_init`); on failure it is zeroed (keeping
+ * `struct_size`) unless `struct_size` is too small. Since 0.3.0.
+ *
+ * # Safety
+ * `material` NULL or live; `ctx` as for `msbsdf_eval_pdf`; `rec` NULL or
+ * writable for its `struct_size`.
+ */
+msbsdf_status msbsdf_sample_with(const struct msbsdf_material *material, const struct msbsdf_context *ctx, struct msbsdf_vec3 wi, float u_lobe, float u1, float u2, struct msbsdf_sample_record *rec);
 
 /**
  * Which model, estimator and number of evaluations averaged per
@@ -501,7 +761,7 @@ msbsdf_status msbsdf_pdf(const struct msbsdf_material *material, struct msbsdf_v
 msbsdf_status msbsdf_material_model(const struct msbsdf_material *material, uint32_t *model, uint32_t *estimator, uint32_t *evaluations);
 
 #ifdef __cplusplus
-}  // extern "C"
-#endif  // __cplusplus
+}  /* extern "C" */
+#endif  /* __cplusplus */
 
 #endif  /* MSBSDF_H */

@@ -2,12 +2,20 @@
  * msbsdf.hpp: header-only C++ wrapper of the msbsdf C API (C++11 or later;
  * tested as C++17 with -Wall -Wextra -pedantic -Werror).
  *
- *   msbsdf::Material gold = msbsdf::Material::create(
- *       msbsdf::Desc().model(MSBSDF_MODEL_SINGLE).alpha(0.5f)
- *           .eta({0.143f, 0.374f, 1.442f}).k({3.983f, 2.385f, 1.603f})).value;
- *   msbsdf::Rng rng(pixel, sample);
- *   msbsdf::Result<msbsdf::SampleResult> s = gold.sample(wi, rng);
- *   if (s) { throughput *= s.value.weight; }
+ * Example (extracted and compiled by tests/c_conformance.rs):
+ *
+ *   float sampled_weight(std::uint64_t pixel, std::uint64_t sample) {
+ *       msbsdf::Result<msbsdf::Material> gold = msbsdf::Material::create(
+ *           msbsdf::Desc().model(MSBSDF_MODEL_SINGLE).alpha(0.5f)
+ *               .eta(msbsdf::rgb(0.143f, 0.374f, 1.442f)).k(msbsdf::rgb(3.983f, 2.385f, 1.603f)));
+ *       if (!gold) return -1.0f; // gold.message() says why
+ *       msbsdf::Rng rng(pixel, sample);
+ *       msbsdf::Vec3 wi = msbsdf::vec3(0.5f, 0.0f, 0.8660254f);
+ *       msbsdf::Context ctx; // radiance, both lobes
+ *       msbsdf::Result<msbsdf::SampleRecord> s =
+ *           gold.value.sample_with(ctx, wi, rng.next_float(), rng.next_float(), rng.next_float());
+ *       return s ? s.value.weight.g : 0.0f;
+ *   }
  *
  * No exceptions: every call returns a Result<T> carrying the C status and the
  * value (zeroed on failure, as the C API guarantees). Material owns its
@@ -30,6 +38,8 @@ typedef msbsdf_vec3 Vec3;
 typedef msbsdf_rgb Rgb;
 /** What sample returns: wo, weight = f |cos| / pdf, pdf, flags. */
 typedef msbsdf_sample_result SampleResult;
+/** What sample_with returns: flags, wo, weight, pdf and the relative eta. */
+typedef msbsdf_sample_record SampleRecord;
 /** A C status code (MSBSDF_STATUS_*). */
 typedef msbsdf_status Status;
 
@@ -77,11 +87,29 @@ private:
 
 class Material;
 
-/** Builder over msbsdf_material_desc, starting from msbsdf_material_desc_default(). */
+/** Per-call options (msbsdf_context): transport mode, lobes, rng. */
+class Context {
+public:
+    /** Radiance transport, both lobes, no generator. */
+    Context() noexcept { msbsdf_context_init(&c_); }
+    /** MSBSDF_TRANSPORT_RADIANCE or MSBSDF_TRANSPORT_IMPORTANCE. */
+    Context &transport(std::uint32_t v) noexcept { c_.transport = v; return *this; }
+    /** MSBSDF_LOBE_* bits. */
+    Context &lobes(std::uint32_t v) noexcept { c_.lobes = v; return *this; }
+    /** The generator of stochastic models (kept by pointer: keep it alive). */
+    Context &rng(Rng &r) noexcept { c_.rng = r.c(); return *this; }
+    /** The C context. */
+    const msbsdf_context *c() const noexcept { return &c_; }
+
+private:
+    msbsdf_context c_;
+};
+
+/** Builder over msbsdf_material_desc, starting from msbsdf_material_desc_init. */
 class Desc {
 public:
     /** Every field at its default (single scattering, GGX 0.5, mirror conductor). */
-    Desc() noexcept : d_(msbsdf_material_desc_default()) {}
+    Desc() noexcept { msbsdf_material_desc_init(&d_); }
     /** Wraps an existing C description. */
     explicit Desc(const msbsdf_material_desc &d) noexcept : d_(d) {}
 
@@ -101,8 +129,8 @@ public:
     Desc &shape(float v) noexcept { d_.shape = v; return *this; }
     /** Conductor: real IOR per channel; dielectric: eta.r = inside / outside. */
     Desc &eta(Rgb v) noexcept { d_.eta = v; return *this; }
-    /** Dielectric: inside / outside index. */
-    Desc &eta(float v) noexcept { d_.eta.r = v; return *this; }
+    /** Dielectric: inside / outside index (all channels). */
+    Desc &eta(float v) noexcept { d_.eta.r = v; d_.eta.g = v; d_.eta.b = v; return *this; }
     /** Conductor: imaginary IOR per channel. */
     Desc &k(Rgb v) noexcept { d_.k = v; return *this; }
     /** Diffuse facets: albedo. */
@@ -111,7 +139,9 @@ public:
     Desc &max_bounces(std::uint32_t v) noexcept { d_.max_bounces = v; return *this; }
     /** MSBSDF_MODEL_AUTO tolerance. */
     Desc &tolerance(float v) noexcept { d_.tolerance = v; return *this; }
-    /** MSBSDF_FACET_MATERIAL: facets scatter as `m` (keep it alive). */
+    /** MSBSDF_CONDUCTOR_TWO_SIDED (default) or MSBSDF_CONDUCTOR_ONE_SIDED. */
+    Desc &conductor_sides(std::uint32_t v) noexcept { d_.conductor_sides = v; return *this; }
+    /** MSBSDF_FACET_MATERIAL: facets scatter as `m` (copied at create). */
     inline Desc &inner(const Material &m) noexcept;
 
     /** The C description. */
@@ -179,6 +209,26 @@ public:
     Result<float> pdf(Vec3 wi, Vec3 wo) const noexcept {
         Result<float> r = {MSBSDF_STATUS_OK, 0.0f};
         r.status = msbsdf_pdf(m_, wi, wo, &r.value);
+        return r;
+    }
+
+    /** f(wi, wo) |cos theta_o| and the pdf in one call, under `ctx`. */
+    Result<Rgb> eval_pdf(const Context &ctx, Vec3 wi, Vec3 wo, float &pdf) const noexcept {
+        Result<Rgb> r = {MSBSDF_STATUS_OK, Rgb()};
+        r.status = msbsdf_eval_pdf(m_, ctx.c(), wi, wo, &r.value, &pdf);
+        return r;
+    }
+    /** Samples from the caller's uniforms in [0, 1), under `ctx`. */
+    Result<SampleRecord> sample_with(const Context &ctx, Vec3 wi, float u_lobe, float u1, float u2) const noexcept {
+        Result<SampleRecord> r = {MSBSDF_STATUS_OK, SampleRecord()};
+        msbsdf_sample_record_init(&r.value);
+        r.status = msbsdf_sample_with(m_, ctx.c(), wi, u_lobe, u1, u2, &r.value);
+        return r;
+    }
+    /** MSBSDF_MATERIAL_* bits. */
+    Result<std::uint32_t> flags() const noexcept {
+        Result<std::uint32_t> r = {MSBSDF_STATUS_OK, 0u};
+        r.status = msbsdf_material_flags(m_, &r.value);
         return r;
     }
 

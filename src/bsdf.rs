@@ -16,6 +16,100 @@ pub const SAMPLE_TRANSMISSION: u32 = 2;
 /// the weight is zero.
 pub const SAMPLE_ABSORBED: u32 = 4;
 
+/// The sample is a Dirac lobe (specular regime): `pdf` is the discrete
+/// probability of the lobe, not a density (set only in [`SampleRecord`]).
+pub const SAMPLE_SPECULAR: u32 = 8;
+/// The sample comes from a lobe with a density (set only in [`SampleRecord`]).
+pub const SAMPLE_GLOSSY: u32 = 16;
+
+/// The material reflects.
+pub const MATERIAL_REFLECTION: u32 = 1;
+/// The material transmits (dielectric facets).
+pub const MATERIAL_TRANSMISSION: u32 = 2;
+/// The material is smooth (alpha below [`SPECULAR_ALPHA`](crate::desc::SPECULAR_ALPHA)):
+/// Dirac lobes only, eval and pdf are 0, sample gives the lobes.
+pub const MATERIAL_SPECULAR: u32 = 4;
+/// The material has lobes with a density (not specular).
+pub const MATERIAL_GLOSSY: u32 = 8;
+/// The roughness differs along x and y.
+pub const MATERIAL_ANISOTROPIC: u32 = 16;
+/// eval is a Monte Carlo estimate (it needs an [`Rng`]).
+pub const MATERIAL_STOCHASTIC_EVAL: u32 = 32;
+/// pdf approximates the density of sample (fine for MIS; pbrt-v4's
+/// `pdfIsProportional`).
+pub const MATERIAL_APPROXIMATE_PDF: u32 = 64;
+
+/// Lobes a query may use: reflection (the side of `wi`).
+pub const LOBE_REFLECTION: u32 = 1;
+/// Lobes a query may use: transmission (the other side).
+pub const LOBE_TRANSMISSION: u32 = 2;
+/// Both lobes.
+pub const LOBE_ALL: u32 = LOBE_REFLECTION | LOBE_TRANSMISSION;
+
+/// What the path carries across a refraction (pbrt-v4's `TransportMode`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Transport {
+    /// Radiance (camera paths): transmission is scaled by `1 / eta^2`, with
+    /// `eta` the relative index of the side of `wo` over the side of `wi`.
+    #[default]
+    Radiance,
+    /// Importance (light paths), the flux-conserving form the calls without
+    /// a context return.
+    Importance,
+}
+
+/// Per-call options of the context-taking queries.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Context {
+    /// Radiance or importance.
+    pub transport: Transport,
+    /// Allowed lobes: [`LOBE_REFLECTION`], [`LOBE_TRANSMISSION`] or both.
+    pub lobes: u32,
+}
+
+impl Default for Context {
+    /// Radiance, both lobes.
+    fn default() -> Self {
+        Context {
+            transport: Transport::Radiance,
+            lobes: LOBE_ALL,
+        }
+    }
+}
+
+impl Context {
+    /// The context under which the calls without one answer (importance,
+    /// both lobes).
+    pub const PLAIN: Context = Context {
+        transport: Transport::Importance,
+        lobes: LOBE_ALL,
+    };
+
+    /// True when `wo` lies in an allowed lobe for `wi`.
+    #[inline]
+    pub fn allows(&self, wi: Vec3, wo: Vec3) -> bool {
+        if same_side(wi, wo) {
+            self.lobes & LOBE_REFLECTION != 0
+        } else if opposite_sides(wi, wo) {
+            self.lobes & LOBE_TRANSMISSION != 0
+        } else {
+            false
+        }
+    }
+}
+
+/// A sample with what an integrator needs besides the direction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SampleRecord {
+    /// Direction, weight and pdf (flags as in [`Sample`]).
+    pub sample: Sample,
+    /// [`Sample::flags`] plus [`SAMPLE_SPECULAR`] or [`SAMPLE_GLOSSY`].
+    pub flags: u32,
+    /// Relative index of the side of `wo` over the side of `wi` (1 for
+    /// reflection and absorption).
+    pub eta: f32,
+}
+
 /// The result of sampling an outgoing direction.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sample {
@@ -79,6 +173,8 @@ pub trait ScatterModel {
     fn eval(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3;
     /// Draws `wo` given `wi`.
     fn sample(&self, wi: Vec3, rng: &mut Rng) -> Sample;
+    /// Draws wo from caller uniforms: u[0] chooses the lobe at the first vertex, u[1], u[2] the 2D sample of the first visible-normal draw; stochastic models take the rest from rng.
+    fn sample_with(&self, wi: Vec3, u: [f32; 3], rng: &mut Rng) -> Sample;
     /// Density of `sample` choosing `wo` (an approximation for stochastic models,
     /// positive wherever `sample` can go).
     fn pdf(&self, wi: Vec3, wo: Vec3) -> f32;

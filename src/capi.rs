@@ -10,8 +10,9 @@
 
 #![allow(non_camel_case_types)]
 
-use crate::bsdf::Sample;
-use crate::material::{Estimator, FacetKind, Material, MaterialDesc, Model, NdfId};
+use crate::bsdf::{Context, Sample, Transport};
+use crate::desc::{Estimator, FacetKind, MaterialDesc, Model, NdfId};
+use crate::material::Material;
 use crate::rng::Rng;
 use crate::status::Error;
 use glam::Vec3;
@@ -101,9 +102,69 @@ pub const MSBSDF_SAMPLE_TRANSMISSION: u32 = 2;
 /// The path ended inside the surface; weight is zero.
 pub const MSBSDF_SAMPLE_ABSORBED: u32 = 4;
 
+/// `sample` took a Dirac lobe (`msbsdf_sample_record` only; `pdf` is then
+/// the discrete probability of the lobe).
+pub const MSBSDF_SAMPLE_SPECULAR: u32 = 8;
+/// `sample` took a lobe with a density (`msbsdf_sample_record` only).
+pub const MSBSDF_SAMPLE_GLOSSY: u32 = 16;
+
+/// Conductor facets mirror the back face onto the front face (default, the
+/// behaviour of 0.2): a `wi` below the surface scatters below it.
+pub const MSBSDF_CONDUCTOR_TWO_SIDED: u32 = 0;
+/// Conductor facets absorb from below: eval, pdf and sample weight are 0
+/// for `wi.z < 0` (as Mitsuba 3's conductors).
+pub const MSBSDF_CONDUCTOR_ONE_SIDED: u32 = 1;
+
+/// Camera paths: transmission divided by the squared relative index
+/// (`eta` of the side of `wo` over the side of `wi`); the context default.
+pub const MSBSDF_TRANSPORT_RADIANCE: u32 = 0;
+/// Light paths: the flux-conserving values the calls without a context return.
+pub const MSBSDF_TRANSPORT_IMPORTANCE: u32 = 1;
+
+/// Lobe mask bit: reflection (the side of `wi`).
+pub const MSBSDF_LOBE_REFLECTION: u32 = 1;
+/// Lobe mask bit: transmission (the other side).
+pub const MSBSDF_LOBE_TRANSMISSION: u32 = 2;
+/// Both lobes (the context default).
+pub const MSBSDF_LOBE_ALL: u32 = 3;
+
+/// Material flag: reflects.
+pub const MSBSDF_MATERIAL_REFLECTION: u32 = 1;
+/// Material flag: transmits (dielectric facets).
+pub const MSBSDF_MATERIAL_TRANSMISSION: u32 = 2;
+/// Material flag: smooth, Dirac lobes only (alpha below 1e-3 along both
+/// axes, or 0): eval and pdf are 0, only sample finds the lobes; skip
+/// next-event estimation.
+pub const MSBSDF_MATERIAL_SPECULAR: u32 = 4;
+/// Material flag: lobes with a density.
+pub const MSBSDF_MATERIAL_GLOSSY: u32 = 8;
+/// Material flag: alpha_x differs from alpha_y.
+pub const MSBSDF_MATERIAL_ANISOTROPIC: u32 = 16;
+/// Material flag: eval is a Monte Carlo estimate (needs an rng).
+pub const MSBSDF_MATERIAL_STOCHASTIC_EVAL: u32 = 32;
+/// Material flag: pdf approximates the sampling density (fine for MIS; it
+/// may integrate to less than 1).
+pub const MSBSDF_MATERIAL_APPROXIMATE_PDF: u32 = 64;
+
+const _: () = {
+    use crate::bsdf as b;
+    assert!(
+        MSBSDF_SAMPLE_SPECULAR == b::SAMPLE_SPECULAR && MSBSDF_SAMPLE_GLOSSY == b::SAMPLE_GLOSSY
+    );
+    assert!(MSBSDF_LOBE_REFLECTION == b::LOBE_REFLECTION);
+    assert!(MSBSDF_LOBE_TRANSMISSION == b::LOBE_TRANSMISSION && MSBSDF_LOBE_ALL == b::LOBE_ALL);
+    assert!(MSBSDF_MATERIAL_REFLECTION == b::MATERIAL_REFLECTION);
+    assert!(MSBSDF_MATERIAL_TRANSMISSION == b::MATERIAL_TRANSMISSION);
+    assert!(MSBSDF_MATERIAL_SPECULAR == b::MATERIAL_SPECULAR);
+    assert!(MSBSDF_MATERIAL_GLOSSY == b::MATERIAL_GLOSSY);
+    assert!(MSBSDF_MATERIAL_ANISOTROPIC == b::MATERIAL_ANISOTROPIC);
+    assert!(MSBSDF_MATERIAL_STOCHASTIC_EVAL == b::MATERIAL_STOCHASTIC_EVAL);
+    assert!(MSBSDF_MATERIAL_APPROXIMATE_PDF == b::MATERIAL_APPROXIMATE_PDF);
+};
+
 /// Largest allowed `max_bounces`.
 pub const MSBSDF_MAX_BOUNCES: u32 = 256;
-const _: () = assert!(MSBSDF_MAX_BOUNCES == crate::material::MAX_BOUNCES);
+const _: () = assert!(MSBSDF_MAX_BOUNCES == crate::desc::MAX_BOUNCES);
 
 /// A direction or vector in the local frame (z = macro-surface normal).
 #[repr(C)]
@@ -146,9 +207,12 @@ pub struct msbsdf_material {
 }
 
 /// Everything that describes a material. Initialise with
-/// `msbsdf_material_desc_default()`, then set fields. Fields may be appended
-/// in later minor versions, never reordered; `struct_size` tells the library
-/// which layout the caller compiled against.
+/// `msbsdf_material_desc_init(&desc)` (a macro passing `sizeof desc`, so it
+/// writes exactly the struct this program compiled), then set fields.
+/// Fields are appended in later minor versions, never reordered;
+/// `struct_size` tells the library which layout the caller compiled against:
+/// it reads `min(struct_size, its own size)` bytes over its defaults and
+/// refuses only sizes below the first published layout (88 bytes, 0.2.0).
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
 pub struct msbsdf_material_desc {
@@ -162,15 +226,19 @@ pub struct msbsdf_material_desc {
     pub ndf: u32,
     /// `MSBSDF_FACET_*`.
     pub facet: u32,
-    /// Roughness along x, in (0, 10]; values below 1e-4 act as 1e-4.
+    /// Roughness along x, in [0, 10]. Conductors and dielectrics with alpha
+    /// below 1e-3 along both axes (0 included) are smooth: Dirac lobes with
+    /// `MSBSDF_MATERIAL_SPECULAR` (eval and pdf 0, sample finds the lobes);
+    /// other facets use at least 1e-4.
     pub alpha_x: f32,
-    /// Roughness along y, in (0, 10].
+    /// Roughness along y, in [0, 10].
     pub alpha_y: f32,
     /// NDF shape parameter (Student-T gamma in (1.5, 1e4]).
     pub shape: f32,
     /// Conductor: real part of the complex IOR per channel (eta 0, k 1 is a
     /// perfect mirror); dielectric: `eta.r` = inside / outside index, in
-    /// [0.01, 100].
+    /// [0.01, 100]; `eta.g` and `eta.b` must equal `eta.r` or be 0 (no
+    /// dispersion: differing channels give `MSBSDF_STATUS_INVALID_ARGUMENT`).
     pub eta: msbsdf_rgb,
     /// Conductor: imaginary part of the IOR per channel.
     pub k: msbsdf_rgb,
@@ -187,9 +255,60 @@ pub struct msbsdf_material_desc {
     /// rougher glass; 0.01 picks walks averaged over hundreds to thousands
     /// of evaluations (0.1 to 11 ms per eval): for references, not frames.
     pub tolerance: f32,
-    /// `MSBSDF_FACET_MATERIAL`: the facets scatter as this material; the
-    /// caller keeps it alive as long as this one.
+    /// `MSBSDF_FACET_MATERIAL`: the facets scatter as this material. The new
+    /// material keeps a copy: `inner` need only be alive during create/init
+    /// and may be destroyed afterwards.
     pub inner: *const msbsdf_material,
+    /// Since 0.3.0. `MSBSDF_CONDUCTOR_TWO_SIDED` (0, default) or
+    /// `MSBSDF_CONDUCTOR_ONE_SIDED`; ignored for other facets.
+    pub conductor_sides: u32,
+}
+
+/// Size of the first published layout of `msbsdf_material_desc` (0.2.0):
+/// the fields up to `inner`.
+const DESC_SIZE_0_2: usize = 88;
+const _: () = assert!(std::mem::offset_of!(msbsdf_material_desc, conductor_sides) == DESC_SIZE_0_2);
+
+/// Per-call options of `msbsdf_eval_pdf` and `msbsdf_sample_with` (since
+/// 0.3.0). Initialise with `msbsdf_context_init(&ctx)`; a NULL context means
+/// the defaults (radiance, both lobes, no rng).
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct msbsdf_context {
+    /// `sizeof(msbsdf_context)` as the caller compiled it.
+    pub struct_size: u32,
+    /// `MSBSDF_TRANSPORT_RADIANCE` (default) or `MSBSDF_TRANSPORT_IMPORTANCE`.
+    pub transport: u32,
+    /// Allowed lobes, `MSBSDF_LOBE_*` bits (default `MSBSDF_LOBE_ALL`).
+    pub lobes: u32,
+    /// Generator for stochastic models (advanced by the call); may be NULL
+    /// for deterministic ones.
+    pub rng: *mut msbsdf_rng,
+}
+
+/// The result of `msbsdf_sample_with` (since 0.3.0). Set `struct_size`
+/// (`msbsdf_sample_record_init(&rec)`) before the call: the library writes
+/// `min(struct_size, its own size)` bytes and zeroes the rest.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct msbsdf_sample_record {
+    /// `sizeof(msbsdf_sample_record)` as the caller compiled it (kept).
+    pub struct_size: u32,
+    /// `MSBSDF_SAMPLE_REFLECTION` or `_TRANSMISSION`, with
+    /// `MSBSDF_SAMPLE_SPECULAR` or `_GLOSSY`; or `MSBSDF_SAMPLE_ABSORBED`.
+    pub flags: u32,
+    /// Outgoing unit direction (zero when absorbed).
+    pub wo: msbsdf_vec3,
+    /// `f * |cos theta_o| / pdf` per channel under the context's transport
+    /// mode (for a Dirac lobe: its Fresnel factor over its probability).
+    pub weight: msbsdf_rgb,
+    /// Density of `wo` per solid angle as `msbsdf_eval_pdf` reports it under
+    /// the same context; for `MSBSDF_SAMPLE_SPECULAR` the discrete
+    /// probability of the lobe.
+    pub pdf: f32,
+    /// Relative index of the side of `wo` over the side of `wi` (1 for
+    /// reflection).
+    pub eta: f32,
 }
 
 /// The result of `msbsdf_sample`.
@@ -338,23 +457,119 @@ fn estimator_from_c(v: u32) -> Result<Estimator, Error> {
     })
 }
 
-/// Reads and validates a C description into a material.
+/// C structs any bit pattern of which is a valid value (integers, floats and
+/// raw pointers only), starting with their `u32 struct_size`.
 ///
 /// # Safety
-/// `desc` must be NULL or point to at least `struct_size` readable bytes.
-unsafe fn material_from_c(desc: *const msbsdf_material_desc) -> Result<Material, Error> {
-    if desc.is_null() {
-        return Err(Error::NullPointer);
-    }
-    // SAFETY: `desc` is non-NULL and, per the contract, points to a struct
-    // that starts with its u32 size.
-    let size = unsafe { (desc as *const u32).read_unaligned() } as usize;
-    if size < std::mem::size_of::<msbsdf_material_desc>() {
+/// Implement only for such `repr(C)` structs.
+unsafe trait Versioned: Copy {
+    /// Size of the first published layout: smaller `struct_size` is refused.
+    const OLDEST: usize;
+}
+
+// SAFETY: u32, f32, plain float structs and a raw pointer; starts with struct_size.
+unsafe impl Versioned for msbsdf_material_desc {
+    const OLDEST: usize = DESC_SIZE_0_2;
+}
+// SAFETY: u32 fields and a raw pointer; starts with struct_size.
+unsafe impl Versioned for msbsdf_context {
+    const OLDEST: usize = std::mem::size_of::<msbsdf_context>();
+}
+// SAFETY: u32 and f32 fields only; starts with struct_size.
+unsafe impl Versioned for msbsdf_sample_record {
+    const OLDEST: usize = std::mem::size_of::<msbsdf_sample_record>();
+}
+
+/// The caller's `struct_size` of a versioned struct, checked against the
+/// oldest layout.
+///
+/// # Safety
+/// `p` must be non-NULL and point to at least 4 readable bytes.
+unsafe fn caller_size<T: Versioned>(p: *const T) -> Result<usize, Error> {
+    // SAFETY: per the contract, `p` starts with a readable u32.
+    let size = unsafe { (p as *const u32).read_unaligned() } as usize;
+    if size < T::OLDEST {
         return Err(Error::StructTooSmall);
     }
-    // SAFETY: the caller's struct is at least as large as ours (checked
-    // above), so every field we read is inside it.
-    let d = unsafe { desc.read_unaligned() };
+    Ok(size)
+}
+
+/// Reads a caller's versioned struct: `min(struct_size, size_of::<T>())`
+/// bytes over `defaults` (older layouts keep the defaults of the fields they
+/// lack; newer layouts' extra fields are not read).
+///
+/// # Safety
+/// `p` must be NULL or point to `struct_size` readable bytes.
+unsafe fn read_versioned<T: Versioned>(p: *const T, defaults: T) -> Result<T, Error> {
+    if p.is_null() {
+        return Err(Error::NullPointer);
+    }
+    // SAFETY: forwarded contract.
+    let n = unsafe { caller_size(p) }?.min(std::mem::size_of::<T>());
+    let mut v = defaults;
+    // SAFETY: the caller's struct has at least `n` readable bytes; `v` has
+    // `size_of::<T>() >= n` writable bytes, and any bit pattern is a valid
+    // `T` (`Versioned`).
+    unsafe { std::ptr::copy_nonoverlapping(p as *const u8, &mut v as *mut T as *mut u8, n) };
+    Ok(v)
+}
+
+/// Writes `v` into the caller's versioned struct of `size` bytes: its first
+/// `min(size, size_of::<T>())` bytes, the rest zeroed, `struct_size` = `size`.
+///
+/// # Safety
+/// `p` must be non-NULL and writable for `size` bytes; `size` must fit u32.
+unsafe fn write_versioned<T: Versioned>(p: *mut T, v: T, size: usize) {
+    let n = size.min(std::mem::size_of::<T>());
+    // SAFETY: `p` is writable for `size >= n` bytes and `v` is readable for
+    // `size_of::<T>() >= n` bytes; the tail `size - n` is inside the caller's
+    // struct.
+    unsafe {
+        std::ptr::copy_nonoverlapping(&v as *const T as *const u8, p as *mut u8, n);
+        std::ptr::write_bytes((p as *mut u8).add(n), 0, size - n);
+        (p as *mut u32).write_unaligned(size as u32);
+    }
+}
+
+/// Fills a versioned struct of the caller's `size` with `defaults`.
+///
+/// # Safety
+/// `p` NULL or writable for `size` bytes.
+unsafe fn init_versioned<T: Versioned>(p: *mut T, size: usize, defaults: T) -> msbsdf_status {
+    guard(|| {
+        if p.is_null() {
+            return Err(Error::NullPointer);
+        }
+        if size < T::OLDEST {
+            return Err(Error::StructTooSmall);
+        }
+        if size > u32::MAX as usize {
+            return Err(Error::InvalidArgument); // struct_size is 32-bit
+        }
+        // SAFETY: forwarded contract; size checked.
+        unsafe { write_versioned(p, defaults, size) };
+        Ok(())
+    })
+}
+
+fn sides_from_c(v: u32) -> Result<bool, Error> {
+    match v {
+        MSBSDF_CONDUCTOR_TWO_SIDED => Ok(false),
+        MSBSDF_CONDUCTOR_ONE_SIDED => Ok(true),
+        _ => Err(Error::UnknownConstant),
+    }
+}
+
+/// Reads and validates a C description into a material. The inner material
+/// of a composition is borrowed for this call only (the material keeps a
+/// copy of it).
+///
+/// # Safety
+/// `desc` must be NULL or point to at least `struct_size` readable bytes;
+/// its `inner` NULL or a live handle.
+unsafe fn material_from_c(desc: *const msbsdf_material_desc) -> Result<Material, Error> {
+    // SAFETY: forwarded contract.
+    let d = unsafe { read_versioned(desc, desc_defaults()) }?;
     let rust = MaterialDesc {
         model: model_from_c(d.model)?,
         estimator: estimator_from_c(d.estimator)?,
@@ -369,20 +584,81 @@ unsafe fn material_from_c(desc: *const msbsdf_material_desc) -> Result<Material,
         max_bounces: d.max_bounces,
         tolerance: d.tolerance,
         inner: None,
+        one_sided: sides_from_c(d.conductor_sides)?,
     };
-    let rust = if rust.facet == FacetKind::Material {
+    let inner = if rust.facet == FacetKind::Material {
         // SAFETY: the caller guarantees `inner` is NULL or a live material
-        // handle that outlives the material built here (header contract);
-        // `material_ref` handles NULL.
-        let inner: &'static Material = unsafe { material_ref(d.inner) }?;
-        MaterialDesc {
-            inner: Some(inner),
-            ..rust
-        }
+        // handle for the duration of this call; the reference does not
+        // outlive it (`Material::with_inner` copies what it needs).
+        Some(unsafe { material_ref(d.inner) }?)
     } else {
-        rust
+        None
     };
-    Material::new(&rust)
+    Material::with_inner(&rust, inner)
+}
+
+/// The defaults of every field (0.2 callers get these for the fields
+/// appended since).
+fn desc_defaults() -> msbsdf_material_desc {
+    let d = MaterialDesc::default();
+    msbsdf_material_desc {
+        struct_size: std::mem::size_of::<msbsdf_material_desc>() as u32,
+        model: MSBSDF_MODEL_SINGLE,
+        estimator: MSBSDF_ESTIMATOR_PT,
+        ndf: MSBSDF_NDF_GGX,
+        facet: MSBSDF_FACET_CONDUCTOR,
+        alpha_x: d.alpha_x,
+        alpha_y: d.alpha_y,
+        shape: d.shape,
+        eta: from_rgb(d.eta),
+        k: from_rgb(d.k),
+        albedo: from_rgb(d.albedo),
+        max_bounces: d.max_bounces,
+        tolerance: d.tolerance,
+        inner: std::ptr::null(),
+        conductor_sides: MSBSDF_CONDUCTOR_TWO_SIDED,
+    }
+}
+
+fn context_defaults() -> msbsdf_context {
+    msbsdf_context {
+        struct_size: std::mem::size_of::<msbsdf_context>() as u32,
+        transport: MSBSDF_TRANSPORT_RADIANCE,
+        lobes: MSBSDF_LOBE_ALL,
+        rng: std::ptr::null_mut(),
+    }
+}
+
+/// The Rust context and the rng of a C context (NULL: the defaults).
+///
+/// # Safety
+/// `ctx` NULL or readable for its `struct_size`; its `rng` NULL or valid.
+unsafe fn context_from_c<'a>(
+    ctx: *const msbsdf_context,
+) -> Result<(Context, Option<&'a mut msbsdf_rng>), Error> {
+    let c = if ctx.is_null() {
+        context_defaults()
+    } else {
+        // SAFETY: forwarded contract.
+        unsafe { read_versioned(ctx, context_defaults()) }?
+    };
+    let transport = match c.transport {
+        MSBSDF_TRANSPORT_RADIANCE => Transport::Radiance,
+        MSBSDF_TRANSPORT_IMPORTANCE => Transport::Importance,
+        _ => return Err(Error::UnknownConstant),
+    };
+    if c.lobes & !MSBSDF_LOBE_ALL != 0 {
+        return Err(Error::UnknownConstant);
+    }
+    // SAFETY: the caller guarantees `rng` is NULL or valid for this call.
+    let rng = unsafe { c.rng.as_mut() };
+    Ok((
+        Context {
+            transport,
+            lobes: c.lobes,
+        },
+        rng,
+    ))
 }
 
 // ---------------------------------------------------------------------------
@@ -480,26 +756,12 @@ pub unsafe extern "C" fn msbsdf_rng_next_float(rng: *mut msbsdf_rng) -> f32 {
 /// A description with every field at its default: GGX alpha 0.5, perfectly
 /// reflecting conductor facets (eta 0, k 1), single scattering, PT estimator,
 /// shape 2, albedo 0.8, default bounces, tolerance 0.1, no inner material,
-/// and `struct_size` set.
+/// two-sided conductors, and `struct_size` set. Returned by value, it has
+/// this library's size: a program compiled against an older header must use
+/// `msbsdf_material_desc_init` instead (kept for 0.2 source compatibility).
 #[unsafe(no_mangle)]
 pub extern "C" fn msbsdf_material_desc_default() -> msbsdf_material_desc {
-    let d = MaterialDesc::default();
-    msbsdf_material_desc {
-        struct_size: std::mem::size_of::<msbsdf_material_desc>() as u32,
-        model: MSBSDF_MODEL_SINGLE,
-        estimator: MSBSDF_ESTIMATOR_PT,
-        ndf: MSBSDF_NDF_GGX,
-        facet: MSBSDF_FACET_CONDUCTOR,
-        alpha_x: d.alpha_x,
-        alpha_y: d.alpha_y,
-        shape: d.shape,
-        eta: from_rgb(d.eta),
-        k: from_rgb(d.k),
-        albedo: from_rgb(d.albedo),
-        max_bounces: d.max_bounces,
-        tolerance: d.tolerance,
-        inner: std::ptr::null(),
-    }
+    desc_defaults()
 }
 
 /// Bytes of storage `msbsdf_material_init` needs.
@@ -619,6 +881,8 @@ pub unsafe extern "C" fn msbsdf_material_init(
 /// `f(wi, wo) * |cos theta_o|` per channel. Directions need not be
 /// normalised. `rng` may be NULL for deterministic models (SINGLE, V-groove,
 /// energy-compensated); stochastic models need it and advance it.
+/// Flux-conserving (importance transport); 0 for a specular material
+/// (`MSBSDF_MATERIAL_SPECULAR`: Dirac lobes have no density).
 /// `*out` is zero on any failure.
 ///
 /// # Safety
@@ -672,8 +936,10 @@ fn with_rng<T>(
     }
 }
 
-/// Samples an outgoing direction for `wi`. `rng` is required. On failure
-/// `*out` is all zeros.
+/// Samples an outgoing direction for `wi`. `rng` is required. For a
+/// specular material the direction is the mirror or refracted one and `pdf`
+/// the probability of that lobe (`msbsdf_sample_with` also flags it
+/// `MSBSDF_SAMPLE_SPECULAR`). On failure `*out` is all zeros.
 ///
 /// # Safety
 /// `material` NULL or live; `rng` NULL or valid; `out` NULL or writable.
@@ -710,7 +976,8 @@ pub unsafe extern "C" fn msbsdf_sample(
 
 /// Density per solid angle with which `msbsdf_sample` picks `wo` given `wi`
 /// (exact for deterministic models, an approximation positive wherever
-/// sampling can go for stochastic ones). `*out` is 0 on failure.
+/// sampling can go for stochastic ones; 0 everywhere for a specular
+/// material). `*out` is 0 on failure.
 ///
 /// # Safety
 /// `material` NULL or live; `out` NULL or writable.
@@ -733,6 +1000,185 @@ pub unsafe extern "C" fn msbsdf_pdf(
         let p = m.pdf(wi, wo);
         // SAFETY: `out` checked above.
         unsafe { out.write(p) };
+        Ok(())
+    })
+}
+
+/// Fills `*desc` with the defaults of `msbsdf_material_desc_default()`,
+/// writing exactly `size` bytes: the fields this library knows up to `size`,
+/// zeros after them (every field appended later means its 0.2 behaviour at
+/// 0), and `struct_size = size`. Call it through the macro
+/// `msbsdf_material_desc_init(&desc)`, which passes `sizeof desc` as this
+/// program compiled it. Sizes below the 0.2 layout (88 bytes):
+/// `MSBSDF_STATUS_STRUCT_TOO_SMALL`, nothing written. Since 0.3.0.
+///
+/// # Safety
+/// `desc` NULL or writable for `size` bytes.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn msbsdf_material_desc_init_sized(
+    desc: *mut msbsdf_material_desc,
+    size: usize,
+) -> msbsdf_status {
+    // SAFETY: forwarded contract.
+    unsafe { init_versioned(desc, size, desc_defaults()) }
+}
+
+/// Fills `*ctx` with the defaults (radiance transport, both lobes, no rng),
+/// writing exactly `size` bytes as `msbsdf_material_desc_init_sized`; use the
+/// macro `msbsdf_context_init(&ctx)`. Since 0.3.0.
+///
+/// # Safety
+/// `ctx` NULL or writable for `size` bytes.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn msbsdf_context_init_sized(
+    ctx: *mut msbsdf_context,
+    size: usize,
+) -> msbsdf_status {
+    // SAFETY: forwarded contract.
+    unsafe { init_versioned(ctx, size, context_defaults()) }
+}
+
+/// Zeroes `*rec` and sets its `struct_size = size`, writing exactly `size`
+/// bytes; use the macro `msbsdf_sample_record_init(&rec)`. Since 0.3.0.
+///
+/// # Safety
+/// `rec` NULL or writable for `size` bytes.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn msbsdf_sample_record_init_sized(
+    rec: *mut msbsdf_sample_record,
+    size: usize,
+) -> msbsdf_status {
+    // SAFETY: forwarded contract.
+    unsafe { init_versioned(rec, size, msbsdf_sample_record::default()) }
+}
+
+/// What the material does: `MSBSDF_MATERIAL_*` bits. `*flags` is 0 on
+/// failure. Since 0.3.0.
+///
+/// # Safety
+/// `material` NULL or live; `flags` NULL or writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn msbsdf_material_flags(
+    material: *const msbsdf_material,
+    flags: *mut u32,
+) -> msbsdf_status {
+    if flags.is_null() {
+        return MSBSDF_STATUS_NULL_POINTER;
+    }
+    // SAFETY: `flags` is non-NULL and writable per the contract.
+    unsafe { flags.write(0) };
+    guard(|| {
+        // SAFETY: forwarded contract on `material`.
+        let m = unsafe { material_ref(material) }?;
+        // SAFETY: checked above.
+        unsafe { flags.write(m.flags()) };
+        Ok(())
+    })
+}
+
+/// `f(wi, wo) * |cos theta_o|` and the pdf of `wo` in one call (SINGLE
+/// shares the half vector, D and masking), under `ctx` (NULL: radiance, both
+/// lobes, no rng). With `MSBSDF_TRANSPORT_IMPORTANCE` and both lobes, bit for
+/// bit what `msbsdf_eval` and `msbsdf_pdf` return; radiance divides
+/// transmission by the squared relative index. Lobes outside `ctx->lobes`
+/// give 0. For SINGLE and the specular regime a single allowed lobe is
+/// sampled with probability 1 and its pdf says so; for the other models the
+/// pdf is the unrestricted one (their restricted samples in the other lobe
+/// come back absorbed). Either output may be NULL (not computed); the others
+/// are zeroed on failure. Stochastic models need `ctx->rng`. Since 0.3.0.
+///
+/// # Safety
+/// `material` NULL or live; `ctx` NULL or valid for its `struct_size`, its
+/// `rng` NULL or valid; `value`, `pdf` NULL or writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn msbsdf_eval_pdf(
+    material: *const msbsdf_material,
+    ctx: *const msbsdf_context,
+    wi: msbsdf_vec3,
+    wo: msbsdf_vec3,
+    value: *mut msbsdf_rgb,
+    pdf: *mut f32,
+) -> msbsdf_status {
+    // SAFETY: each output is NULL or writable per the contract.
+    unsafe {
+        if let Some(v) = value.as_mut() {
+            *v = msbsdf_rgb::default();
+        }
+        if let Some(p) = pdf.as_mut() {
+            *p = 0.0;
+        }
+    }
+    guard(|| {
+        // SAFETY: forwarded contracts.
+        let m = unsafe { material_ref(material) }?;
+        // SAFETY: forwarded contract on `ctx`.
+        let (c, rng) = unsafe { context_from_c(ctx) }?;
+        let (wi, wo) = (direction(wi)?, direction(wo)?);
+        let (f, p) = with_rng(m, rng, |r| m.eval_pdf(wi, wo, &c, r))?;
+        // SAFETY: as above.
+        unsafe {
+            if let Some(v) = value.as_mut() {
+                *v = from_rgb(f);
+            }
+            if let Some(o) = pdf.as_mut() {
+                *o = p;
+            }
+        }
+        Ok(())
+    })
+}
+
+/// Samples `wo` for `wi` from the caller's uniforms in [0, 1) (values
+/// outside are clamped into it, NaN acts as 0): `u_lobe` picks the lobe at
+/// the first vertex (reflection or refraction of a dielectric, single or
+/// multiple scattering of ENERGY_COMPENSATED, the bounce count of a
+/// V-groove), `u1, u2` the first visible normal; stochastic models (and the
+/// V-groove's partner facet) draw the rest from `ctx->rng`, which they then
+/// need. Deterministic models give the same record for the same uniforms,
+/// bit for bit. `*rec` must have its `struct_size` set
+/// (`msbsdf_sample_record_init`); on failure it is zeroed (keeping
+/// `struct_size`) unless `struct_size` is too small. Since 0.3.0.
+///
+/// # Safety
+/// `material` NULL or live; `ctx` as for `msbsdf_eval_pdf`; `rec` NULL or
+/// writable for its `struct_size`.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn msbsdf_sample_with(
+    material: *const msbsdf_material,
+    ctx: *const msbsdf_context,
+    wi: msbsdf_vec3,
+    u_lobe: f32,
+    u1: f32,
+    u2: f32,
+    rec: *mut msbsdf_sample_record,
+) -> msbsdf_status {
+    if rec.is_null() {
+        return MSBSDF_STATUS_NULL_POINTER;
+    }
+    // SAFETY: `rec` is non-NULL and starts with its u32 size.
+    let size = match unsafe { caller_size(rec) } {
+        Ok(n) if n <= u32::MAX as usize => n,
+        _ => return MSBSDF_STATUS_STRUCT_TOO_SMALL,
+    };
+    // SAFETY: `rec` is writable for `size` bytes per the contract.
+    unsafe { write_versioned(rec, msbsdf_sample_record::default(), size) };
+    guard(|| {
+        // SAFETY: forwarded contracts.
+        let m = unsafe { material_ref(material) }?;
+        // SAFETY: forwarded contract on `ctx`.
+        let (c, rng) = unsafe { context_from_c(ctx) }?;
+        let wi = direction(wi)?;
+        let r = with_rng(m, rng, |r| m.sample_ctx(wi, [u_lobe, u1, u2], &c, r))?;
+        let out = msbsdf_sample_record {
+            struct_size: 0,
+            flags: r.flags,
+            wo: from_vec3(r.sample.wo),
+            weight: from_rgb(r.sample.weight),
+            pdf: r.sample.pdf,
+            eta: r.eta,
+        };
+        // SAFETY: as above.
+        unsafe { write_versioned(rec, out, size) };
         Ok(())
     })
 }

@@ -10,8 +10,10 @@
 //! - [`Material::pdf`]: the density `sample` uses.
 //!
 //! Transmission is the flux-conserving form (with non-absorbing facets the
-//! reflected plus transmitted albedo is 1); renderers that track radiance
-//! across an interface apply the `1 / eta^2` scaling themselves.
+//! reflected plus transmitted albedo is 1); the context-taking queries
+//! ([`Material::eval_pdf`], [`Material::sample_ctx`]) apply the `1 / eta^2`
+//! of radiance transport when asked ([`bsdf::Context`]). The conventions, the
+//! ABI rules and the models' ranges: `docs/design.md`.
 //!
 //! The C API (`include/msbsdf.h`, generated from [`capi`]) is a thin skin
 //! over this Rust API. Nothing in eval/sample/pdf allocates, locks or uses
@@ -35,6 +37,8 @@
 
 pub mod bsdf;
 pub mod capi;
+pub mod desc;
+pub mod dispatch;
 pub mod facet;
 pub mod frame;
 pub mod fresnel;
@@ -45,10 +49,12 @@ pub mod ndf;
 pub mod rng;
 pub mod single;
 pub mod specfun;
+pub mod specular;
 pub mod status;
 
 pub use bsdf::{SAMPLE_ABSORBED, SAMPLE_REFLECTION, SAMPLE_TRANSMISSION, Sample};
-pub use material::{Estimator, FacetKind, MAX_BOUNCES, Material, MaterialDesc, Model, NdfId};
+pub use desc::{Estimator, FacetKind, MAX_BOUNCES, MaterialDesc, Model, NdfId};
+pub use material::Material;
 pub use rng::Rng;
 pub use status::Error;
 

@@ -1,9 +1,17 @@
 //! A validated material: the description, its checks, and the dispatch to the
 //! scattering models (an enum `match`; no `dyn`, no heap).
 
-use crate::bsdf::{Sample, ScatterModel};
+use crate::bsdf::{
+    Context, LOBE_ALL, MATERIAL_ANISOTROPIC, MATERIAL_APPROXIMATE_PDF, MATERIAL_GLOSSY,
+    MATERIAL_REFLECTION, MATERIAL_SPECULAR, MATERIAL_STOCHASTIC_EVAL, MATERIAL_TRANSMISSION,
+    SAMPLE_ABSORBED, SAMPLE_GLOSSY, SAMPLE_SPECULAR, SAMPLE_TRANSMISSION, Sample, SampleRecord,
+    ScatterModel, Transport, opposite_sides,
+};
+use crate::dispatch::{
+    BaseModel, Inner, eval_guarded, eval_prepared, finite_or_zero, prepare, prepare_one,
+    sample_guarded,
+};
 use crate::facet::Facet;
-use crate::frame::is_valid_direction;
 use crate::multiple::auto;
 use crate::multiple::bitterli_deon::BitterliDeon;
 use crate::multiple::compensation::{self, Compensated};
@@ -15,179 +23,53 @@ use crate::multiple::vgroove::{VGroove, dist::Family};
 use crate::ndf::{Ndf, NdfKind};
 use crate::rng::Rng;
 use crate::single::{G2Form, Single};
+use crate::specular::Specular;
 use crate::status::Error;
 use glam::Vec3;
 
-/// Largest number of scattering events any walk follows (path state on the
-/// stack is bounded by it).
-pub const MAX_BOUNCES: u32 = 256;
+pub use crate::desc::{
+    Estimator, FacetKind, MAX_ALPHA, MAX_BOUNCES, MAX_ETA, MAX_SHAPE, MIN_ALPHA, MaterialDesc,
+    Model, NdfId, SPECULAR_ALPHA,
+};
 
-/// Smallest roughness used internally; smaller positive values are clamped
-/// to it (the lobe is then a near-mirror in f32 anyway).
-pub const MIN_ALPHA: f32 = 1e-4;
-/// Largest roughness accepted.
-pub const MAX_ALPHA: f32 = 10.0;
-
-/// Largest relative index of a dielectric (and smallest, inverted): far
-/// beyond any real material; larger values only overflow f32 arithmetic.
-pub const MAX_ETA: f32 = 100.0;
-
-/// Largest Student-T shape gamma (Beckmann to f32 precision beyond).
-pub const MAX_SHAPE: f32 = 1e4;
-
-/// The scattering method (`MSBSDF_MODEL_*`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Model {
-    /// Single scattering (Cook-Torrance / Walter 2007).
-    Single,
-    /// Kulla-Conty / Turquin energy compensation.
-    EnergyCompensated,
-    /// Heitz et al. 2016 height random walk.
-    HeitzRandomWalk,
-    /// Position-free path integral (seed 000).
-    PositionFree,
-    /// Invariance principle (seed 003).
-    Invariance,
-    /// Bitterli and d'Eon 2022 exit probability.
-    BitterliDeon,
-    /// Symmetric V-groove (seed 002).
-    VGroove,
-    /// Nonsymmetric V-groove (seed 002).
-    VGrooveNonsymmetric,
-    /// Null-scattering walk for general NDFs (seed 001).
-    NullScattering,
-    /// Picks the cheapest model meeting a tolerance.
-    Auto,
-}
-
-/// Estimator of the position-free models (`MSBSDF_ESTIMATOR_*`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Estimator {
-    /// Unidirectional path tracing with next-event estimation.
-    Pt,
-    /// Bidirectional path tracing with MIS.
-    Bdpt,
-}
-
-/// The NDF requested (`MSBSDF_NDF_*`); not all are implemented by every model.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum NdfId {
-    /// Beckmann.
-    Beckmann,
-    /// GGX / Trowbridge-Reitz.
-    Ggx,
-    /// Student-T with shape gamma > 1.5.
-    StudentT,
-    /// Phong (V-groove models).
-    Phong,
-    /// Exponential (null scattering).
-    Exponential,
-    /// Bessel K0 (null scattering).
-    BesselK0,
-    /// von Mises-Fisher, full sphere (null scattering).
-    Vmf,
-}
-
-/// The facet kind (`MSBSDF_FACET_*`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum FacetKind {
-    /// Conductor with complex IOR.
-    Conductor,
-    /// Dielectric interface.
-    Dielectric,
-    /// Lambertian facets.
-    Diffuse,
-    /// Facets scatter as another material (composition).
-    Material,
-}
-
-/// Everything that describes a material, as plain Rust values.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct MaterialDesc {
-    /// Scattering method.
-    pub model: Model,
-    /// Estimator (position-free / invariance models).
-    pub estimator: Estimator,
-    /// Microfacet distribution.
-    pub ndf: NdfId,
-    /// Facet material.
-    pub facet: FacetKind,
-    /// Roughness along x (> 0).
-    pub alpha_x: f32,
-    /// Roughness along y (> 0).
-    pub alpha_y: f32,
-    /// NDF shape parameter (Student-T gamma).
-    pub shape: f32,
-    /// Conductor: real index per channel; dielectric: `eta.x` = inside / outside.
-    pub eta: Vec3,
-    /// Conductor extinction per channel.
-    pub k: Vec3,
-    /// Diffuse facet albedo per channel.
-    pub albedo: Vec3,
-    /// Bounce limit, 0 for the model default.
-    pub max_bounces: u32,
-    /// Error tolerance for [`Model::Auto`] (default 0.1; see the C field
-    /// `msbsdf_material_desc::tolerance` for what it picks).
-    pub tolerance: f32,
-    /// [`FacetKind::Material`]: the facets scatter as this material
-    /// (composition, e.g. biscale roughness; seed 001 section 4). Only
-    /// [`Model::NullScattering`] supports it, with an opaque (conductor or
-    /// diffuse) inner material that is not itself a composition.
-    pub inner: Option<&'static Material>,
-}
-
-impl Default for MaterialDesc {
-    /// GGX alpha 0.5, perfectly reflecting conductor facets, single scattering.
-    fn default() -> Self {
-        MaterialDesc {
-            model: Model::Single,
-            estimator: Estimator::Pt,
-            ndf: NdfId::Ggx,
-            facet: FacetKind::Conductor,
-            alpha_x: 0.5,
-            alpha_y: 0.5,
-            shape: 2.0,
-            eta: Vec3::ZERO,
-            k: Vec3::ONE,
-            albedo: Vec3::splat(0.8),
-            max_bounces: 0,
-            tolerance: 0.1,
-            inner: None,
-        }
-    }
-}
-
-/// `match` over every model (static dispatch: no `dyn`, no heap).
-macro_rules! dispatch {
-    ($imp:expr, $m:ident => $body:expr) => {
-        match $imp {
-            ModelImpl::Single($m) => $body,
-            ModelImpl::PositionFree($m) => $body,
-            ModelImpl::Compensated($m) => $body,
-            ModelImpl::Heitz($m) => $body,
-            ModelImpl::Invariance($m) => $body,
-            ModelImpl::BitterliDeon($m) => $body,
-            ModelImpl::NullScattering($m) => $body,
-            ModelImpl::VGroove($m) | ModelImpl::VGrooveNonsymmetric($m) => $body,
-        }
-    };
-}
-
-// Variants are stored inline (the largest, ENERGY_COMPENSATED with its
-// Fresnel tint table, is about 500 bytes): a material lives in caller storage
-// (`msbsdf_material_init`) and never allocates, so boxing is not an option.
+/// The model of a material: any base model, or the null-scattering walk
+/// (which may hold a base model by value as its facets).
 #[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum ModelImpl {
-    PositionFree(PositionFree),
-    Single(Single),
-    Invariance(Invariance),
-    BitterliDeon(BitterliDeon),
+    Base(BaseModel),
     NullScattering(NullScattering),
-    Compensated(Compensated),
-    Heitz(Heitz),
-    VGroove(VGroove),
-    VGrooveNonsymmetric(VGroove),
+}
+
+impl ScatterModel for ModelImpl {
+    #[inline]
+    fn eval(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3 {
+        match self {
+            ModelImpl::Base(m) => m.eval(wi, wo, rng),
+            ModelImpl::NullScattering(m) => m.eval(wi, wo, rng),
+        }
+    }
+    #[inline]
+    fn sample(&self, wi: Vec3, rng: &mut Rng) -> Sample {
+        match self {
+            ModelImpl::Base(m) => m.sample(wi, rng),
+            ModelImpl::NullScattering(m) => m.sample(wi, rng),
+        }
+    }
+    #[inline]
+    fn sample_with(&self, wi: Vec3, u: [f32; 3], rng: &mut Rng) -> Sample {
+        match self {
+            ModelImpl::Base(m) => m.sample_with(wi, u, rng),
+            ModelImpl::NullScattering(m) => m.sample_with(wi, u, rng),
+        }
+    }
+    #[inline]
+    fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
+        match self {
+            ModelImpl::Base(m) => m.pdf(wi, wo),
+            ModelImpl::NullScattering(m) => m.pdf(wi, wo),
+        }
+    }
 }
 
 /// A validated, immutable material. `Copy`, heap-free, `Send + Sync`: any
@@ -198,6 +80,8 @@ pub struct Material {
     desc: MaterialDesc,
     /// The model actually built (differs from `desc.model` for AUTO).
     chosen: auto::Choice,
+    /// `MATERIAL_*` flags, computed once at construction.
+    flags: u32,
 }
 
 fn valid_rgb(v: Vec3, lo: f32) -> bool {
@@ -209,14 +93,28 @@ impl Material {
     ///
     /// [`Model::NullScattering`] refuses with [`Error::InvalidArgument`] a
     /// roughness below [`null_scattering::MIN_ALPHA`] (0.2: the delta-tracking
-    /// rejection rate grows like `1 / alpha^2`, seed 001 section 3.3), and with
+    /// rejection rate grows like `1 / alpha^2`, d'Eon 2023 section 3.3), and with
     /// [`Error::Unsupported`] the Phong NDF, anisotropic vMF / exponential /
     /// Bessel K0, and Student-T with shape below 2 (unbounded at the horizon,
     /// so no constant majorant exists).
+    ///
+    /// A conductor or dielectric with roughness below [`SPECULAR_ALPHA`]
+    /// along both axes (0 included) is smooth (see [`crate::specular`]) for
+    /// every model that accepts the same description at that threshold;
+    /// a dielectric's `eta.y` and `eta.z` must equal `eta.x` or be 0
+    /// (unused), else [`Error::InvalidArgument`] (no dispersion).
     pub fn new(desc: &MaterialDesc) -> Result<Material, Error> {
+        Material::with_inner(desc, desc.inner)
+    }
+
+    /// [`Material::new`] with the facets' material of a composition given
+    /// apart from `desc` (whose own `inner` is ignored): the new material
+    /// keeps a copy of what it needs, so `inner` need only live for this
+    /// call.
+    pub fn with_inner(desc: &MaterialDesc, inner: Option<&Material>) -> Result<Material, Error> {
         let d = *desc;
         for a in [d.alpha_x, d.alpha_y] {
-            if !(a.is_finite() && a > 0.0 && a <= MAX_ALPHA) {
+            if !(0.0..=MAX_ALPHA).contains(&a) {
                 return Err(Error::InvalidArgument);
             }
         }
@@ -246,6 +144,11 @@ impl Material {
                 if !(d.eta.x.is_finite() && d.eta.x >= 1.0 / MAX_ETA && d.eta.x <= MAX_ETA) {
                     return Err(Error::InvalidArgument);
                 }
+                // One index for all channels: the others equal it or are
+                // unused (0, the conductor default).
+                if [d.eta.y, d.eta.z].iter().any(|&e| e != 0.0 && e != d.eta.x) {
+                    return Err(Error::InvalidArgument);
+                }
                 Facet::Dielectric { eta: d.eta.x }
             }
             FacetKind::Diffuse => {
@@ -258,9 +161,14 @@ impl Material {
                 if d.model != Model::NullScattering {
                     return Err(Error::Unsupported);
                 }
-                let inner = d.inner.ok_or(Error::NullPointer)?;
+                let inner = inner.ok_or(Error::NullPointer)?;
                 let opaque = matches!(inner.desc.facet, FacetKind::Conductor | FacetKind::Diffuse);
                 if !opaque {
+                    return Err(Error::Unsupported);
+                }
+                // Kept by value; a null-scattering inner (itself able to hold
+                // one) is not supported.
+                if !matches!(inner.imp, ModelImpl::Base(_)) {
                     return Err(Error::Unsupported);
                 }
                 // Placeholder: the null-scattering walk scatters by `inner`.
@@ -286,6 +194,24 @@ impl Material {
                 d.shape,
             )
         };
+        let smooth = d.alpha_x.max(d.alpha_y) < SPECULAR_ALPHA;
+        if smooth && matches!(facet, Facet::Conductor { .. } | Facet::Dielectric { .. }) {
+            // The model must accept the description at the threshold.
+            let rough = MaterialDesc {
+                alpha_x: SPECULAR_ALPHA,
+                alpha_y: SPECULAR_ALPHA,
+                ..d
+            };
+            let at_threshold = Material::with_inner(&rough, inner)?;
+            return Ok(Material::finish(
+                ModelImpl::Base(BaseModel::Specular(Specular::new(facet))),
+                d,
+                auto::Choice {
+                    evaluations: 1,
+                    ..at_threshold.chosen
+                },
+            ));
+        }
         let imp = match d.model {
             Model::Single => {
                 let kind = ndf_kind.ok_or(Error::Unsupported)?;
@@ -293,7 +219,11 @@ impl Material {
                     return Err(Error::Unsupported);
                 }
                 let ndf = smith_ndf(kind);
-                ModelImpl::Single(Single::new(ndf, facet, G2Form::HeightCorrelated))
+                ModelImpl::Base(BaseModel::Single(Single::new(
+                    ndf,
+                    facet,
+                    G2Form::HeightCorrelated,
+                )))
             }
             Model::Invariance | Model::BitterliDeon => {
                 // Beckmann, GGX and Student-T: the walks use only the generic
@@ -309,17 +239,26 @@ impl Material {
                     return Err(Error::Unsupported);
                 }
                 if d.model == Model::Invariance {
-                    ModelImpl::Invariance(Invariance::new(ndf, facet, d.estimator, d.max_bounces))
+                    ModelImpl::Base(BaseModel::Invariance(Invariance::new(
+                        ndf,
+                        facet,
+                        d.estimator,
+                        d.max_bounces,
+                    )))
                 } else {
                     if d.estimator != Estimator::Pt {
                         return Err(Error::Unsupported);
                     }
-                    ModelImpl::BitterliDeon(BitterliDeon::new(ndf, facet, d.max_bounces))
+                    ModelImpl::Base(BaseModel::BitterliDeon(BitterliDeon::new(
+                        ndf,
+                        facet,
+                        d.max_bounces,
+                    )))
                 }
             }
             Model::NullScattering => {
                 // Below null_scattering::MIN_ALPHA the rejection rate makes
-                // the walk impractical (seed 001, section 3.3): refused.
+                // the walk impractical (d'Eon 2023, section 3.3): refused.
                 if d.alpha_x.min(d.alpha_y) < null_scattering::MIN_ALPHA {
                     return Err(Error::InvalidArgument);
                 }
@@ -335,8 +274,12 @@ impl Material {
                 let ndf =
                     NullNdf::new(kind, d.alpha_x, d.alpha_y, d.shape).ok_or(Error::Unsupported)?;
                 let model = NullScattering::new(ndf, facet, d.max_bounces);
-                ModelImpl::NullScattering(match d.inner {
-                    Some(inner) if d.facet == FacetKind::Material => model.with_inner(inner),
+                ModelImpl::NullScattering(match inner.map(|m| m.imp) {
+                    Some(ModelImpl::Base(base)) if d.facet == FacetKind::Material => model
+                        .with_inner(Inner {
+                            model: base,
+                            evaluations: inner.map_or(1, |m| m.chosen.evaluations),
+                        }),
                     _ => model,
                 })
             }
@@ -359,12 +302,12 @@ impl Material {
                     return Err(Error::InvalidArgument);
                 }
                 let ndf = smith_ndf(kind);
-                ModelImpl::Compensated(Compensated::new(ndf, facet))
+                ModelImpl::Base(BaseModel::Compensated(Compensated::new(ndf, facet)))
             }
             Model::HeitzRandomWalk => {
                 let kind = ndf_kind.ok_or(Error::Unsupported)?;
                 let ndf = smith_ndf(kind);
-                ModelImpl::Heitz(Heitz::new(ndf, facet, d.max_bounces))
+                ModelImpl::Base(BaseModel::Heitz(Heitz::new(ndf, facet, d.max_bounces)))
             }
             Model::PositionFree => {
                 // Beckmann, GGX and Student-T (tests/position_free.rs).
@@ -373,10 +316,15 @@ impl Material {
                     return Err(Error::Unsupported);
                 }
                 let ndf = smith_ndf(kind);
-                ModelImpl::PositionFree(PositionFree::new(ndf, facet, d.estimator, d.max_bounces))
+                ModelImpl::Base(BaseModel::PositionFree(PositionFree::new(
+                    ndf,
+                    facet,
+                    d.estimator,
+                    d.max_bounces,
+                )))
             }
             Model::VGroove | Model::VGrooveNonsymmetric => {
-                // seed 002: conductor facets; Beckmann, GGX and Phong NDFs.
+                // Lee et al. 2018: conductor facets; Beckmann, GGX and Phong NDFs.
                 let Facet::Conductor { eta, k } = facet else {
                     return Err(Error::Unsupported);
                 };
@@ -402,20 +350,12 @@ impl Material {
                     d.max_bounces,
                     symmetric,
                 );
-                if symmetric {
-                    ModelImpl::VGroove(m)
-                } else {
-                    ModelImpl::VGrooveNonsymmetric(m)
-                }
+                ModelImpl::Base(BaseModel::VGroove(m))
             }
             Model::Auto => {
                 // The choice comes from the measured table (multiple/auto.rs).
-                let (c, inner) = auto::build(&d)?;
-                return Ok(Material {
-                    imp: inner.imp,
-                    desc: d,
-                    chosen: c,
-                });
+                let (c, built) = auto::build(&d)?;
+                return Ok(Material::finish(built.imp, d, c));
             }
         };
         let chosen = auto::Choice {
@@ -425,11 +365,36 @@ impl Material {
             error: f32::INFINITY,
             ns: f32::INFINITY,
         };
-        Ok(Material {
+        Ok(Material::finish(imp, d, chosen))
+    }
+
+    /// The material of a built model, with its flags.
+    fn finish(imp: ModelImpl, desc: MaterialDesc, chosen: auto::Choice) -> Material {
+        let stochastic = match &imp {
+            ModelImpl::Base(b) => b.is_stochastic(),
+            ModelImpl::NullScattering(_) => true,
+        };
+        let mut flags = MATERIAL_REFLECTION;
+        if desc.facet == FacetKind::Dielectric {
+            flags |= MATERIAL_TRANSMISSION;
+        }
+        if matches!(imp, ModelImpl::Base(BaseModel::Specular(_))) {
+            flags |= MATERIAL_SPECULAR;
+        } else {
+            flags |= MATERIAL_GLOSSY;
+            if desc.alpha_x != desc.alpha_y {
+                flags |= MATERIAL_ANISOTROPIC;
+            }
+        }
+        if stochastic {
+            flags |= MATERIAL_STOCHASTIC_EVAL | MATERIAL_APPROXIMATE_PDF;
+        }
+        Material {
             imp,
-            desc: d,
+            desc,
             chosen,
-        })
+            flags,
+        }
     }
 
     /// The model, estimator and evaluations per eval query actually used:
@@ -445,52 +410,61 @@ impl Material {
 
     /// True when eval is a Monte Carlo estimate (it then needs an [`Rng`]).
     pub fn is_stochastic(&self) -> bool {
-        match self.imp {
-            ModelImpl::Single(_) | ModelImpl::Compensated(_) => false,
-            ModelImpl::Invariance(_) | ModelImpl::BitterliDeon(_) => true,
-            ModelImpl::NullScattering(_) => true,
-            ModelImpl::Heitz(_) => true,
-            ModelImpl::PositionFree(_) => true,
-            ModelImpl::VGroove(_) | ModelImpl::VGrooveNonsymmetric(_) => false,
+        self.flags & MATERIAL_STOCHASTIC_EVAL != 0
+    }
+
+    /// What the material does (`MATERIAL_*` of [`crate::bsdf`]).
+    pub fn flags(&self) -> u32 {
+        self.flags
+    }
+
+    /// True when `wi` (unit, off the horizon) hits the absorbing back face
+    /// of a one-sided conductor.
+    #[inline]
+    fn back_face(&self, wi: Vec3) -> bool {
+        self.desc.one_sided && wi.z < 0.0 && self.desc.facet == FacetKind::Conductor
+    }
+
+    /// Relative index of the side of `wo` over the side of `wi` for a
+    /// transmission (1 for reflection or an opaque material).
+    #[inline]
+    fn eta_across(&self, wi: Vec3, wo: Vec3) -> f32 {
+        if self.desc.facet != FacetKind::Dielectric || !opposite_sides(wi, wo) {
+            return 1.0;
+        }
+        let eta = self.desc.eta.x;
+        if wi.z > 0.0 { eta } else { 1.0 / eta }
+    }
+
+    /// Factor of `ctx`'s transport mode on a value or weight for `wi -> wo`.
+    #[inline]
+    fn transport_scale(&self, ctx: &Context, wi: Vec3, wo: Vec3) -> f32 {
+        match ctx.transport {
+            Transport::Importance => 1.0,
+            Transport::Radiance => {
+                let e = self.eta_across(wi, wo);
+                1.0 / (e * e)
+            }
         }
     }
 
     /// `f(wi, wo) |wo.z|` per RGB channel. Directions need not be normalised;
     /// invalid or horizon directions give zero.
     pub fn eval(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3 {
-        let Some((wi, wo)) = prepare(wi, wo) else {
+        if self.desc.one_sided && wi.z < 0.0 && self.desc.facet == FacetKind::Conductor {
             return Vec3::ZERO;
-        };
-        let n = self.chosen.evaluations;
-        let v = if n <= 1 {
-            dispatch!(&self.imp, m => m.eval(wi, wo, rng))
-        } else {
-            // AUTO with a stochastic model: the mean of n evaluations.
-            let mut sum = Vec3::ZERO;
-            for _ in 0..n {
-                sum += finite_or_zero(dispatch!(&self.imp, m => m.eval(wi, wo, rng)));
-            }
-            sum / n as f32
-        };
-        finite_or_zero(v)
+        }
+        eval_guarded(&self.imp, self.chosen.evaluations, wi, wo, rng)
     }
 
     /// Samples an outgoing direction for `wi` (need not be normalised).
     pub fn sample(&self, wi: Vec3, rng: &mut Rng) -> Sample {
-        if !is_valid_direction(wi) {
-            return Sample::ABSORBED;
-        }
-        let wi = wi.normalize();
-        if wi.z == 0.0 {
-            return Sample::ABSORBED;
-        }
-        let s = dispatch!(&self.imp, m => m.sample(wi, rng));
-        if !(s.weight.is_finite() && s.pdf.is_finite() && s.wo.is_finite())
-            || s.weight.min_element() < 0.0
-        {
-            return Sample::ABSORBED;
-        }
-        s
+        sample_guarded(wi, |wi| {
+            if self.back_face(wi) {
+                return Sample::ABSORBED;
+            }
+            self.imp.sample(wi, rng)
+        })
     }
 
     /// Density with which [`Material::sample`] picks `wo` (exact for
@@ -499,27 +473,110 @@ impl Material {
         let Some((wi, wo)) = prepare(wi, wo) else {
             return 0.0;
         };
-        let p = dispatch!(&self.imp, m => m.pdf(wi, wo));
-        if p.is_finite() && p > 0.0 { p } else { 0.0 }
+        if self.back_face(wi) {
+            return 0.0;
+        }
+        positive_or_zero(self.imp.pdf(wi, wo))
+    }
+
+    /// `(f(wi, wo) |wo.z|, pdf(wi, wo))` under `ctx` in one call: with
+    /// [`Context::PLAIN`] bit for bit what [`Material::eval`] and
+    /// [`Material::pdf`] return (SINGLE computes the half vector, D and the
+    /// masking once for both). Lobes outside `ctx.lobes` give 0; radiance
+    /// transport divides transmission by the relative index squared. For
+    /// SINGLE a restricted lobe has its own pdf (taken with probability 1);
+    /// for the other models the pdf of a restricted query is that of the
+    /// unrestricted sampler, whose samples in the other lobe
+    /// [`Material::sample_ctx`] reports as absorbed.
+    pub fn eval_pdf(&self, wi: Vec3, wo: Vec3, ctx: &Context, rng: &mut Rng) -> (Vec3, f32) {
+        let Some((wi, wo)) = prepare(wi, wo) else {
+            return (Vec3::ZERO, 0.0);
+        };
+        if self.back_face(wi) || !ctx.allows(wi, wo) {
+            return (Vec3::ZERO, 0.0);
+        }
+        let (f, p) = match &self.imp {
+            ModelImpl::Base(BaseModel::Single(m)) => m.eval_pdf(wi, wo, ctx.lobes, true, true),
+            imp => (
+                eval_prepared(imp, self.chosen.evaluations, wi, wo, rng),
+                imp.pdf(wi, wo),
+            ),
+        };
+        let scale = self.transport_scale(ctx, wi, wo);
+        let f = if scale == 1.0 { f } else { f * scale };
+        (finite_or_zero(f), positive_or_zero(p))
+    }
+
+    /// Samples `wo` from the caller's uniforms under `ctx`: `u[0]` picks the
+    /// lobe at the first vertex, `u[1], u[2]` the first visible normal;
+    /// stochastic models draw the rest from `rng`. The record adds the
+    /// specular / glossy flag and the relative index across the surface.
+    pub fn sample_ctx(&self, wi: Vec3, u: [f32; 3], ctx: &Context, rng: &mut Rng) -> SampleRecord {
+        // Into [0, 1): NaN to 0, 1 and above to the largest float below 1.
+        let u = u.map(|x| {
+            if x > 0.0 {
+                x.min(1.0 - f32::EPSILON / 2.0)
+            } else {
+                0.0
+            }
+        });
+        let mut specular = false;
+        let s = sample_guarded(wi, |wi| {
+            if self.back_face(wi) {
+                return Sample::ABSORBED;
+            }
+            let lobes = ctx.lobes & LOBE_ALL;
+            let s = match &self.imp {
+                ModelImpl::Base(BaseModel::Single(m)) => m.sample_lobes(wi, u, lobes),
+                ModelImpl::Base(BaseModel::Specular(m)) => {
+                    specular = true;
+                    m.sample_lobes(wi, u[0], lobes)
+                }
+                imp => {
+                    let s = imp.sample_with(wi, u, rng);
+                    if s.flags == SAMPLE_ABSORBED || !ctx.allows(wi, s.wo) {
+                        return Sample::ABSORBED;
+                    }
+                    s
+                }
+            };
+            if s.flags == SAMPLE_ABSORBED {
+                return s;
+            }
+            let scale = self.transport_scale(ctx, wi, s.wo);
+            Sample {
+                weight: s.weight * scale,
+                ..s
+            }
+        });
+        if s.flags == SAMPLE_ABSORBED {
+            return SampleRecord {
+                sample: Sample::ABSORBED,
+                flags: SAMPLE_ABSORBED,
+                eta: 1.0,
+            };
+        }
+        let kind = if specular {
+            SAMPLE_SPECULAR
+        } else {
+            SAMPLE_GLOSSY
+        };
+        let eta = if s.flags & SAMPLE_TRANSMISSION != 0 {
+            let wi = prepare_one(wi).unwrap_or(Vec3::Z);
+            self.eta_across(wi, s.wo)
+        } else {
+            1.0
+        };
+        SampleRecord {
+            sample: s,
+            flags: s.flags | kind,
+            eta,
+        }
     }
 }
 
-/// Normalises both directions; `None` for invalid or horizon directions.
+/// A density that is finite and positive, else 0.
 #[inline]
-fn prepare(wi: Vec3, wo: Vec3) -> Option<(Vec3, Vec3)> {
-    if !is_valid_direction(wi) || !is_valid_direction(wo) {
-        return None;
-    }
-    let (wi, wo) = (wi.normalize(), wo.normalize());
-    if wi.z == 0.0 || wo.z == 0.0 || !wi.is_finite() || !wo.is_finite() {
-        return None;
-    }
-    Some((wi, wo))
-}
-
-/// Last line of defence: a non-finite or negative channel becomes 0.
-#[inline]
-fn finite_or_zero(v: Vec3) -> Vec3 {
-    let f = |x: f32| if x.is_finite() && x > 0.0 { x } else { 0.0 };
-    Vec3::new(f(v.x), f(v.y), f(v.z))
+fn positive_or_zero(p: f32) -> f32 {
+    if p.is_finite() && p > 0.0 { p } else { 0.0 }
 }

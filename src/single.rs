@@ -7,42 +7,33 @@
 //! `G2 = B(1 + Lambda(wi), 1 + Lambda(wo))` (Heitz 2014); the uncorrelated
 //! product `G1(wi) G1(wo)` is available for comparisons ([`G2Form`]).
 //!
-//! Conductors are two-sided (a `wi` below the surface is mirrored with `wo`).
+//! Conductors are two-sided (a `wi` below the surface is mirrored with `wo`;
+//! the material makes them one-sided on request).
 //! Dielectrics with `wi` below see the inverse relative index. Transmission is
 //! the flux-conserving form: `f(wi, wo) / eta_o^2 = f(wo, wi) / eta_i^2`, no
 //! radiance scaling by `1 / eta^2`.
 //!
-//! ## Energy lost by single scattering
-//!
-//! Directional albedo with perfectly reflecting facets (F = 1), measured by
-//! `tests/single.rs` (deterministic quadrature of `eval`, equal to the mean
-//! of 10^6 sample weights within 3 sigma and 1e-3):
-//!
-//! | NDF | alpha | 0 deg | 30 | 60 | 80 | 89 |
-//! |---|---|---|---|---|---|---|
-//! | Beckmann | 0.05 | 1.0000 | 1.0000 | 1.0000 | 0.9935 | 0.9443 |
-//! | Beckmann | 0.3 | 0.9997 | 0.9914 | 0.9233 | 0.9163 | 0.9875 |
-//! | Beckmann | 1.0 | 0.4616 | 0.5480 | 0.7666 | 0.9193 | 0.9916 |
-//! | Beckmann | (0.1, 0.6) | 0.9472 | 0.9464 | 0.9388 | 0.8656 | 0.9534 |
-//! | GGX | 0.05 | 0.9973 | 0.9968 | 0.9927 | 0.9533 | 0.9359 |
-//! | GGX | 0.3 | 0.8774 | 0.8639 | 0.8217 | 0.8482 | 0.9700 |
-//! | GGX | 1.0 | 0.3068 | 0.3352 | 0.4507 | 0.6682 | 0.9291 |
-//! | GGX | (0.1, 0.6) | 0.7548 | 0.7535 | 0.7435 | 0.7036 | 0.8657 |
-//!
-//! Up to 60 degrees the loss grows with roughness (GGX alpha 1 keeps 31% at
-//! normal incidence: half of its visible normals are tilted past 45 degrees
-//! and reflect below the horizon). At grazing incidence it does not: the
-//! height-correlated `G2 / G1 = (1 + Lambda_i) / (1 + Lambda_i + Lambda_o)`
-//! tends to 1 as `Lambda_i` grows, and front-facing facets reflect grazing
-//! light upwards, so a rough surface keeps more energy than a smooth one.
+//! Cost class: analytic, about 100 ns per query; eval and pdf together
+//! ([`Single::eval_pdf`]) share the half vector and D. Single scattering
+//! loses energy with roughness (GGX alpha 1 keeps 31% at normal incidence):
+//! the measured table is `docs/single_albedo.md`, written by
+//! `cargo run --release --example single_albedo`.
 
-use crate::bsdf::{Sample, ScatterModel};
+use crate::bsdf::{LOBE_ALL, LOBE_REFLECTION, LOBE_TRANSMISSION, Sample, ScatterModel};
 use crate::facet::Facet;
 use crate::frame::{RefractionHalf, flip_z, reflect, refract, refraction_half};
 use crate::fresnel;
 use crate::ndf::Ndf;
 use crate::rng::Rng;
 use glam::Vec3;
+
+/// Below this `wi.m` of a sampled reflection, sample checks that eval and
+/// pdf recompute a half vector facing `wi` (`half_vector_sees`): the f32
+/// rounding of `wo` turns that half vector by about `6e-8 / (2 wi.m)`
+/// radians, harmless against any roughness above the specular threshold
+/// (1e-3) unless `wi.m` is below about 1e-4; the gate keeps the check off
+/// the common path (it costs about 180 instructions).
+const GRAZING_HALF_COS: f32 = 1e-2;
 
 /// Which masking-shadowing function couples `wi` and `wo`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -101,32 +92,78 @@ impl Single {
         }
     }
 
-    /// Reflection `f |wo.z|` for `wi.z > 0`, `wo.z > 0` given the facet reflectance.
+    /// True when eval and pdf see the reflection `wi -> wo` (`wi.z > 0`,
+    /// `wo` as sampled, before the normalisation every query applies): the
+    /// half vector they recompute from `wi + wo` faces `wi`. Within about
+    /// 1e-5 of the horizon `wi + wo` nearly cancels and f32 rounding of `wo`
+    /// can turn it away; such samples are absorbed, so that the pdf is
+    /// positive wherever sample goes (5 of 4e5 glass queries with `wi.z`
+    /// below 3e-6 had pdf 0 before). Called only for `wi.m` below
+    /// [`GRAZING_HALF_COS`].
     #[inline]
-    fn reflection(&self, wi: Vec3, wo: Vec3) -> Option<(Vec3, f32)> {
-        let h = (wi + wo).normalize_or_zero();
-        let ci = wi.dot(h);
-        if ci <= 0.0 {
-            return None;
+    fn half_vector_sees(&self, wi: Vec3, wo: Vec3) -> bool {
+        let h = (wi + wo.normalize()).normalize_or_zero();
+        wi.dot(h) > 0.0 && self.ndf.d_visible(wi, h) > 0.0
+    }
+
+    /// `ndf.d_visible(wi, h)` from `d = ndf.d(h)` already computed (the
+    /// same operations, so the same bits).
+    #[inline(always)]
+    fn d_visible_from(&self, wi: Vec3, h: Vec3, d: f32) -> f32 {
+        let cos = wi.dot(h);
+        if cos <= 0.0 {
+            return 0.0;
         }
-        let value = self.ndf.d(h) * self.g2_reflection(wi, wo) / (4.0 * wi.z);
-        Some((h, value))
+        let s = self.ndf.sigma(wi);
+        if s <= 1e-30 { 0.0 } else { cos * d / s }
     }
 }
 
-impl ScatterModel for Single {
-    fn eval(&self, wi: Vec3, wo: Vec3, _rng: &mut Rng) -> Vec3 {
+impl Single {
+    /// `(f |wo.z|, pdf)` restricted to `lobes` (`LOBE_*`), computing the half
+    /// vector, D and the masking once for both. `want_f` / `want_pdf` are
+    /// constants at every call site (the unused half is compiled out); eval
+    /// and pdf are this function, so each half equals them bit for bit.
+    #[inline(always)]
+    pub fn eval_pdf(
+        &self,
+        wi: Vec3,
+        wo: Vec3,
+        lobes: u32,
+        want_f: bool,
+        want_pdf: bool,
+    ) -> (Vec3, f32) {
+        let both = lobes & LOBE_ALL == LOBE_ALL;
         match self.facet {
             Facet::Dielectric { eta } => {
                 let (wi, wo, eta, _) = orient(wi, wo, eta);
                 if wo.z > 0.0 {
-                    match self.reflection(wi, wo) {
-                        Some((h, v)) => {
-                            Vec3::splat(fresnel::dielectric(sym_cos(wi, wo, h), eta) * v)
-                        }
-                        None => Vec3::ZERO,
+                    if lobes & LOBE_REFLECTION == 0 {
+                        return (Vec3::ZERO, 0.0);
                     }
+                    let h = (wi + wo).normalize_or_zero();
+                    let ci = wi.dot(h);
+                    if ci <= 0.0 {
+                        return (Vec3::ZERO, 0.0);
+                    }
+                    let fr = fresnel::dielectric(sym_cos(wi, wo, h), eta);
+                    let d = self.ndf.d(h);
+                    let f = if want_f {
+                        Vec3::splat(fr * (d * self.g2_reflection(wi, wo) / (4.0 * wi.z)))
+                    } else {
+                        Vec3::ZERO
+                    };
+                    let p = if want_pdf {
+                        let p_lobe = if both { fr } else { 1.0 };
+                        p_lobe * self.d_visible_from(wi, h, d) / (4.0 * ci)
+                    } else {
+                        0.0
+                    };
+                    (f, p)
                 } else {
+                    if lobes & LOBE_TRANSMISSION == 0 {
+                        return (Vec3::ZERO, 0.0);
+                    }
                     let Some(RefractionHalf {
                         h,
                         ci,
@@ -134,12 +171,22 @@ impl ScatterModel for Single {
                         jacobian: jac,
                     }) = refraction_half(wi, wo, eta)
                     else {
-                        return Vec3::ZERO;
+                        return (Vec3::ZERO, 0.0);
                     };
-                    let f = fresnel::dielectric_pair(ci, co, eta);
-                    let v =
-                        (1.0 - f) * self.ndf.d(h) * self.g2_transmission(wi, wo) * ci * jac / wi.z;
-                    Vec3::splat(v)
+                    let fr = fresnel::dielectric_pair(ci, co, eta);
+                    let d = self.ndf.d(h);
+                    let f = if want_f {
+                        Vec3::splat((1.0 - fr) * d * self.g2_transmission(wi, wo) * ci * jac / wi.z)
+                    } else {
+                        Vec3::ZERO
+                    };
+                    let p = if want_pdf {
+                        let p_lobe = if both { 1.0 - fr } else { 1.0 };
+                        p_lobe * self.d_visible_from(wi, h, d) * jac
+                    } else {
+                        0.0
+                    };
+                    (f, p)
                 }
             }
             _ => {
@@ -148,22 +195,44 @@ impl ScatterModel for Single {
                 } else {
                     (wi, wo)
                 };
-                if wo.z <= 0.0 {
-                    return Vec3::ZERO;
+                if wo.z <= 0.0 || lobes & LOBE_REFLECTION == 0 {
+                    return (Vec3::ZERO, 0.0);
                 }
-                match self.reflection(wi, wo) {
-                    Some((h, v)) => self.facet.conductor_fresnel(wi.dot(h)) * v,
-                    None => Vec3::ZERO,
+                let h = (wi + wo).normalize_or_zero();
+                let ci = wi.dot(h);
+                if ci <= 0.0 {
+                    return (Vec3::ZERO, 0.0);
                 }
+                let d = self.ndf.d(h);
+                let f = if want_f {
+                    self.facet.conductor_fresnel(ci)
+                        * (d * self.g2_reflection(wi, wo) / (4.0 * wi.z))
+                } else {
+                    Vec3::ZERO
+                };
+                let p = if want_pdf {
+                    self.d_visible_from(wi, h, d) / (4.0 * ci)
+                } else {
+                    0.0
+                };
+                (f, p)
             }
         }
     }
 
-    fn sample(&self, wi: Vec3, rng: &mut Rng) -> Sample {
-        let (u1, u2) = (rng.next_f32(), rng.next_f32());
+    /// Samples `wo` restricted to `lobes`: `u[0]` picks reflection or
+    /// refraction at the sampled facet (dielectrics, both lobes allowed),
+    /// `u[1], u[2]` the visible normal. With one lobe only, that lobe is
+    /// taken with probability 1 and the weight carries its Fresnel factor.
+    #[inline]
+    pub fn sample_lobes(&self, wi: Vec3, u: [f32; 3], lobes: u32) -> Sample {
+        let (u1, u2) = (u[1], u[2]);
+        let both = lobes & LOBE_ALL == LOBE_ALL;
         match self.facet {
             Facet::Dielectric { eta } => {
-                let u3 = rng.next_f32();
+                if lobes & LOBE_ALL == 0 {
+                    return Sample::ABSORBED;
+                }
                 let (wi_l, _, eta_l, flipped) = orient(wi, Vec3::Z, eta);
                 let m = self.ndf.sample_visible(wi_l, u1, u2);
                 let ci = wi_l.dot(m);
@@ -173,12 +242,22 @@ impl ScatterModel for Single {
                 let g1 = self.ndf.g1(wi_l);
                 let dvis = self.ndf.d_visible(wi_l, m);
                 let f = fresnel::dielectric(ci, eta_l);
-                let (wo, weight, pdf) = if u3 < f {
+                let reflect_here = if both {
+                    u[0] < f
+                } else {
+                    lobes & LOBE_REFLECTION != 0
+                };
+                let (wo, weight, pdf) = if reflect_here {
                     let wo = reflect(wi_l, m);
-                    if wo.z <= 0.0 {
+                    if wo.z <= 0.0 || (ci < GRAZING_HALF_COS && !self.half_vector_sees(wi_l, wo)) {
                         return Sample::ABSORBED;
                     }
-                    (wo, self.g2_reflection(wi_l, wo) / g1, f * dvis / (4.0 * ci))
+                    let g = self.g2_reflection(wi_l, wo) / g1;
+                    if both {
+                        (wo, g, f * dvis / (4.0 * ci))
+                    } else {
+                        (wo, f * g, dvis / (4.0 * ci))
+                    }
                 } else {
                     let Some(wo) = refract(wi_l, m, eta_l) else {
                         return Sample::ABSORBED;
@@ -186,16 +265,24 @@ impl ScatterModel for Single {
                     if wo.z >= 0.0 {
                         return Sample::ABSORBED;
                     }
-                    let pdf = match refraction_half(wi_l, wo, eta_l) {
-                        Some(r) => (1.0 - f) * dvis * r.jacobian,
+                    let jac = match refraction_half(wi_l, wo, eta_l) {
+                        Some(r) => r.jacobian,
                         None => 0.0, // index-matched: a Dirac lobe, no density
                     };
-                    (wo, self.g2_transmission(wi_l, wo) / g1, pdf)
+                    let g = self.g2_transmission(wi_l, wo) / g1;
+                    if both {
+                        (wo, g, (1.0 - f) * dvis * jac)
+                    } else {
+                        (wo, (1.0 - f) * g, dvis * jac)
+                    }
                 };
                 let wo = if flipped { flip_z(wo) } else { wo };
                 Sample::new(wi, wo, Vec3::splat(weight), pdf)
             }
             _ => {
+                if lobes & LOBE_REFLECTION == 0 {
+                    return Sample::ABSORBED;
+                }
                 let flipped = wi.z < 0.0;
                 let wi_l = if flipped { flip_z(wi) } else { wi };
                 let m = self.ndf.sample_visible(wi_l, u1, u2);
@@ -204,7 +291,7 @@ impl ScatterModel for Single {
                     return Sample::ABSORBED;
                 }
                 let wo = reflect(wi_l, m);
-                if wo.z <= 0.0 {
+                if wo.z <= 0.0 || (ci < GRAZING_HALF_COS && !self.half_vector_sees(wi_l, wo)) {
                     return Sample::ABSORBED;
                 }
                 let weight = self.facet.conductor_fresnel(ci) * self.g2_reflection(wi_l, wo)
@@ -215,37 +302,27 @@ impl ScatterModel for Single {
             }
         }
     }
+}
+
+impl ScatterModel for Single {
+    fn eval(&self, wi: Vec3, wo: Vec3, _rng: &mut Rng) -> Vec3 {
+        self.eval_pdf(wi, wo, LOBE_ALL, true, false).0
+    }
+
+    fn sample(&self, wi: Vec3, rng: &mut Rng) -> Sample {
+        let (u1, u2) = (rng.next_f32(), rng.next_f32());
+        let u0 = match self.facet {
+            Facet::Dielectric { .. } => rng.next_f32(),
+            _ => 0.0,
+        };
+        self.sample_lobes(wi, [u0, u1, u2], LOBE_ALL)
+    }
+
+    fn sample_with(&self, wi: Vec3, u: [f32; 3], _rng: &mut Rng) -> Sample {
+        self.sample_lobes(wi, u, LOBE_ALL)
+    }
 
     fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
-        let eta = match self.facet {
-            Facet::Dielectric { eta } => eta,
-            _ => 1.0,
-        };
-        let dielectric = matches!(self.facet, Facet::Dielectric { .. });
-        let (wi, wo, eta, _) = orient(wi, wo, eta);
-        if wo.z > 0.0 {
-            let h = (wi + wo).normalize_or_zero();
-            let ci = wi.dot(h);
-            if ci <= 0.0 {
-                return 0.0;
-            }
-            let f = if dielectric {
-                fresnel::dielectric(sym_cos(wi, wo, h), eta)
-            } else {
-                1.0
-            };
-            f * self.ndf.d_visible(wi, h) / (4.0 * ci)
-        } else if dielectric {
-            match refraction_half(wi, wo, eta) {
-                Some(r) => {
-                    (1.0 - fresnel::dielectric_pair(r.ci, r.co, eta))
-                        * self.ndf.d_visible(wi, r.h)
-                        * r.jacobian
-                }
-                None => 0.0,
-            }
-        } else {
-            0.0
-        }
+        self.eval_pdf(wi, wo, LOBE_ALL, false, true).1
     }
 }

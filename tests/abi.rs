@@ -53,12 +53,14 @@ impl std::fmt::Display for Version {
 }
 
 /// Public struct names with their layout, in header order.
-const STRUCTS: [&str; 5] = [
+const STRUCTS: [&str; 7] = [
     "msbsdf_rng",
     "msbsdf_rgb",
     "msbsdf_material_desc",
     "msbsdf_vec3",
     "msbsdf_sample_result",
+    "msbsdf_context",
+    "msbsdf_sample_record",
 ];
 
 fn layout_entries() -> Entries {

@@ -139,7 +139,7 @@ fn conformance_programs_clean_under_asan_and_ubsan() {
     if let Err(why) = asan() {
         return skip::missing("conformance_programs_clean_under_asan_and_ubsan", &why);
     }
-    for program in ["api", "rng", "storage", "threads"] {
+    for program in ["api", "rng", "storage", "threads", "growth", "integrator"] {
         let exe = compile(
             &format!("{program}_asan"),
             &[repo().join(format!("tests/c/{program}.c"))],

@@ -92,7 +92,7 @@ fn conductor_albedo_from_samples_equals_quadrature_and_loses_energy() {
         // (Not at grazing angles: there Lambda(wi) dominates the
         // height-correlated G2 / G1 = (1 + Li) / (1 + Li + Lo) -> 1 and
         // front-facing facets send light upwards, so rough surfaces keep
-        // more energy than smooth ones; see the table in src/single.rs.)
+        // more energy than smooth ones; see docs/single_albedo.md.)
         for t in 0..3 {
             assert!(
                 rows[0][t] > rows[1][t] && rows[1][t] > rows[2][t],

@@ -144,7 +144,7 @@ static int write_pfm_checked(const char *prefix, const float *img, int w, int h)
 int main(int argc, char **argv) {
     const char *scene_path = NULL, *prefix_opt = NULL, *compare = NULL, *model_opt = NULL;
     long spp = 0, threads = 0, width = 0, height = 0, seed = -1;
-    double seconds = 0.0, diff_scale = 1.0, alpha = 0.0;
+    double seconds = 0.0, diff_scale = 1.0, alpha = -1.0; /* < 0: not set */
     int nee = -1;
     int quiet = 0;
     for (int i = 1; i < argc; i++) {
@@ -166,7 +166,7 @@ int main(int argc, char **argv) {
             if (parse_double(a, v, &diff_scale)) return 2;
         } else if (!strcmp(a, "--alpha")) {
             if (parse_double(a, v, &alpha)) return 2;
-            if (!(alpha > 0.0 && alpha <= 10.0)) return fprintf(stderr, "tracer: --alpha must be in (0, 10]\n"), 2;
+            if (!(alpha >= 0.0 && alpha <= 10.0)) return fprintf(stderr, "tracer: --alpha must be in [0, 10]\n"), 2;
         } else if (!strcmp(a, "--nee")) {
             if (v && !strcmp(v, "on"))
                 nee = 1;
@@ -238,7 +238,7 @@ int main(int argc, char **argv) {
     if (height) s.height = (int)(height > 0 ? height : 1);
     if (seed >= 0) s.seed = (uint64_t)seed;
     if (nee >= 0) s.nee = nee;
-    for (int i = 0; alpha > 0.0 && i < s.nmats; i++) {
+    for (int i = 0; alpha >= 0.0 && i < s.nmats; i++) {
         s.mats[i].desc.alpha_x = s.mats[i].desc.alpha_y = (float)alpha;
         if (s.mats[i].rough.data) s.mats[i].rough_lo = s.mats[i].rough_hi = (float)alpha;
     }

@@ -1,9 +1,17 @@
 /*
  * The integrator: unidirectional path tracing with next-event estimation to
  * point, directional and environment lights, MIS (power heuristic) between
- * environment sampling and msbsdf_sample, and Russian roulette; pthreads over
+ * environment sampling and BSDF sampling, and Russian roulette; pthreads over
  * tiles. Every (pixel, sample) pair has its own PCG32 stream, so the image is
  * bit-identical for any thread count.
+ *
+ * The msbsdf calls are the integrator ones of 0.3: a msbsdf_context in
+ * radiance mode (transmission through glass carries the 1/eta^2 factor),
+ * msbsdf_eval_pdf for light samples (value and pdf in one call),
+ * msbsdf_sample_with with the tracer's own uniforms (a per-pixel rotated R2
+ * low-discrepancy sequence over the samples of the pixel at the first
+ * bounce, the path's PCG32 stream after it), and no next-event estimation on
+ * materials flagged MSBSDF_MATERIAL_SPECULAR (their eval is 0 everywhere).
  */
 #include <pthread.h>
 #include <stdatomic.h>
@@ -23,7 +31,13 @@
 typedef struct thread_ctx {
     void *storage;
     size_t size;
+    long long init_failures;   /* per-hit msbsdf_material_init refusals */
+    msbsdf_status init_status; /* the first refusal's status */
 } thread_ctx;
+
+/* Per-hit init refusals over all threads (reported after the render). */
+static atomic_llong g_init_failures;
+static atomic_uint g_init_status;
 
 typedef struct hit {
     vec3 p, ng, ns, t, b; /* position, geometric normal, shading frame */
@@ -138,7 +152,10 @@ static int intersect(const scene *s, vec3 o, vec3 d, hit *h) {
 }
 
 /* The material at a hit: the shared handle, or one built in thread storage
-   with the roughness from the material's texture. */
+   with the roughness from the material's texture. A refused per-hit init
+   (the texture maps outside what the model accepts) is counted and reported
+   after the render; the path is then ended (NULL) rather than shaded with
+   the untextured material. */
 static const msbsdf_material *material_at(const scene *s, const hit *h, thread_ctx *tc) {
     const material *m = &s->mats[h->material];
     if (!m->rough.data) return m->handle;
@@ -148,7 +165,11 @@ static const msbsdf_material *material_at(const scene *s, const hit *h, thread_c
     if (m->inner >= 0) d.inner = s->mats[m->inner].handle;
     d.alpha_x = d.alpha_y = m->rough_lo + t * (m->rough_hi - m->rough_lo);
     msbsdf_material *out = NULL;
-    if (msbsdf_material_init(&d, tc->storage, tc->size, &out) != MSBSDF_STATUS_OK) return m->handle;
+    msbsdf_status st = msbsdf_material_init(&d, tc->storage, tc->size, &out);
+    if (st != MSBSDF_STATUS_OK) {
+        if (tc->init_failures++ == 0) tc->init_status = st;
+        return NULL;
+    }
     return out;
 }
 
@@ -160,10 +181,38 @@ static float power_heuristic(float a, float b) {
 
 static int finite_rgb(msbsdf_rgb c) { return isfinite(c.r) && isfinite(c.g) && isfinite(c.b); }
 
-/* Radiance along a camera ray. */
-static msbsdf_rgb trace(const scene *s, vec3 o, vec3 d, msbsdf_rng *rng, thread_ctx *tc) {
+/* The uniforms of the first bounce: the R2 sequence (Roberts 2018, the
+   plastic-number generalisation of the golden ratio) over the samples of a
+   pixel, rotated by a per-pixel offset (Cranley-Patterson), and a golden-
+   ratio sequence for the lobe choice. */
+typedef struct first_uniforms {
+    float lobe, u1, u2;
+} first_uniforms;
+
+static float frac_d(double x) {
+    double f = x - floor(x);
+    return f < 1.0 ? (float)f : 0.0f;
+}
+
+static first_uniforms first_bounce_uniforms(uint64_t seed, uint64_t pix, int k) {
+    msbsdf_rng r;
+    first_uniforms u;
+    msbsdf_rng_seed(&r, seed ^ 0x5851f42d4c957f2dull, pix); /* the pixel's rotation */
+    double o0 = msbsdf_rng_next_float(&r), o1 = msbsdf_rng_next_float(&r), o2 = msbsdf_rng_next_float(&r);
+    u.lobe = frac_d(o0 + 0.6180339887498949 * k);
+    u.u1 = frac_d(o1 + 0.7548776662466927 * k);
+    u.u2 = frac_d(o2 + 0.5698402909980532 * k);
+    return u;
+}
+
+/* Radiance along a camera ray; `first` drives the first BSDF sample. */
+static msbsdf_rgb trace(const scene *s, vec3 o, vec3 d, msbsdf_rng *rng, thread_ctx *tc, first_uniforms first) {
     msbsdf_rgb L = rgb(0, 0, 0), beta = rgb(1, 1, 1);
-    float prev_pdf = 0.0f; /* 0: camera ray, no MIS */
+    float prev_pdf = 0.0f; /* 0: camera ray or specular bounce, no MIS */
+    msbsdf_context ctx;
+    msbsdf_context_init(&ctx);
+    ctx.transport = MSBSDF_TRANSPORT_RADIANCE;
+    ctx.rng = rng;
     for (int depth = 0;; depth++) {
         hit h;
         if (!intersect(s, o, d, &h)) {
@@ -176,11 +225,15 @@ static msbsdf_rgb trace(const scene *s, vec3 o, vec3 d, msbsdf_rng *rng, thread_
         }
         if (depth >= s->max_depth) break;
         const msbsdf_material *m = material_at(s, &h, tc);
+        if (!m) break;
         vec3 wi_w = vscale(d, -1.0f);
         msbsdf_vec3 wi = to_local(&h, wi_w);
         if (wi.z == 0.0f || vdot(wi_w, h.ng) * wi.z <= 0.0f) break; /* shading-normal leak */
+        uint32_t mflags = 0;
+        if (msbsdf_material_flags(m, &mflags) != MSBSDF_STATUS_OK) break;
 
-        if (s->nee) {
+        /* Specular materials: eval is 0 everywhere, a light sample adds nothing. */
+        if (s->nee && !(mflags & MSBSDF_MATERIAL_SPECULAR)) {
             /* delta lights */
             for (int i = 0; i < s->nlights; i++) {
                 const light *l = &s->lights[i];
@@ -205,10 +258,10 @@ static msbsdf_rgb trace(const scene *s, vec3 o, vec3 d, msbsdf_rng *rng, thread_
                 float tfar = isfinite(dist) ? dist * (1.0f - 1e-4f) : INFINITY;
                 if (occluded(s, org, wl, tfar)) continue;
                 msbsdf_rgb f;
-                if (msbsdf_eval(m, wi, wo, rng, &f) != MSBSDF_STATUS_OK || rgb_max(f) <= 0.0f) continue;
+                if (msbsdf_eval_pdf(m, &ctx, wi, wo, &f, NULL) != MSBSDF_STATUS_OK || rgb_max(f) <= 0.0f) continue;
                 L = rgb_add(L, rgb_mul(rgb_mul(beta, f), li));
             }
-            /* environment, MIS with the BSDF */
+            /* environment, MIS with the BSDF: value and pdf in one call */
             if (s->env.kind != ENV_BLACK) {
                 vec3 wl;
                 float pl;
@@ -219,8 +272,7 @@ static msbsdf_rgb trace(const scene *s, vec3 o, vec3 d, msbsdf_rng *rng, thread_
                     msbsdf_rgb f;
                     float pb = 0.0f;
                     if (!occluded(s, offset_origin(&h, wl), wl, INFINITY) &&
-                        msbsdf_eval(m, wi, wo, rng, &f) == MSBSDF_STATUS_OK && rgb_max(f) > 0.0f &&
-                        msbsdf_pdf(m, wi, wo, &pb) == MSBSDF_STATUS_OK) {
+                        msbsdf_eval_pdf(m, &ctx, wi, wo, &f, &pb) == MSBSDF_STATUS_OK && rgb_max(f) > 0.0f) {
                         float w = power_heuristic(pl, pb) / pl;
                         L = rgb_add(L, rgb_scale(rgb_mul(rgb_mul(beta, f), le), w));
                     }
@@ -228,13 +280,21 @@ static msbsdf_rgb trace(const scene *s, vec3 o, vec3 d, msbsdf_rng *rng, thread_
             }
         }
 
-        msbsdf_sample_result sr;
-        if (msbsdf_sample(m, wi, rng, &sr) != MSBSDF_STATUS_OK) break;
+        msbsdf_sample_record sr;
+        msbsdf_sample_record_init(&sr);
+        first_uniforms u = first;
+        if (depth > 0) {
+            u.lobe = msbsdf_rng_next_float(rng);
+            u.u1 = msbsdf_rng_next_float(rng);
+            u.u2 = msbsdf_rng_next_float(rng);
+        }
+        if (msbsdf_sample_with(m, &ctx, wi, u.lobe, u.u1, u.u2, &sr) != MSBSDF_STATUS_OK) break;
         if ((sr.flags & MSBSDF_SAMPLE_ABSORBED) || !(sr.pdf > 0.0f) || rgb_max(sr.weight) <= 0.0f) break;
         vec3 wo_w = to_world(&h, sr.wo);
         if (vdot(wo_w, h.ng) * sr.wo.z <= 0.0f) break; /* shading-normal leak */
         beta = rgb_mul(beta, sr.weight);
-        prev_pdf = sr.pdf;
+        /* A Dirac lobe: its pdf is a probability, the next light hit takes full weight. */
+        prev_pdf = (sr.flags & MSBSDF_SAMPLE_SPECULAR) ? 0.0f : sr.pdf;
         if (depth + 1 >= RR_DEPTH) {
             float q = fminf(rgb_max(beta), 0.95f);
             if (msbsdf_rng_next_float(rng) >= q) break;
@@ -279,7 +339,7 @@ static void render_tile(job *j, int tile, thread_ctx *tc) {
                 float px = (2.0f * ((float)x + jx) / (float)s->width - 1.0f) * aspect * j->tan_half;
                 float py = (1.0f - 2.0f * ((float)y + jy) / (float)s->height) * j->tan_half;
                 vec3 d = vnorm(vadd(j->cam_f, vadd(vscale(j->cam_r, px), vscale(j->cam_u, py))));
-                msbsdf_rgb c = trace(s, j->cam_o, d, &rng, tc);
+                msbsdf_rgb c = trace(s, j->cam_o, d, &rng, tc, first_bounce_uniforms(s->seed, pix, k));
                 acc[0] += c.r;
                 acc[1] += c.g;
                 acc[2] += c.b;
@@ -295,6 +355,8 @@ static void *worker(void *arg) {
     if (al < sizeof(void *)) al = sizeof(void *);
     tc.size = (tc.size + al - 1) / al * al;
     tc.storage = aligned_alloc(al, tc.size);
+    tc.init_failures = 0;
+    tc.init_status = MSBSDF_STATUS_OK;
     if (!tc.storage) {
         j->failed = 1;
         return NULL;
@@ -304,6 +366,11 @@ static void *worker(void *arg) {
         if (t >= j->ntiles) break;
         render_tile(j, t, &tc);
         atomic_fetch_add(&j->tiles_done, 1);
+    }
+    if (tc.init_failures > 0) {
+        unsigned expected = MSBSDF_STATUS_OK;
+        atomic_compare_exchange_strong(&g_init_status, &expected, (unsigned)tc.init_status);
+        atomic_fetch_add(&g_init_failures, tc.init_failures);
     }
     free(tc.storage);
     return NULL;
@@ -398,6 +465,13 @@ int render(const scene *s, const render_opts *o, float *img, render_stats *stats
         progress(o->tag ? o->tag : "render", 1.0, el, 0.0);
         fprintf(stderr, "\n");
     }
+    long long failures = atomic_exchange(&g_init_failures, 0);
+    unsigned first_status = atomic_exchange(&g_init_status, MSBSDF_STATUS_OK);
+    if (failures > 0)
+        fprintf(stderr,
+                "warning: %lld hits could not build their textured material (msbsdf_material_init: %s); "
+                "those paths were ended\n",
+                failures, msbsdf_status_message(first_status));
     float inv = done > 0 ? 1.0f / (float)done : 0.0f;
     for (size_t i = 0; i < 3 * npix; i++) img[i] *= inv;
     stats->seconds = el;

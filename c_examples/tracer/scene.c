@@ -410,7 +410,7 @@ static int parse_material(parser *p, scene *s) {
     material *m = &s->mats[s->nmats];
     snprintf(m->name, NAME_LEN, "%s", name);
     m->line = p->line;
-    m->desc = msbsdf_material_desc_default();
+    msbsdf_material_desc_init(&m->desc);
     m->fallback_model = -1;
     m->inner = -1;
     m->rough_lo = m->rough_hi = -1.0f;
@@ -1097,10 +1097,13 @@ int scene_create_materials(scene *s, int model_override, char *err, size_t errle
         msbsdf_status st = msbsdf_material_create(&d, &m->handle);
         m->used_model = d.model;
         m->fell_back = 0;
-        if (st == MSBSDF_STATUS_UNSUPPORTED && model_override < 0 && m->fallback_model >= 0) {
+        /* Fall back when the model does not support the combination or refuses
+           this parameter range (e.g. NULL_SCATTERING below alpha 0.2). */
+        if ((st == MSBSDF_STATUS_UNSUPPORTED || st == MSBSDF_STATUS_INVALID_ARGUMENT) && model_override < 0 &&
+            m->fallback_model >= 0) {
             if (!warned[d.model & 15]++)
                 fprintf(stderr,
-                        "warning: %s:%d: material '%s': model '%s' is not supported by this msbsdf build "
+                        "warning: %s:%d: material '%s': model '%s' refused this material "
                         "(%s); rendering it with the fallback model '%s'\n",
                         s->path, m->line, m->name, model_name(d.model), msbsdf_status_message(st),
                         model_name((uint32_t)m->fallback_model));

@@ -44,7 +44,8 @@
 //! ENERGY_COMPENSATED for most conductors), since its own samples average
 //! the noise.
 
-use crate::material::{Estimator, FacetKind, Material, MaterialDesc, Model, NdfId};
+use crate::Material;
+use crate::desc::{Estimator, FacetKind, MaterialDesc, Model, NdfId};
 use crate::status::Error;
 
 /// One measured configuration.

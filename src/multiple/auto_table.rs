@@ -18,7 +18,7 @@
 
 use super::auto::{Candidate, Row};
 use super::bintable::{f32_at, layout};
-use crate::material::{Estimator, FacetKind, Model, NdfId};
+use crate::desc::{Estimator, FacetKind, Model, NdfId};
 
 /// The table file.
 const FILE: &[u8] = include_bytes!("../tables/auto.bin");

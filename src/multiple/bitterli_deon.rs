@@ -40,9 +40,9 @@
 //! refused here.
 
 use crate::bsdf::{Sample, ScatterModel};
+use crate::desc::MAX_BOUNCES;
 use crate::facet::Facet;
 use crate::frame::flip_z;
-use crate::material::MAX_BOUNCES;
 use crate::multiple::invariance::{
     CAP_MAX, CAP_SMALL, ExitState, RR_DEPTH, RR_MIN_Q, default_max_bounces_for, lambda_signed,
     sample_walk, scatter, two_sided_hapke_pdf,
@@ -255,6 +255,11 @@ impl BitterliDeon {
 }
 
 impl ScatterModel for BitterliDeon {
+    // PLACEHOLDER(kernel branch): replaced at merge
+    fn sample_with(&self, wi: Vec3, _u: [f32; 3], rng: &mut Rng) -> Sample {
+        self.sample(wi, rng)
+    }
+
     fn eval(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3 {
         let (wi, wo) = if wi.z < 0.0 {
             (flip_z(wi), flip_z(wo))

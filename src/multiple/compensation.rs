@@ -791,19 +791,33 @@ impl ScatterModel for Compensated {
                 s.weight *= self.dielectric_scale(wi, *eta);
                 s
             }
+            Kind::Conductor { .. } => {
+                let u = [rng.next_f32(), rng.next_f32(), rng.next_f32()];
+                self.sample_with(wi, u, rng)
+            }
+        }
+    }
+
+    fn sample_with(&self, wi: Vec3, u: [f32; 3], rng: &mut Rng) -> Sample {
+        match &self.kind {
+            Kind::Dielectric { eta } => {
+                let mut s = self.single.sample_with(wi, u, rng);
+                s.weight *= self.dielectric_scale(wi, *eta);
+                s
+            }
             Kind::Conductor { tint } => {
                 let flipped = wi.z < 0.0;
                 let wi_l = if flipped { flip_z(wi) } else { wi };
                 let p_ss = self.p_single(wi_l, tint);
-                let wo = if rng.next_f32() < p_ss {
-                    let s = self.single.sample(wi_l, rng);
+                let wo = if u[0] < p_ss {
+                    let s = self.single.sample_with(wi_l, [0.0, u[1], u[2]], rng);
                     if s.flags == crate::bsdf::SAMPLE_ABSORBED {
                         return Sample::ABSORBED;
                     }
                     s.wo
                 } else {
                     // Cosine-weighted hemisphere (Malley).
-                    let (u1, u2) = (rng.next_f32(), rng.next_f32());
+                    let (u1, u2) = (u[1], u[2]);
                     let r = u1.sqrt();
                     let phi = 2.0 * PI * u2;
                     Vec3::new(r * phi.cos(), r * phi.sin(), (1.0 - u1).max(0.0).sqrt())

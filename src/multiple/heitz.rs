@@ -68,10 +68,10 @@
 //! side, throughput) lives in a few registers.
 
 use crate::bsdf::{Sample, ScatterModel, opposite_sides, same_side};
+use crate::desc::MAX_BOUNCES;
 use crate::facet::Facet;
 use crate::frame::{RefractionHalf, flip_z, reflect, refract, refraction_half};
 use crate::fresnel;
-use crate::material::MAX_BOUNCES;
 use crate::ndf::Ndf;
 use crate::rng::Rng;
 use crate::single::{G2Form, Single};
@@ -460,6 +460,11 @@ impl Heitz {
 }
 
 impl ScatterModel for Heitz {
+    // PLACEHOLDER(kernel branch): replaced at merge
+    fn sample_with(&self, wi: Vec3, _u: [f32; 3], rng: &mut Rng) -> Sample {
+        self.sample(wi, rng)
+    }
+
     fn eval(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3 {
         if !same_side(wi, wo) && !matches!(self.facet, Facet::Dielectric { .. }) {
             return Vec3::ZERO;

@@ -128,9 +128,9 @@
 //! the Beckmann NDF gives nearly the same surface at a quarter of the cost.
 
 use crate::bsdf::{Sample, ScatterModel};
+use crate::desc::{Estimator, MAX_BOUNCES};
 use crate::facet::Facet;
 use crate::frame::flip_z;
-use crate::material::{Estimator, MAX_BOUNCES};
 use crate::ndf::Ndf;
 use crate::rng::Rng;
 use glam::{DVec3, Vec3};
@@ -706,6 +706,11 @@ impl Invariance {
 }
 
 impl ScatterModel for Invariance {
+    // PLACEHOLDER(kernel branch): replaced at merge
+    fn sample_with(&self, wi: Vec3, _u: [f32; 3], rng: &mut Rng) -> Sample {
+        self.sample(wi, rng)
+    }
+
     fn eval(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3 {
         let (wi, wo) = if wi.z < 0.0 {
             (flip_z(wi), flip_z(wo))

@@ -133,7 +133,7 @@ pub const MIN_ALPHA: f32 = 0.2;
 
 /// Default number of real scattering events followed when the description
 /// asks for the model default (`max_bounces = 0`). The walk keeps O(1) state,
-/// so it can exceed [`MAX_BOUNCES`](crate::material::MAX_BOUNCES) (the cap on
+/// so it can exceed [`MAX_BOUNCES`](crate::desc::MAX_BOUNCES) (the cap on
 /// explicit requests): near-uniform NDFs need long walks. Energy lost to it
 /// with F = 1 facets (measured, `examples/bounce_tail.rs`, `wi` at 30
 /// degrees): vMF alpha 4: 2.1% at 256 bounces, 0.05% at 1024, < 0.01% at
@@ -561,7 +561,7 @@ pub struct NullScattering {
     max_bounces: u32,
     /// Composition (seed 001 section 4): the facets scatter as this opaque
     /// material, in a frame whose z is the facet normal.
-    inner: Option<&'static crate::material::Material>,
+    inner: Option<crate::dispatch::Inner>,
 }
 
 /// Outcome of one walk.
@@ -587,7 +587,7 @@ impl NullScattering {
         let max_bounces = if max_bounces == 0 {
             DEFAULT_BOUNCES
         } else {
-            max_bounces.min(crate::material::MAX_BOUNCES)
+            max_bounces.min(crate::desc::MAX_BOUNCES)
         };
         NullScattering {
             ndf,
@@ -603,7 +603,7 @@ impl NullScattering {
     /// frame is built from its normal alone, so an anisotropic `inner` has an
     /// arbitrary azimuth on each facet. `eval` uses next-event estimation at
     /// real collisions with the sampled normal (as for diffuse facets).
-    pub fn with_inner(self, inner: &'static crate::material::Material) -> Self {
+    pub fn with_inner(self, inner: crate::dispatch::Inner) -> Self {
         NullScattering {
             inner: Some(inner),
             ..self
@@ -766,7 +766,7 @@ impl NullScattering {
             if ci <= 0.0 {
                 continue; // rounding at the rim: treat as null
             }
-            if let Some(inner) = self.inner {
+            if let Some(inner) = &self.inner {
                 // Scatter by the inner material in the facet's frame.
                 let (t1, t2) = basis(m.as_dvec3());
                 let (t1, t2) = (t1.as_vec3(), t2.as_vec3());
@@ -932,6 +932,11 @@ impl NullScattering {
 }
 
 impl ScatterModel for NullScattering {
+    // PLACEHOLDER(kernel branch): replaced at merge
+    fn sample_with(&self, wi: Vec3, _u: [f32; 3], rng: &mut Rng) -> Sample {
+        self.sample(wi, rng)
+    }
+
     fn eval(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3 {
         let mut st = WalkStats::default();
         self.eval_reciprocal(wi, wo, rng, &mut st)

@@ -224,10 +224,10 @@
 //! furnace.
 
 use crate::bsdf::{Sample, ScatterModel};
+use crate::desc::{Estimator, MAX_BOUNCES};
 use crate::facet::Facet;
 use crate::frame::{RefractionHalf, flip_z, reflect, refract, refraction_half};
 use crate::fresnel;
-use crate::material::{Estimator, MAX_BOUNCES};
 use crate::ndf::Ndf;
 use crate::rng::Rng;
 use glam::Vec3;
@@ -837,6 +837,11 @@ impl PositionFree {
 }
 
 impl ScatterModel for PositionFree {
+    // PLACEHOLDER(kernel branch): replaced at merge
+    fn sample_with(&self, wi: Vec3, _u: [f32; 3], rng: &mut Rng) -> Sample {
+        self.sample(wi, rng)
+    }
+
     fn eval(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3 {
         let Some((d0, dk)) = self.endpoints(wi, wo) else {
             return Vec3::ZERO;

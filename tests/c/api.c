@@ -498,7 +498,8 @@ static void test_struct_size(void)
 {
     const uint32_t too_small[] = {
         0u, 1u, 4u, (uint32_t)offsetof(msbsdf_material_desc, alpha_x),
-        (uint32_t)offsetof(msbsdf_material_desc, inner), (uint32_t)sizeof(msbsdf_material_desc) - 1u,
+        (uint32_t)offsetof(msbsdf_material_desc, inner),
+        87u, /* one below the first published (0.2) layout, 88 bytes */
     };
     size_t i;
     char what[64];
@@ -547,8 +548,9 @@ static void test_struct_size(void)
 static void test_invalid_arguments(void)
 {
     const float nan = (float)NAN, inf = (float)INFINITY;
-    const float bad_alpha[] = {0.0f, -0.0f, -0.5f, -1e-30f, nan, inf, -inf, 10.5f, 1e30f};
-    const float good_alpha[] = {1e-6f, 1e-4f, 0.5f, 1.0f, 10.0f};
+    const float bad_alpha[] = {-0.5f, -1e-30f, nan, inf, -inf, 10.5f, 1e30f};
+    /* 0 (and -0) is the specular regime since 0.3. */
+    const float good_alpha[] = {0.0f, -0.0f, 1e-6f, 1e-4f, 0.5f, 1.0f, 10.0f};
     const float bad_eta[] = {0.0f, -0.0f, -1.5f, nan, inf, -inf};
     const uint32_t ndfs[] = {MSBSDF_NDF_BECKMANN, MSBSDF_NDF_GGX};
     size_t i, n, axis;
@@ -586,7 +588,7 @@ static void test_invalid_arguments(void)
     /* Dielectric: eta.r is the index ratio; <= 0 or non-finite is refused. */
     for (i = 0; i < sizeof bad_eta / sizeof bad_eta[0]; i++) {
         msbsdf_material_desc d = glass_desc();
-        d.eta.r = bad_eta[i];
+        d.eta = rgb(bad_eta[i], bad_eta[i], bad_eta[i]);
         sprintf(what, "dielectric eta %g", bad_eta[i]);
         expect_desc_status(&d, MSBSDF_STATUS_INVALID_ARGUMENT, what);
     }
@@ -594,7 +596,8 @@ static void test_invalid_arguments(void)
         const float good_eta[] = {0.5f, 1.0f, 1.0001f, 1.5f, 4.0f};
         for (i = 0; i < sizeof good_eta / sizeof good_eta[0]; i++) {
             msbsdf_material_desc d = glass_desc();
-            d.eta.r = good_eta[i];
+            /* All channels: differing ones are refused since 0.3. */
+            d.eta = rgb(good_eta[i], good_eta[i], good_eta[i]);
             sprintf(what, "dielectric eta %g", good_eta[i]);
             expect_desc_status(&d, MSBSDF_STATUS_OK, what);
         }

@@ -90,6 +90,25 @@ int main() {
         CHECK(msbsdf_pdf(h, wi, wo, &pc) == MSBSDF_STATUS_OK && pw.ok() && pw.value == pc);
         msbsdf::Result<float> pbad = glass.value.pdf(wi, msbsdf::vec3(0.0f, 0.0f, 0.0f));
         CHECK(pbad.status == MSBSDF_STATUS_INVALID_DIRECTION && pbad.value == 0.0f);
+
+        // The 0.3 calls: the wrapper gives the C bits.
+        msbsdf::Context ctx;
+        ctx.transport(MSBSDF_TRANSPORT_IMPORTANCE).lobes(MSBSDF_LOBE_ALL);
+        float pe = -1.0f;
+        msbsdf::Result<msbsdf::Rgb> fe2 = glass.value.eval_pdf(ctx, wi, wo, pe);
+        CHECK(fe2.ok() && same_bits(fe2.value, fc) && pe == pc);
+        msbsdf_context cc;
+        msbsdf_context_init(&cc);
+        msbsdf_sample_record rc;
+        msbsdf_sample_record_init(&rc);
+        msbsdf::Context radiance;
+        msbsdf::Result<msbsdf::SampleRecord> rw = glass.value.sample_with(radiance, wi, 0.7f, 0.2f, 0.4f);
+        CHECK(msbsdf_sample_with(h, &cc, wi, 0.7f, 0.2f, 0.4f, &rc) == MSBSDF_STATUS_OK && rw.ok());
+        CHECK(same_bits(rw.value, rc) && rw.value.struct_size == sizeof(msbsdf_sample_record));
+        msbsdf::Result<std::uint32_t> fl = glass.value.flags();
+        CHECK(fl.ok() && fl.value == (MSBSDF_MATERIAL_REFLECTION | MSBSDF_MATERIAL_TRANSMISSION |
+                                      MSBSDF_MATERIAL_GLOSSY | MSBSDF_MATERIAL_ANISOTROPIC));
+        CHECK(d.c().eta.g == 1.5f && d.c().eta.b == 1.5f); // eta(float) sets every channel
     }
 
     // Moves transfer the handle; the source becomes empty.

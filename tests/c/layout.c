@@ -31,6 +31,8 @@ ALIGN_PROBE(msbsdf_rgb);
 ALIGN_PROBE(msbsdf_rng);
 ALIGN_PROBE(msbsdf_material_desc);
 ALIGN_PROBE(msbsdf_sample_result);
+ALIGN_PROBE(msbsdf_context);
+ALIGN_PROBE(msbsdf_sample_record);
 #define PROBE_ALIGNOF(T) offsetof(struct align_probe_##T, t)
 
 #define ROUND_UP(x, a) ((((x) + (a) - 1) / (a)) * (a))
@@ -80,7 +82,29 @@ CHECK_FIELD(msbsdf_material_desc, albedo);
 CHECK_FIELD(msbsdf_material_desc, max_bounces);
 CHECK_FIELD(msbsdf_material_desc, tolerance);
 CHECK_FIELD(msbsdf_material_desc, inner);
-CHECK_LAST_FIELD(msbsdf_material_desc, inner);
+CHECK_FIELD(msbsdf_material_desc, conductor_sides);
+CHECK_LAST_FIELD(msbsdf_material_desc, conductor_sides);
+
+CHECK_TYPE(msbsdf_context);
+CHECK_FIELD(msbsdf_context, struct_size);
+CHECK_FIELD(msbsdf_context, transport);
+CHECK_FIELD(msbsdf_context, lobes);
+CHECK_FIELD(msbsdf_context, rng);
+CHECK_LAST_FIELD(msbsdf_context, rng);
+
+CHECK_TYPE(msbsdf_sample_record);
+CHECK_FIELD(msbsdf_sample_record, struct_size);
+CHECK_FIELD(msbsdf_sample_record, flags);
+CHECK_FIELD(msbsdf_sample_record, wo);
+CHECK_FIELD(msbsdf_sample_record, weight);
+CHECK_FIELD(msbsdf_sample_record, pdf);
+CHECK_FIELD(msbsdf_sample_record, eta);
+CHECK_LAST_FIELD(msbsdf_sample_record, eta);
+
+/* The 0.2 fields keep their 0.2 offsets (abi/layout.txt at 0.2.0): the
+   first published layout ends with inner at 80, 88 bytes. */
+STATIC_CHECK(offsetof(msbsdf_material_desc, inner) == 80, inner_offset_0_2);
+STATIC_CHECK(offsetof(msbsdf_material_desc, conductor_sides) == 88, first_appended_field);
 
 CHECK_TYPE(msbsdf_sample_result);
 CHECK_FIELD(msbsdf_sample_result, wo);
@@ -129,6 +153,9 @@ int main(void)
     PRINT_FIELD(msbsdf_material_desc, max_bounces);
     PRINT_FIELD(msbsdf_material_desc, tolerance);
     PRINT_FIELD(msbsdf_material_desc, inner);
+    PRINT_FIELD(msbsdf_material_desc, conductor_sides);
+    PRINT_TYPE(msbsdf_context);
+    PRINT_TYPE(msbsdf_sample_record);
     PRINT_TYPE(msbsdf_sample_result);
     PRINT_FIELD(msbsdf_sample_result, wo);
     PRINT_FIELD(msbsdf_sample_result, weight);

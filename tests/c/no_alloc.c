@@ -94,6 +94,10 @@ static void all_models_phase(void)
                     msbsdf_sample_result smp;
                     msbsdf_rgb out;
                     float p;
+                    msbsdf_context ctx;
+                    msbsdf_sample_record rec;
+                    msbsdf_context_init(&ctx);
+                    msbsdf_sample_record_init(&rec);
                     if (i == 16) { /* warm-up done */
                         malloc_count_allocs = malloc_count_frees = 0;
                         malloc_count_enabled = 1;
@@ -107,10 +111,18 @@ static void all_models_phase(void)
                     if (msbsdf_pdf(m, wi, wo, &p) == MSBSDF_STATUS_OK) {
                         checksum += p;
                     }
+                    /* The 0.3 calls with a context. */
+                    ctx.rng = &rng;
+                    if (msbsdf_eval_pdf(m, &ctx, wi, wo, &out, &p) == MSBSDF_STATUS_OK) {
+                        checksum += out.r + p;
+                    }
+                    if (msbsdf_sample_with(m, &ctx, wi, 0.3f, 0.6f, 0.1f, &rec) == MSBSDF_STATUS_OK) {
+                        checksum += rec.weight.r;
+                    }
                 }
                 malloc_count_enabled = 0;
                 allocs = malloc_count_allocs + malloc_count_frees;
-                CHECK(allocs == 0, "model %u facet %u ndf %u: %lu allocator calls in 6000 hot-path calls",
+                CHECK(allocs == 0, "model %u facet %u ndf %u: %lu allocator calls in 10000 hot-path calls",
                       (unsigned)model, (unsigned)facets[f], (unsigned)ndf, allocs);
                 CHECK(isfinite(checksum), "model %u: checksum %g", (unsigned)model, checksum);
                 tested++;

@@ -47,7 +47,8 @@ static msbsdf_vec3 v3(float x, float y, float z)
     return v;
 }
 
-/* One job: ITERS rounds of sample / eval / pdf on both materials. */
+/* One job: ITERS rounds of sample / eval / pdf / eval_pdf / sample_with on
+   both materials. */
 static void run_job(int job, job_result *out)
 {
     msbsdf_rng r;
@@ -79,6 +80,20 @@ static void run_job(int job, job_result *out)
         }
         ok += msbsdf_pdf(m, wi, wo, &p) == MSBSDF_STATUS_OK;
         hash_bytes(&h, &p, sizeof p);
+        {
+            /* The context calls of 0.3 (radiance transport, the job's rng). */
+            msbsdf_context ctx;
+            msbsdf_sample_record rec;
+            msbsdf_context_init(&ctx);
+            ctx.rng = &r;
+            msbsdf_sample_record_init(&rec);
+            ok += msbsdf_eval_pdf(m, &ctx, wi, wo, &f, &p) == MSBSDF_STATUS_OK;
+            hash_bytes(&h, &f, sizeof f);
+            hash_bytes(&h, &p, sizeof p);
+            ok += msbsdf_sample_with(m, &ctx, wi, msbsdf_rng_next_float(&r), msbsdf_rng_next_float(&r),
+                                     msbsdf_rng_next_float(&r), &rec) == MSBSDF_STATUS_OK;
+            hash_bytes(&h, &rec, sizeof rec);
+        }
     }
     out->hash = h;
     out->end = r;
@@ -133,8 +148,8 @@ int main(void)
 
     for (j = 0; j < JOBS; j++) {
         run_job(j, &reference[j]);
-        CHECK(reference[j].ok == 4ul * ITERS, "job %d: %lu of %d calls OK", j, reference[j].ok,
-              4 * ITERS);
+        CHECK(reference[j].ok == 6ul * ITERS, "job %d: %lu of %d calls OK", j, reference[j].ok,
+              6 * ITERS);
     }
 
     CHECK(pthread_barrier_init(&start, NULL, THREADS) == 0, "pthread_barrier_init failed");
@@ -157,7 +172,7 @@ int main(void)
         }
     }
     printf("threads: %d threads x %d jobs x %d rounds (%d calls each): %d mismatches\n", THREADS,
-           JOBS, ITERS, 4 * ITERS, mismatches);
+           JOBS, ITERS, 6 * ITERS, mismatches);
     msbsdf_material_destroy(created);
     msbsdf_material_destroy(inited);
     return check_finish("threads");

@@ -253,7 +253,8 @@ pub enum LayoutItem {
 /// lays them out (the one list the layout and ABI tests share).
 pub fn rust_layout() -> Vec<LayoutItem> {
     use msbsdf::capi::{
-        msbsdf_material_desc, msbsdf_rgb, msbsdf_rng, msbsdf_sample_result, msbsdf_vec3,
+        msbsdf_context, msbsdf_material_desc, msbsdf_rgb, msbsdf_rng, msbsdf_sample_record,
+        msbsdf_sample_result, msbsdf_vec3,
     };
     use std::mem::{align_of, offset_of, size_of};
     let mut v = Vec::new();
@@ -281,7 +282,22 @@ pub fn rust_layout() -> Vec<LayoutItem> {
         albedo,
         max_bounces,
         tolerance,
-        inner
+        inner,
+        conductor_sides
+    });
+    layout!(msbsdf_context {
+        struct_size,
+        transport,
+        lobes,
+        rng
+    });
+    layout!(msbsdf_sample_record {
+        struct_size,
+        flags,
+        wo,
+        weight,
+        pdf,
+        eta
     });
     layout!(msbsdf_sample_result {
         wo,

@@ -880,6 +880,12 @@ impl VGroove {
             rng.next_f32(),
             rng.next_f64(),
         );
+        self.sample_from(wi, u1, u2, u3, u4)
+    }
+
+    /// Sampling from given uniforms: `u1, u2` the first facet, `u3` its
+    /// partner, `u4` the number of bounces.
+    fn sample_from(&self, wi: Vec3, u1: f32, u2: f32, u3: f32, u4: f64) -> Sample {
         let flipped = wi.z < 0.0;
         let wl = if flipped { flip_z(wi) } else { wi };
         let i = wl.as_dvec3().normalize();
@@ -1256,6 +1262,11 @@ impl ScatterModel for VGroove {
 
     fn sample(&self, wi: Vec3, rng: &mut Rng) -> Sample {
         self.sample_impl(wi, rng)
+    }
+
+    fn sample_with(&self, wi: Vec3, u: [f32; 3], rng: &mut Rng) -> Sample {
+        // u[0] picks the bounce count (the lobe), u[1], u[2] the first facet.
+        self.sample_from(wi, u[1], u[2], rng.next_f32(), u[0] as f64)
     }
 
     fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
