@@ -42,6 +42,17 @@ const MODELS: [(&str, Model, Estimator); 5] = [
 const ALPHAS: [f32; 3] = [0.3, 0.5, 1.0];
 const THETAS: [f64; 3] = [0.0, 60.0, 80.0];
 
+/// The models measured: all, or those whose name contains the environment
+/// variable `EFFICIENCY_ONLY` (for development runs).
+fn models() -> Vec<(&'static str, Model, Estimator)> {
+    let only = std::env::var("EFFICIENCY_ONLY").unwrap_or_default();
+    MODELS
+        .iter()
+        .copied()
+        .filter(|m| m.0.contains(only.as_str()))
+        .collect()
+}
+
 /// The 8 outgoing directions (theta_o, phi_o) in degrees, phi 0 forward.
 fn outs(theta_i: f64) -> [(f64, f64); 8] {
     let mirror = if theta_i == 0.0 { 2.0 } else { theta_i };
@@ -119,7 +130,7 @@ fn measure_sample(m: &Material, wi: Vec3, n: usize, rng: &mut Rng) -> f32 {
 /// samples, in a fixed order (one dump per call).
 fn count() {
     let mut sink = 0.0f32;
-    for (mi, &(_, model, est)) in MODELS.iter().enumerate() {
+    for (mi, &(_, model, est)) in models().iter().enumerate() {
         for &alpha in &ALPHAS {
             for &theta_i in &THETAS {
                 let m = material(model, est, alpha).expect("a supported material");
@@ -138,7 +149,10 @@ fn count() {
 /// Instructions of every dump in `dir` (callgrind.out.<pid>.<n>), by `n`.
 fn dumps(dir: &std::path::Path) -> Vec<u64> {
     let mut v: Vec<(u64, u64)> = Vec::new();
-    for e in std::fs::read_dir(dir).expect("callgrind directory").flatten() {
+    for e in std::fs::read_dir(dir)
+        .expect("callgrind directory")
+        .flatten()
+    {
         let name = e.file_name().to_string_lossy().to_string();
         let Some(n) = name.rsplit('.').next().and_then(|s| s.parse::<u64>().ok()) else {
             continue;
@@ -149,7 +163,10 @@ fn dumps(dir: &std::path::Path) -> Vec<u64> {
         let text = std::fs::read_to_string(e.path()).unwrap_or_default();
         let total = text
             .lines()
-            .find_map(|l| l.strip_prefix("totals: ").or_else(|| l.strip_prefix("summary: ")))
+            .find_map(|l| {
+                l.strip_prefix("totals: ")
+                    .or_else(|| l.strip_prefix("summary: "))
+            })
             .and_then(|s| s.trim().parse::<u64>().ok())
             .unwrap_or(0);
         v.push((n, total));
@@ -184,17 +201,15 @@ fn measure(out: &str, evals: usize) {
     let counts = dumps(&dir);
     let per_model = ALPHAS.len() * THETAS.len() * 9;
     assert!(
-        counts.len() >= MODELS.len() * per_model,
+        counts.len() >= models().len() * per_model,
         "expected {} dumps, found {}",
-        MODELS.len() * per_model,
+        models().len() * per_model,
         counts.len()
     );
     // Dumps are numbered from 1; an extra final dump (program end) may follow.
-    let mut csv = String::from(
-        "model,alpha,theta_i,kind,theta_o,phi_o,mean,var,ns,instr\n",
-    );
+    let mut csv = String::from("model,alpha,theta_i,kind,theta_o,phi_o,mean,var,ns,instr\n");
     let mut di = 0;
-    for (mi, &(name, model, est)) in MODELS.iter().enumerate() {
+    for (mi, &(name, model, est)) in models().iter().enumerate() {
         for &alpha in &ALPHAS {
             for &theta_i in &THETAS {
                 let m = material(model, est, alpha).expect("a supported material");
@@ -219,7 +234,9 @@ fn measure(out: &str, evals: usize) {
                         csv,
                         "{name},{alpha},{theta_i},eval,{t},{p},{mean:.6e},{var:.6e},{ns:.1},{instr:.1}"
                     );
-                    eprintln!("{name} {alpha} {theta_i} ({t}, {p}): mean {mean:.4e} var {var:.3e} {ns:.0} ns {instr:.0} instr");
+                    eprintln!(
+                        "{name} {alpha} {theta_i} ({t}, {p}): mean {mean:.4e} var {var:.3e} {ns:.0} ns {instr:.0} instr"
+                    );
                 }
                 let t0 = Instant::now();
                 let n = evals / 4;
@@ -388,7 +405,8 @@ fn report(base_path: &str, cur_path: &str) {
     });
     panels.push(svg::Panel {
         title: "Efficiency relative to HEITZ_RANDOM_WALK at 9f91b5f (GGX, F = 1)".into(),
-        xlabel: "configuration: (alpha, theta_i) = (0.3,0) (0.3,60) (0.3,80) (0.5,0) ... (1,80)".into(),
+        xlabel: "configuration: (alpha, theta_i) = (0.3,0) (0.3,60) (0.3,80) (0.5,0) ... (1,80)"
+            .into(),
         ylabel: "efficiency (geometric mean over 8 wo)".into(),
         logx: false,
         logy: true,

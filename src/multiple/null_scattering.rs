@@ -117,13 +117,13 @@
 
 use crate::bsdf::{Sample, ScatterModel, opposite_sides, same_side};
 use crate::facet::Facet;
-use crate::frame::{flip_z, reflect, refract};
+use crate::frame::{basis_f64, flip_z, reflect, refract};
 use crate::fresnel;
 use crate::math::{FRAC_1_SQRT_PI, erf, erfcx_pos};
 use crate::ndf::{Ndf, NdfKind, beckmann};
 use crate::rng::Rng;
 use crate::specfun::bessel_k;
-use glam::{DVec3, Vec3};
+use glam::Vec3;
 use std::f64::consts::PI;
 use std::sync::OnceLock;
 
@@ -470,18 +470,6 @@ pub fn sigma_quadrature_nodes(d: impl Fn(f64) -> f64, u: f64, nodes: usize) -> f
     total
 }
 
-/// An orthonormal basis around the unit vector `n` (Duff et al. 2017).
-#[inline]
-fn basis(n: DVec3) -> (DVec3, DVec3) {
-    let sign = 1.0f64.copysign(n.z);
-    let a = -1.0 / (sign + n.z);
-    let b = n.x * n.y * a;
-    (
-        DVec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
-        DVec3::new(b, sign + n.y * n.y * a, -n.y),
-    )
-}
-
 /// Samples a K0 visible normal seen from the unit direction `v` (either
 /// hemisphere), exactly: the mixture index `t` of the Beckmann component of
 /// roughness `alpha t / sqrt(2)` (seed 001, eq. 35 with `a = 1`: Rayleigh
@@ -742,7 +730,7 @@ impl NullScattering {
                 }
                 // Candidate normal: uniform disk orthogonal to w, onto the sphere.
                 let wd = w.as_dvec3().normalize();
-                let (e1, e2) = basis(wd);
+                let (e1, e2) = basis_f64(wd);
                 let r = rng.next_f64().sqrt();
                 let phi = 2.0 * PI * rng.next_f64();
                 let m = (e1 * (r * phi.cos()) + e2 * (r * phi.sin())
@@ -768,7 +756,7 @@ impl NullScattering {
             }
             if let Some(inner) = self.inner {
                 // Scatter by the inner material in the facet's frame.
-                let (t1, t2) = basis(m.as_dvec3());
+                let (t1, t2) = basis_f64(m.as_dvec3());
                 let (t1, t2) = (t1.as_vec3(), t2.as_vec3());
                 let to_local = |v: Vec3| Vec3::new(v.dot(t1), v.dot(t2), v.dot(m));
                 let wi_loc = to_local(wi_l);
@@ -805,7 +793,7 @@ impl NullScattering {
                         }
                     }
                     weight *= albedo;
-                    let (e1, e2) = basis(m.as_dvec3());
+                    let (e1, e2) = basis_f64(m.as_dvec3());
                     let r = rng.next_f64().sqrt();
                     let phi = 2.0 * PI * rng.next_f64();
                     let d = e1 * (r * phi.cos())
