@@ -381,10 +381,10 @@ fn report(base_path: &str, cur_path: &str) {
         for &theta_i in &THETAS {
             let mut best = ("", 0.0);
             for &(name, _, _) in &MODELS[..4] {
-                if let Some([eff, ..]) = summary(&cur, &base, name, alpha, theta_i) {
-                    if eff > best.1 {
-                        best = (name, eff);
-                    }
+                if let Some([eff, ..]) = summary(&cur, &base, name, alpha, theta_i)
+                    && eff > best.1
+                {
+                    best = (name, eff);
                 }
             }
             let h = summary(&cur, &base, MODELS[0].0, alpha, theta_i).map_or(f64::NAN, |s| s[0]);

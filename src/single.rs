@@ -216,6 +216,11 @@ impl ScatterModel for Single {
         }
     }
 
+    fn sample_with(&self, wi: Vec3, _u: [f32; 3], rng: &mut Rng) -> Sample {
+        // PLACEHOLDER(abi branch): the real first-vertex use of `u` is the abi helper's.
+        self.sample(wi, rng)
+    }
+
     fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
         let eta = match self.facet {
             Facet::Dielectric { eta } => eta,

@@ -577,6 +577,11 @@ impl ScatterModel for Compensated {
         }
     }
 
+    fn sample_with(&self, wi: Vec3, _u: [f32; 3], rng: &mut Rng) -> Sample {
+        // PLACEHOLDER(abi branch): the real first-vertex use of `u` is the abi helper's.
+        self.sample(wi, rng)
+    }
+
     fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
         match &self.kind {
             Kind::Dielectric { .. } => self.single.pdf(wi, wo),

@@ -77,7 +77,6 @@ use crate::multiple::microsurface::{
 };
 use crate::ndf::Ndf;
 use crate::rng::Rng;
-use crate::single::{G2Form, Single};
 use glam::Vec3;
 
 /// Default bounce limit for the given roughness and facets: keeps the
@@ -205,9 +204,15 @@ impl DepthState for HeightState {
     }
 
     #[inline]
-    fn ln_entry_density(&self, lam0: f64) -> Option<f64> {
+    fn ln_entry_density(&self, lam0: f64) -> f64 {
         // (1 + Lambda_i) C1(h_1)^Lambda_i with Lambda_i = -1 - lam0.
-        Some((-lam0).ln() + (-1.0 - lam0) * self.lc)
+        (-lam0).ln() + (-1.0 - lam0) * self.lc
+    }
+
+    #[inline]
+    fn exit_density(lam_o: f64, e: f64) -> f64 {
+        // (1 + Lambda_o) C1(h)^Lambda_o.
+        (1.0 + lam_o) * e
     }
 
     #[inline]
@@ -223,7 +228,7 @@ pub struct Heitz {
     /// Weight of the cosine lobe in `pdf`.
     q: f32,
     /// Single scattering in closed form (conductor and dielectric facets).
-    single: Option<Single>,
+    closed_single: bool,
 }
 
 impl Heitz {
@@ -243,14 +248,11 @@ impl Heitz {
             max_bounces.min(MAX_BOUNCES)
         };
         let alpha = 0.5 * (ndf.alpha_x + ndf.alpha_y);
-        let single = match facet {
-            Facet::Diffuse { .. } => None,
-            _ => Some(Single::new(ndf, facet, G2Form::HeightCorrelated)),
-        };
+        let closed_single = !matches!(facet, Facet::Diffuse { .. });
         Heitz {
             ms: Microsurface::new(ndf, facet, max_bounces),
             q: cosine_weight(alpha, &facet),
-            single,
+            closed_single,
         }
     }
 
@@ -317,8 +319,8 @@ impl ScatterModel for Heitz {
         }
         // f(wi, wo) |wo.z| = f(wo, wi) |wi.z| * (|wo.z| / |wi.z|) * eta_o^2 / eta_i^2.
         let scale = wo.z.abs() / wi.z.abs() * self.ms.reciprocity_factor(wi, wo);
-        let v = match &self.single {
-            Some(single) => {
+        let v = match self.closed_single {
+            true => {
                 let opt = WalkOptions {
                     forced: 0,
                     mis: true,
@@ -328,9 +330,9 @@ impl ScatterModel for Heitz {
                 self.walk_with(wi, wo, rng, opt, &mut fwd);
                 let mut bwd = Vec3::ZERO;
                 self.walk_with(wo, wi, rng, opt, &mut bwd);
-                single.eval(wi, wo, rng) + fwd + bwd * scale
+                self.ms.single(wi, wo) + fwd + bwd * scale
             }
-            None => {
+            false => {
                 let forward = self.estimate(wi, wo, rng);
                 let backward = self.estimate(wo, wi, rng);
                 0.5 * (forward + backward * scale)
@@ -345,6 +347,10 @@ impl ScatterModel for Heitz {
 
     fn sample(&self, wi: Vec3, rng: &mut Rng) -> Sample {
         self.sample_with_bounces(wi, rng).0
+    }
+
+    fn sample_with(&self, wi: Vec3, u: [f32; 3], rng: &mut Rng) -> Sample {
+        Self::sample_with(self, wi, u, rng)
     }
 
     fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {

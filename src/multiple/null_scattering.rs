@@ -930,6 +930,12 @@ impl ScatterModel for NullScattering {
         self.sample_with_stats(wi, rng, &mut st)
     }
 
+    fn sample_with(&self, wi: Vec3, _u: [f32; 3], rng: &mut Rng) -> Sample {
+        // PLACEHOLDER(kernel): the null-scattering walk is not on the shared
+        // kernel yet; its first vertex still draws from rng.
+        self.sample(wi, rng)
+    }
+
     fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
         let c = wo.z.abs() * std::f32::consts::FRAC_1_PI;
         match self.facet {

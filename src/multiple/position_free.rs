@@ -500,8 +500,22 @@ impl PositionFree {
     /// weight `phase / pdf` (conductor Fresnel, or 1 for dielectrics).
     #[inline]
     fn sample_vertex(&self, w: Dir, rng: &mut Rng) -> Option<(Dir, Vec3)> {
-        let v = -w.v;
         let (u1, u2) = (rng.next_f32(), rng.next_f32());
+        self.sample_vertex_u(w, u1, u2, None, rng)
+    }
+
+    /// [`Self::sample_vertex`] with the visible normal from `u1, u2` and the
+    /// reflect/refract choice from `choice` (else `rng`).
+    #[inline]
+    fn sample_vertex_u(
+        &self,
+        w: Dir,
+        u1: f32,
+        u2: f32,
+        choice: Option<f32>,
+        rng: &mut Rng,
+    ) -> Option<(Dir, Vec3)> {
+        let v = -w.v;
         let m = self.ndf.sample_visible(v, u1, u2);
         let ci = v.dot(m);
         if !above(ci, 0.0) {
@@ -511,7 +525,7 @@ impl PositionFree {
             Facet::Dielectric { .. } => {
                 let eta = self.eta_from(w.inside);
                 let f = fresnel::dielectric(ci, eta);
-                if rng.next_f32() < f {
+                if choice.unwrap_or_else(|| rng.next_f32()) < f {
                     let o = reflect(v, m);
                     Some((
                         Dir {
@@ -821,11 +835,15 @@ impl PositionFree {
 
     /// Runs the walk of sec. 4.3 from `d0`; returns the leaving direction
     /// and the weight, `None` when absorbed.
-    fn walk(&self, d0: Dir, rng: &mut Rng) -> Option<(Dir, Vec3)> {
+    fn walk(&self, d0: Dir, u: [f32; 3], rng: &mut Rng) -> Option<(Dir, Vec3)> {
         let mut w = d0;
         let mut beta = Vec3::ONE;
-        for _ in 0..self.max_bounces {
-            let (o, weight) = self.sample_vertex(w, rng)?;
+        for k in 0..self.max_bounces {
+            let (o, weight) = if k == 0 {
+                self.sample_vertex_u(w, u[1], u[2], Some(u[0]), rng)?
+            } else {
+                self.sample_vertex(w, rng)?
+            };
             beta *= weight;
             if o.v.z > 0.0 && rng.next_f32() < self.ndf.g1(o.v) {
                 return Some((o, beta));
@@ -856,6 +874,11 @@ impl ScatterModel for PositionFree {
     }
 
     fn sample(&self, wi: Vec3, rng: &mut Rng) -> Sample {
+        let u = [rng.next_f32(), rng.next_f32(), rng.next_f32()];
+        self.sample_with(wi, u, rng)
+    }
+
+    fn sample_with(&self, wi: Vec3, u: [f32; 3], rng: &mut Rng) -> Sample {
         let dielectric = self.is_dielectric();
         let flipped = !dielectric && wi.z < 0.0;
         let wi_l = if flipped { flip_z(wi) } else { wi };
@@ -870,7 +893,7 @@ impl ScatterModel for PositionFree {
                 inside: false,
             }
         };
-        let Some((o, weight)) = self.walk(d0, rng) else {
+        let Some((o, weight)) = self.walk(d0, u, rng) else {
             return Sample::ABSORBED;
         };
         let wo_l = if o.inside { flip_z(o.v) } else { o.v };

@@ -1263,6 +1263,11 @@ impl ScatterModel for VGroove {
         self.sample_impl(wi, rng)
     }
 
+    fn sample_with(&self, wi: Vec3, _u: [f32; 3], rng: &mut Rng) -> Sample {
+        // PLACEHOLDER(abi branch): the real first-vertex use of `u` is the abi helper's.
+        self.sample(wi, rng)
+    }
+
     fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
         let want = Want {
             f: false,
