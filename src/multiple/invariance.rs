@@ -338,6 +338,7 @@ pub(crate) fn eval_two_walks<S: DepthState>(
         forced: FORCED_VERTICES,
         mis: two_walks,
         order_one: false,
+        roulette: false,
     };
     let mut f = Vec3::ZERO;
     microsurface::walk::<S, _>(ms, wi, wo, rng, opt, &mut f);

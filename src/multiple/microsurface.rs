@@ -441,6 +441,11 @@ pub struct WalkOptions {
     /// Also estimate order 1 (off when the caller adds single scattering
     /// in closed form).
     pub order_one: bool,
+    /// Upward segments after the forced ones also hit, weighted by the hit
+    /// probability, and the walk goes on past the vertex they reach by
+    /// Russian roulette with that probability (after its next event): the
+    /// next event at every reached vertex keeps the exact factor.
+    pub roulette: bool,
 }
 
 impl WalkOptions {
@@ -449,6 +454,7 @@ impl WalkOptions {
         forced: 0,
         mis: false,
         order_one: true,
+        roulette: false,
     };
 }
 
@@ -500,12 +506,22 @@ pub fn walk<S: DepthState, T: Tally>(
     } else {
         1.0
     };
+    let diffuse = matches!(ms.facet, Facet::Diffuse { .. });
+    // Hit probability of the segment that reached the current vertex, when
+    // it was forced and is still to be rouletted.
+    let mut p_last = 1.0f64;
     let mut k = 0u32;
     loop {
         k += 1;
-        let Some((m, ci)) = ms.facet_normal(w, rng.next_f32(), rng.next_f32()) else {
-            return k;
-        };
+        // Diffuse facets: the next event uses the drawn facet.
+        let mut drawn = None;
+        if diffuse {
+            let Some(d) = ms.facet_normal(w, rng.next_f32(), rng.next_f32()) else {
+                return k;
+            };
+            drawn = Some(d);
+        }
+        let m = drawn.map_or(Vec3::Z, |d| d.0);
         let sigma_i = ms.sigma_seen(w, lam);
         if k >= 2 || opt.order_one {
             let o = to_side(wo, inside);
@@ -539,6 +555,22 @@ pub fn walk<S: DepthState, T: Tally>(
         if k >= ms.max_bounces {
             return k;
         }
+        // Delayed Russian roulette on a forced segment: the next event above
+        // had the hit probability in its weight; go on with that probability.
+        if p_last < 1.0 {
+            if (rng.next_f32() as f64) >= p_last {
+                return k;
+            }
+            thr /= p_last as f32;
+            p_last = 1.0;
+        }
+        let (m, ci) = match drawn {
+            Some(d) => d,
+            None => match ms.facet_normal(w, rng.next_f32(), rng.next_f32()) {
+                Some(d) => d,
+                None => return k,
+            },
+        };
         let u = if ms.is_dielectric() {
             rng.next_f32()
         } else {
@@ -580,9 +612,14 @@ pub fn walk<S: DepthState, T: Tally>(
                 ratio *= 4.0 * sigma_i as f64 / (fd * ms.ndf.d(m)) as f64 * S::segment_ratio(lam);
             }
         }
-        if w.z > 0.0 && k <= opt.forced {
+        if w.z > 0.0 && (k <= opt.forced || opt.roulette) {
             match state.travel_forced(lam, rng) {
-                Some(p) => thr *= p as f32,
+                Some(p) => {
+                    thr *= p as f32;
+                    if k > opt.forced {
+                        p_last = p;
+                    }
+                }
                 None => {
                     if state.travel(lam, rng) != Travel::Hit {
                         return k;

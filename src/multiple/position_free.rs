@@ -228,6 +228,7 @@ use crate::facet::Facet;
 use crate::frame::{RefractionHalf, flip_z, reflect, refract, refraction_half};
 use crate::fresnel;
 use crate::material::{Estimator, MAX_BOUNCES};
+use crate::multiple::microsurface::{self, DepthState, Microsurface, Travel, WalkOptions};
 use crate::ndf::Ndf;
 use crate::rng::Rng;
 use glam::Vec3;
@@ -302,6 +303,51 @@ pub struct PositionFree {
     estimator: Estimator,
     max_bounces: u32,
     lambert_weight: f32,
+    ms: Microsurface,
+}
+
+/// The position-free model's depth state: none. Each segment is
+/// height-uncorrelated, so a path at a vertex leaves along an upward `d`
+/// with `G1_dist(d) = 1 / (1 + Lambda(d))` whatever came before (Wang et al.
+/// 2022, eqs. (6)-(7)); a downward one always hits again. Its MIS segment
+/// ratio is exact: `(1 + L) / L` for either sign of `L`.
+#[derive(Clone, Copy, Debug)]
+pub struct ExitTerm;
+
+impl DepthState for ExitTerm {
+    #[inline]
+    fn enter(_lam0: f64, _rng: &mut Rng) -> Self {
+        ExitTerm
+    }
+
+    #[inline]
+    fn exit(&self, lam_o: f64, _crossed: bool) -> f64 {
+        1.0 / (1.0 + lam_o)
+    }
+
+    #[inline]
+    fn travel(&mut self, lam: f64, rng: &mut Rng) -> Travel {
+        if lam >= 0.0 && (rng.next_f32() as f64) * (1.0 + lam) < 1.0 {
+            Travel::Escape
+        } else {
+            Travel::Hit
+        }
+    }
+
+    #[inline]
+    fn travel_forced(&mut self, lam: f64, _rng: &mut Rng) -> Option<f64> {
+        // 1 - G1 = Lambda / (1 + Lambda), for precision.
+        Some(if lam.is_finite() {
+            lam / (1.0 + lam)
+        } else {
+            1.0
+        })
+    }
+
+    #[inline]
+    fn segment_ratio(lam: f64) -> f64 {
+        microsurface::uncorrelated_segment_ratio(lam)
+    }
 }
 
 /// A direction with the medium it travels in (`inside` = below the
@@ -369,6 +415,7 @@ impl PositionFree {
             estimator,
             max_bounces,
             lambert_weight,
+            ms: Microsurface::new(ndf, facet, max_bounces),
         }
     }
 
@@ -501,20 +548,6 @@ impl PositionFree {
     #[inline]
     fn sample_vertex(&self, w: Dir, rng: &mut Rng) -> Option<(Dir, Vec3)> {
         let (u1, u2) = (rng.next_f32(), rng.next_f32());
-        self.sample_vertex_u(w, u1, u2, None, rng)
-    }
-
-    /// [`Self::sample_vertex`] with the visible normal from `u1, u2` and the
-    /// reflect/refract choice from `choice` (else `rng`).
-    #[inline]
-    fn sample_vertex_u(
-        &self,
-        w: Dir,
-        u1: f32,
-        u2: f32,
-        choice: Option<f32>,
-        rng: &mut Rng,
-    ) -> Option<(Dir, Vec3)> {
         let v = -w.v;
         let m = self.ndf.sample_visible(v, u1, u2);
         let ci = v.dot(m);
@@ -525,7 +558,7 @@ impl PositionFree {
             Facet::Dielectric { .. } => {
                 let eta = self.eta_from(w.inside);
                 let f = fresnel::dielectric(ci, eta);
-                if choice.unwrap_or_else(|| rng.next_f32()) < f {
+                if rng.next_f32() < f {
                     let o = reflect(v, m);
                     Some((
                         Dir {
@@ -600,48 +633,6 @@ impl PositionFree {
                 },
             ))
         }
-    }
-
-    /// Path tracing with next-event estimation at every vertex (seed 000, eqs. (11-13)).
-    fn eval_pt(&self, d0: Dir, dk: Dir, rng: &mut Rng) -> Vec3 {
-        let exit = exit_prob(&self.ndf, dk.v); // e_k, seed 000, eq. (7)
-        if exit <= 0.0 {
-            return Vec3::ZERO;
-        }
-        let mut sum = Vec3::ZERO;
-        // Throughput reaching the current vertex, exit factors e_i (seed 000, eq. (6))
-        // included deterministically; `e_w` is the factor of the direction
-        // that reached it.
-        let mut beta = Vec3::ONE;
-        let mut e_w = 1.0f32;
-        let mut w = d0;
-        for bounce in 0..self.max_bounces {
-            // Next event: this vertex sends the path to wo (seed 000, eq. (12)).
-            sum += beta * self.vertex(w, dk).value;
-            if bounce + 1 == self.max_bounces {
-                break;
-            }
-            // Going on past this vertex: Russian roulette with the
-            // probability e_w already in beta (so the next-event term at
-            // every reached vertex keeps the exact factor, and long paths
-            // are cut where they are unlikely).
-            if e_w < 1.0 {
-                if rng.next_f32() >= e_w {
-                    break;
-                }
-                beta /= e_w;
-            }
-            let Some((o, weight)) = self.sample_vertex(w, rng) else {
-                break;
-            };
-            e_w = continue_prob(&self.ndf, o.v);
-            beta *= weight * e_w;
-            if !above(beta.max_element(), 0.0) {
-                break;
-            }
-            w = o;
-        }
-        sum * exit
     }
 
     /// Bidirectional estimator with the balance heuristic (seed 000, eqs. (14-16)),
@@ -832,26 +823,6 @@ impl PositionFree {
     fn single_pdf(&self, d0: Dir, dk: Dir) -> f32 {
         self.vertex(d0, dk).pdf
     }
-
-    /// Runs the walk of sec. 4.3 from `d0`; returns the leaving direction
-    /// and the weight, `None` when absorbed.
-    fn walk(&self, d0: Dir, u: [f32; 3], rng: &mut Rng) -> Option<(Dir, Vec3)> {
-        let mut w = d0;
-        let mut beta = Vec3::ONE;
-        for k in 0..self.max_bounces {
-            let (o, weight) = if k == 0 {
-                self.sample_vertex_u(w, u[1], u[2], Some(u[0]), rng)?
-            } else {
-                self.sample_vertex(w, rng)?
-            };
-            beta *= weight;
-            if o.v.z > 0.0 && rng.next_f32() < self.ndf.g1(o.v) {
-                return Some((o, beta));
-            }
-            w = o;
-        }
-        None
-    }
 }
 
 impl ScatterModel for PositionFree {
@@ -860,7 +831,19 @@ impl ScatterModel for PositionFree {
             return Vec3::ZERO;
         };
         match self.estimator {
-            Estimator::Pt => self.eval_pt(d0, dk, rng),
+            Estimator::Pt => {
+                // The shared walk, next event at every vertex with the
+                // exact exit factor, Russian roulette past it (module docs).
+                let opt = WalkOptions {
+                    forced: 0,
+                    mis: false,
+                    order_one: true,
+                    roulette: true,
+                };
+                let mut f = Vec3::ZERO;
+                microsurface::walk::<ExitTerm, _>(&self.ms, wi, wo, rng, opt, &mut f);
+                f
+            }
             Estimator::Bdpt => {
                 if self.max_bounces <= 16 {
                     self.eval_bdpt::<16>(d0, dk, rng)
@@ -879,30 +862,15 @@ impl ScatterModel for PositionFree {
     }
 
     fn sample_with(&self, wi: Vec3, u: [f32; 3], rng: &mut Rng) -> Sample {
-        let dielectric = self.is_dielectric();
-        let flipped = !dielectric && wi.z < 0.0;
-        let wi_l = if flipped { flip_z(wi) } else { wi };
-        let d0 = if dielectric && wi.z < 0.0 {
-            Dir {
-                v: flip_z(-wi),
-                inside: true,
+        // Sec. 4.3's walk on the shared kernel: visible normals, Fresnel as
+        // the choice (dielectric) or the weight (conductor), G1_dist(d) as
+        // the probability to leave along an upward d.
+        match microsurface::sample_walk::<ExitTerm, _>(&self.ms, wi, u, rng, |_| {}) {
+            Ok(e) if e.wo.z != 0.0 && e.wo.is_finite() => {
+                Sample::new(wi, e.wo, e.weight, self.pdf(wi, e.wo))
             }
-        } else {
-            Dir {
-                v: -wi_l,
-                inside: false,
-            }
-        };
-        let Some((o, weight)) = self.walk(d0, u, rng) else {
-            return Sample::ABSORBED;
-        };
-        let wo_l = if o.inside { flip_z(o.v) } else { o.v };
-        let wo = if flipped { flip_z(wo_l) } else { wo_l };
-        if !(wo.z != 0.0 && wo.is_finite()) {
-            return Sample::ABSORBED;
+            _ => Sample::ABSORBED,
         }
-        let pdf = self.pdf(wi, wo);
-        Sample::new(wi, wo, weight, pdf)
     }
 
     fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {

@@ -22,13 +22,36 @@ use glam::Vec3;
 use msbsdf::Rng;
 use msbsdf::facet::Facet;
 use msbsdf::multiple::heitz::Heitz;
-use msbsdf::multiple::microsurface::Tally;
-pub use msbsdf::multiple::microsurface::WalkOptions;
+use msbsdf::multiple::microsurface::{self, Tally};
 use msbsdf::ndf::Ndf;
 
 /// Orders kept separately in [`Contribution::by_order`] (index = order;
 /// orders `>= ORDERS - 1` are pooled in the last slot).
 pub const ORDERS: usize = 8;
+
+/// Variance-reduction switches of [`RefWalk::run`] (the library's
+/// `microsurface::WalkOptions` without roulette).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct WalkOptions {
+    /// Upward segments leaving vertices `1..=forced` always hit (weighted
+    /// by the hit probability).
+    pub forced: u32,
+    /// Balance-heuristic weights between the forward and reverse walks
+    /// (otherwise the caller averages them).
+    pub mis: bool,
+    /// Also compute the next event at vertex 1 (order 1: the analytic
+    /// SINGLE term replaces it in the reference).
+    pub order_one: bool,
+}
+
+impl WalkOptions {
+    /// The library's analog walk.
+    pub const ANALOG: WalkOptions = WalkOptions {
+        forced: 0,
+        mis: false,
+        order_one: true,
+    };
+}
 
 /// What one walk contributed, per scattering order.
 #[derive(Clone, Copy, Debug, Default)]
@@ -69,6 +92,12 @@ impl RefWalk {
             return out;
         }
         let max = self.heitz.max_bounces();
+        let opt = microsurface::WalkOptions {
+            forced: opt.forced,
+            mis: opt.mis,
+            order_one: opt.order_one,
+            roulette: false,
+        };
         out.vertices = self.heitz.walk_with(wi, wo, rng, opt, &mut out).min(max);
         out
     }
