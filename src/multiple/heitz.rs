@@ -325,7 +325,7 @@ impl ScatterModel for Heitz {
                     forced: 0,
                     mis: true,
                     order_one: false,
-                    roulette: false,
+                    roulette: true,
                 };
                 let mut fwd = Vec3::ZERO;
                 self.walk_with(wi, wo, rng, opt, &mut fwd);
