@@ -1,5 +1,5 @@
 //! `MSBSDF_MODEL_BITTERLI_DEON`: the exit probability `p_exit` of Bitterli
-//! and d'Eon 2022 as given in seed 003's supplement (eqs. 5-7, Alg. 5),
+//! and d'Eon 2022 as given in the supplement of Cui et al. 2023 (eqs. 5-7, Alg. 5),
 //! with the unidirectional (PT) estimator, conductor facets.
 //!
 //! A path `d_0 = -wi, d_1, ..., d_k = wo` contributes
@@ -10,7 +10,11 @@
 //! far (`b_j = |Lambda|` of that direction), and
 //! `p_exit = sum_j a_j / (b_j + Lambda(d_k))` (eq. 5). It equals
 //! `prod |Lambda(d_i)| S_k` (eq. 7), so this model has the same values and,
-//! with the same random numbers, the same variance as INVARIANCE (PT); it
+//! with the same random numbers, the same variance as INVARIANCE (PT): the
+//! two are one estimator on the shared walk
+//! ([`crate::multiple::microsurface`]), differing only in the depth state
+//! (renormalised to `raw(0) = 1` after every step, so that `p_exit` is the
+//! conditional exit probability given the directions so far). This one
 //! costs more per bounce (a partial-fraction update of all terms at every
 //! downward bounce).
 //!

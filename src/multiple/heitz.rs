@@ -44,27 +44,10 @@
 //! `1 - q`, plus a cosine lobe with weight `q` ([`cosine_weight`] of the
 //! mean of the two roughnesses). It is positive wherever `sample` can go.
 //!
-//! Bounce limit: `max_bounces = 0` selects [`default_max_bounces`]. A walk
-//! reaching one more vertex than the limit is absorbed (weight 0). The rule
-//! comes from the measured truncated energy: the smallest limit `n` whose
-//! fraction of white-furnace walks needing more than `n` vertices is below
-//! 1e-3 (2 x 10^5 walks, GGX, worst of theta_i in {0, 60, 89} degrees;
-//! Beckmann needs fewer; `cargo run --release --example heitz_measure trunc`):
-//!
-//! | alpha | mirror | glass 1.5 (from above) | glass 1/1.5 (from below) | glass 1/3 | diffuse, albedo 1 |
-//! |-------|--------|------|------|------|------|
-//! | 0.5   | 5      | 6    | 6    | 5    | 8    |
-//! | 1.0   | 8      | 8    | 9    | 8    | 15   |
-//! | 2.0   | 13     | 13   | 16   | 13   | 35   |
-//! | 5.0   | 26     | 24   | 32   | 26   | 140  |
-//! | 10.0  | 47     | 39   | 57   | 45   | > 256 |
-//!
-//! Diffuse facets with albedo 1 at alpha 10 keep more than 1e-3 of the
-//! energy beyond [`MAX_BOUNCES`] = 256 vertices, so the 0.1% target is not
-//! reachable there (with albedo below 1 the lost energy is far smaller).
-//! With the default limit 10, the truncated energy of a GGX mirror is
-//! 5e-6 at alpha 1 and 7.4e-3 at alpha 2 (normal incidence), so alpha
-//! above 1 needs more.
+//! Bounce limit: `max_bounces = 0` selects [`default_max_bounces`], the
+//! smallest limit whose truncated white-furnace energy is below 1e-3
+//! (measurements in `docs/heitz_bounces.md`). A walk reaching one more
+//! vertex than the limit is absorbed (weight 0).
 //!
 //! The walk keeps no path arrays: its whole state (direction, log height,
 //! side, throughput) lives in a few registers.

@@ -1,9 +1,9 @@
 //! `MSBSDF_MODEL_INVARIANCE`: multiple-bounce Smith microfacet BRDF from the
-//! invariance principle (seed 003, Cui et al. 2023), conductor facets.
+//! invariance principle (Cui et al. 2023, Cui et al. 2023), conductor facets.
 //!
-//! A path is a list of directions `d_0 = -wi, d_1, ..., d_k = wo` (seed 003,
+//! A path is a list of directions `d_0 = -wi, d_1, ..., d_k = wo` (Cui et al. 2023,
 //! sec. 3.1); its contribution is the product of the position-free vertex
-//! terms `v(d_i, d_{i+1}) = F D(h) / (4 |d_i.z|)` (seed 003, eq. 2) and one
+//! terms `v(d_i, d_{i+1}) = F D(h) / (4 |d_i.z|)` (Cui et al. 2023, eq. 2) and one
 //! segment term `S_k(d_0, ..., d_k)` for the whole path (eq. 3). `S_k` is the
 //! height-free transmittance of the path in the equivalent semi-infinite
 //! medium whose collision rate per unit optical depth along `d` is
@@ -37,14 +37,24 @@
 //!   of two Lambdas, unlike the hyperexponential form of Bitterli and
 //!   d'Eon. It equals `p_exit / prod |Lambda|` of
 //!   [`crate::multiple::bitterli_deon`] to 1e-6 on random sequences (tests).
-//! - **Sample** follows Alg. 2's walk (VNDF at each bounce, decide to exit on
-//!   upward directions) but exits with the exact conditional probability
-//!   given the directions so far, `R(Lambda(d))/R(0)`, instead of `G1`: the
-//!   walk then has the distribution of Heitz et al.'s height walk and the
-//!   weight is the product of the Fresnel factors (exactly 1 in the white
-//!   furnace), instead of `S_k / prod G1` which is noisy.
-//! - **Russian roulette** (Alg. 3) uses the same exact continuation
-//!   probability instead of a constant `q`, clamped below at 0.1.
+//! - **The walk** is the shared microsurface walk
+//!   ([`crate::multiple::microsurface`]) with the segment term as its depth
+//!   state, renormalised to `R(0) = 1` after every step: `R(s)` is then the
+//!   exact conditional probability of leaving along a direction with
+//!   `Lambda = s` given the directions so far. **Sample** follows Alg. 2
+//!   (VNDF at each bounce, exit on upward directions) but exits with that
+//!   probability instead of `G1`: the walk has the distribution of Heitz et
+//!   al.'s height walk and its weight is the product of the Fresnel factors
+//!   (exactly 1 in the white furnace), instead of `S_k / prod G1`.
+//! - **Eval** (PT, Alg. 3) adds single scattering in closed form (the
+//!   height-correlated SINGLE term, which order 1 of the segment term is),
+//!   forces the first collisions after vertices 1 and 2 (weight the hit
+//!   probability; Alg. 3's `rrDepth = 3`) and lets the walk leave with the
+//!   exact probability afterwards (Russian roulette with the walk's own
+//!   continuation probability, without weights). Below a mean roughness of
+//!   0.75 it runs a walk from `wi` and one from `wo`, weighted by the
+//!   balance heuristic on their direction densities (unbiased for any
+//!   weights that sum to 1; measured in `docs/efficiency.md`).
 //! - **Hapke lobe** (eq. 15): `H(mu) = (1 + 2 mu) / (1 + 2 mu sqrt(1 - a))`
 //!   (Hapke 1981; the extraction of the paper reads `sqrt(1 - a mu)`, which
 //!   makes `H < 1` and the lobe negative), `a = min((alpha_x + alpha_y)/2, 1)`.
@@ -54,34 +64,14 @@
 //! `max_bounces` default: see [`default_max_bounces`] and, for heavy-tailed
 //! NDFs (Student-T with shape below 2), [`default_max_bounces_for`].
 //!
-//! # Measured cost and variance (`examples/invariance_efficiency.rs`)
-//! GGX gold (eta (0.143, 0.374, 1.442), k (3.983, 2.385, 1.603)), variance of
-//! one evaluation (green) averaged over 7 outgoing directions in the
-//! incidence plane; cost in instructions per call (cachegrind: wall time on
-//! the shared 2-core machine varied by 2x between runs); efficiency
-//! `1 / (variance x cost)` relative to INVARIANCE PT:
-//!
-//! | alpha, theta_i | INV PT instr (var) | INV BDPT | BITTERLI_DEON PT | HEITZ |
-//! |---|---|---|---|---|
-//! | 0.5, 0  | 3253 (3.83e-3) | 23548 (7.00e-4): 0.75x | 3295 (same var): 0.98x | 3624 (8.26e-3): 0.41x |
-//! | 0.5, 60 | 3251 (4.89e-3) | 19677 (2.18e-3): 0.37x | 3293: 0.98x | 3611 (6.42e-3): 0.68x |
-//! | 1.0, 0  | 3567 (4.27e-3) | 24164 (1.43e-3): 0.44x | 3675: 0.97x | 5095 (2.2e-1): 0.01x |
-//! | 1.0, 60 | 3383 (2.96e-3) | 20136 (1.61e-3): 0.31x | 3457: 0.97x | 4667 (4.55e-3): 0.47x |
-//!
-//! INVARIANCE and BITTERLI_DEON have the same variance (the same estimator,
-//! eq. 7); INVARIANCE is 2-3% cheaper because its downward bounces are O(1)
-//! and its next event needs no `sigma`. BDPT cuts the variance 2-5x at 6-7x
-//! the cost, so at these roughnesses PT is the more efficient estimator;
-//! the relative error of the mean of 4 BDPT evaluations is still 9-14%, not
-//! near noise-free. BDPT pays off at low roughness, where the PT estimator
-//! is heavy-tailed (next-event estimation from a grazing inner direction
-//! through the sharp `D(h)` peak; GGX alpha 0.1: single evaluations up to
-//! 4.5e3 times the mean, against 5 for BDPT). Variance of one evaluation,
-//! same setting, PT / BDPT: alpha 0.1, theta_i 0: 8.9e-3 / 4.3e-6 (2100x);
-//! theta_i 60: 2.2e-1 / 4.7e-3 (46x); alpha 0.3: 17x and 3.3x. So BDPT is
-//! the more efficient estimator for alpha <= 0.3, PT for alpha >= 0.5.
-//!
-//! # Student-T (seed 001)
+//! # Cost and variance
+//! Measured by `examples/efficiency.rs` (instructions, variance and
+//! efficiency per eval against HEITZ_RANDOM_WALK, GGX with F = 1) in
+//! `docs/efficiency.md`. BDPT pays off at low roughness, where the PT
+//! next event from a grazing inner direction through the sharp `D(h)` peak
+//! is heavy-tailed; the two-walk MIS of PT removes most of that tail.
+
+//! # Student-T (d'Eon 2023)
 //! Beckmann, GGX and Student-T are accepted. Nothing here (nor in
 //! [`crate::multiple::bitterli_deon`]) depends on the distribution beyond
 //! the generic [`Ndf`] API: full-sphere `Lambda`, `D`, `sigma` and visible
@@ -143,7 +133,7 @@ pub(crate) const CAP_MAX: usize = MAX_BOUNCES as usize + 1;
 /// Capacity used when `max_bounces < CAP_SMALL` (keeps the stack arrays small).
 pub(crate) const CAP_SMALL: usize = 24;
 
-/// The segment term of a growing path (seed 003, eq. 14; exact for any
+/// The segment term of a growing path (Cui et al. 2023, eq. 14; exact for any
 /// sequence of directions, see the module docs), in O(N) per upward bounce,
 /// O(1) per downward bounce and O(N) per query, N the number of downward
 /// directions so far, on fixed-size stack arrays of capacity `C`.
@@ -408,7 +398,7 @@ pub(crate) fn scatter(ndf: &Ndf, facet: &Facet, d: Vec3, rng: &mut Rng) -> Optio
 }
 
 /// Position-free vertex term `v(d, o) = F D(h) / (4 |d.z|)`, `h` the half
-/// vector of the travel direction `d` and the outgoing `o` (seed 003, eq. 2),
+/// vector of the travel direction `d` and the outgoing `o` (Cui et al. 2023, eq. 2),
 /// and `D(h)` alone (for MIS).
 #[inline]
 pub(crate) fn vertex(ndf: &Ndf, facet: &Facet, d: Vec3, o: Vec3) -> (Vec3, f32) {
@@ -421,7 +411,7 @@ pub(crate) fn vertex(ndf: &Ndf, facet: &Facet, d: Vec3, o: Vec3) -> (Vec3, f32) 
     (facet.conductor_fresnel(c) * (dm / (4.0 * d.z.abs())), dm)
 }
 
-/// The default bounce limit for a roughness: 10 (seed 000 and 003's choice)
+/// The default bounce limit for a roughness: 10 (the choice of Wang et al. 2022 and Cui et al. 2023)
 /// while the energy of longer paths stays below 0.1% at every incidence up to
 /// 89 degrees, `ceil(5 alpha + 5)` beyond (`alpha` the larger of the two).
 /// Measured with the exact-exit walk in the white furnace (fraction of
@@ -540,7 +530,7 @@ pub(crate) fn two_sided_hapke_pdf(ndf: &Ndf, wi: Vec3, wo: Vec3) -> f32 {
     hapke_pdf(ndf, wi, wo)
 }
 
-/// Hapke-based pdf of seed 003, eqs. (15)-(16), for `wi.z > 0`, `wo.z > 0`,
+/// Hapke-based pdf of Cui et al. 2023, eqs. (15)-(16), for `wi.z > 0`, `wo.z > 0`,
 /// normalised as described in the module docs.
 pub(crate) fn hapke_pdf(ndf: &Ndf, wi: Vec3, wo: Vec3) -> f32 {
     let h = (wi + wo).normalize_or_zero();
@@ -631,7 +621,7 @@ impl Invariance {
         }
     }
 
-    /// Bidirectional estimator (seed 000, sec. 4.2, eqs. 14-16) with `S_k`
+    /// Bidirectional estimator (Wang et al. 2022, sec. 4.2, eqs. 14-16) with `S_k`
     /// as the segment term: a camera sub-path from `-wi` and a light
     /// sub-path from `-wo`, every connection of `s` camera and `t` light
     /// directions with `s + t - 1 <= max_bounces` bounces, balance heuristic.

@@ -1,6 +1,6 @@
 //! GGX (Trowbridge-Reitz) microfacet distribution, anisotropic.
 //!
-//! Smith quantities are defined over the full sphere of directions (seed 000,
+//! Smith quantities are defined over the full sphere of directions (Wang et al. 2022,
 //! eqs. 8-9): for `v.z < 0`, `Lambda(v) = -1 - Lambda(-v)`, and the projected
 //! area `sigma(v) = (1 + Lambda(v)) v.z` stays positive.
 
