@@ -51,7 +51,7 @@ use crate::multiple::invariance::{
     CAP_MAX, CAP_SMALL, TWO_WALKS_BELOW_ALPHA, default_max_bounces_for, eval_two_walks,
     sample_exact_exit, two_sided_hapke_pdf,
 };
-use crate::multiple::microsurface::{self, DepthState, Microsurface, Travel, open_uniform};
+use crate::multiple::microsurface::{self, Microsurface};
 use crate::ndf::Ndf;
 use crate::rng::Rng;
 use glam::Vec3;
@@ -70,67 +70,30 @@ pub struct HeightDistribution<const C: usize> {
     overflow: bool,
 }
 
-/// The collision-depth density as the walk's depth state, renormalised
-/// after every step to `raw(0) = 1` (the density of the current collision
-/// given the directions so far): `p_exit` is then the exact conditional
-/// probability of leaving along a direction, as for INVARIANCE's segment
-/// term.
-impl<const C: usize> DepthState for HeightDistribution<C> {
+/// The collision-depth density as the walk's depth state (see
+/// [`microsurface::ExitTransform`]): `raw(s)` is the exit transform.
+impl<const C: usize> microsurface::ExitTransform for HeightDistribution<C> {
     #[inline]
-    fn enter(lam0: f64, _rng: &mut Rng) -> Self {
-        HeightDistribution::start(-lam0)
+    fn start(l0: f64) -> Self {
+        HeightDistribution::start(l0)
     }
-
     #[inline]
-    fn exit(&self, lam_o: f64, _crossed: bool) -> f64 {
-        self.p_exit(lam_o)
+    fn push(&mut self, lambda: f64) {
+        HeightDistribution::push(self, lambda)
     }
-
     #[inline]
-    fn travel(&mut self, lam: f64, rng: &mut Rng) -> Travel {
-        if lam >= 0.0 {
-            if !lam.is_finite() {
-                return Travel::Hit;
-            }
-            if open_uniform(rng) < self.p_exit(lam) {
-                return Travel::Escape;
-            }
-        }
-        self.push_normalized(lam)
+    fn value(&self, s: f64) -> f64 {
+        self.raw(s)
     }
-
     #[inline]
-    fn segment_ratio(lam: f64) -> f64 {
-        microsurface::uncorrelated_segment_ratio(lam)
-    }
-
-    #[inline]
-    fn travel_forced(&mut self, lam: f64, _rng: &mut Rng) -> Option<f64> {
-        if !lam.is_finite() {
-            return Some(1.0);
-        }
-        let hit = 1.0 - self.p_exit(lam);
-        match self.push_normalized(lam) {
-            Travel::Hit => Some(hit),
-            _ => Some(0.0),
-        }
-    }
-}
-
-impl<const C: usize> HeightDistribution<C> {
-    /// [`HeightDistribution::push`] and renormalisation to `raw(0) = 1`.
-    #[inline]
-    fn push_normalized(&mut self, lam: f64) -> Travel {
-        self.push(lam.max(-f64::MAX));
-        let r0 = self.raw(0.0);
-        if self.overflow || !(r0 > 0.0 && r0.is_finite()) {
-            return Travel::Lost;
-        }
-        let scale = 1.0 / r0;
+    fn scale(&mut self, f: f64) {
         for a in &mut self.a[..self.n] {
-            *a *= scale;
+            *a *= f;
         }
-        Travel::Hit
+    }
+    #[inline]
+    fn overflowed(&self) -> bool {
+        self.overflow
     }
 }
 

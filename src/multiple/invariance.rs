@@ -121,9 +121,7 @@ use crate::bsdf::{Sample, ScatterModel};
 use crate::facet::Facet;
 use crate::frame::flip_z;
 use crate::material::{Estimator, MAX_BOUNCES};
-use crate::multiple::microsurface::{
-    self, DepthState, Microsurface, Travel, WalkOptions, open_uniform,
-};
+use crate::multiple::microsurface::{self, DepthState, Microsurface, WalkOptions};
 use crate::ndf::Ndf;
 use crate::rng::Rng;
 use glam::{DVec3, Vec3};
@@ -229,67 +227,30 @@ impl<const C: usize> SegmentTerm<C> {
     }
 }
 
-/// The segment term as the walk's depth state (Cui et al. 2023, eq. (14)),
-/// normalised after every step so that `R(0) = 1`: then `R(s)` is the
-/// probability that the path, given the directions so far, leaves along a
-/// direction with `Lambda = s` from its current collision (the collision
-/// depth density's Laplace transform), and the walk exits with that exact
-/// conditional probability. The walk then has the distribution of Heitz et
-/// al.'s height walk with the heights integrated out, and its weight is the
-/// product of the Fresnel factors.
-impl<const C: usize> DepthState for SegmentTerm<C> {
+/// The segment term as the walk's depth state (Cui et al. 2023, eq. (14);
+/// see [`microsurface::ExitTransform`]).
+impl<const C: usize> microsurface::ExitTransform for SegmentTerm<C> {
     #[inline]
-    fn enter(lam0: f64, _rng: &mut Rng) -> Self {
-        let mut t = SegmentTerm::start(-lam0);
-        t.c[0] = -lam0;
-        t
+    fn start(l0: f64) -> Self {
+        SegmentTerm::start(l0)
     }
-
     #[inline]
-    fn exit(&self, lam_o: f64, _crossed: bool) -> f64 {
-        self.value(lam_o).clamp(0.0, 1.0)
+    fn push(&mut self, lambda: f64) {
+        SegmentTerm::push(self, lambda)
     }
-
     #[inline]
-    fn travel(&mut self, lam: f64, rng: &mut Rng) -> Travel {
-        if lam >= 0.0 {
-            if !lam.is_finite() {
-                return Travel::Hit;
-            }
-            if open_uniform(rng) < self.value(lam) {
-                return Travel::Escape;
-            }
-        }
-        self.push_normalized(lam)
+    fn value(&self, s: f64) -> f64 {
+        SegmentTerm::value(self, s)
     }
-
     #[inline]
-    fn travel_forced(&mut self, lam: f64, _rng: &mut Rng) -> Option<f64> {
-        if !lam.is_finite() {
-            return Some(1.0);
-        }
-        let hit = 1.0 - self.value(lam).clamp(0.0, 1.0);
-        match self.push_normalized(lam) {
-            Travel::Hit => Some(hit),
-            _ => Some(0.0),
-        }
-    }
-}
-
-impl<const C: usize> SegmentTerm<C> {
-    /// [`SegmentTerm::push`] and renormalisation to `R(0) = 1`.
-    #[inline]
-    fn push_normalized(&mut self, lam: f64) -> Travel {
-        self.push(lam.max(-f64::MAX));
-        let r0 = self.value(0.0);
-        if self.overflow || !(r0 > 0.0 && r0.is_finite()) {
-            return Travel::Lost;
-        }
-        let scale = 1.0 / r0;
+    fn scale(&mut self, f: f64) {
         for c in &mut self.c[..self.n] {
-            *c *= scale;
+            *c *= f;
         }
-        Travel::Hit
+    }
+    #[inline]
+    fn overflowed(&self) -> bool {
+        self.overflow
     }
 }
 

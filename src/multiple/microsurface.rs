@@ -245,19 +245,8 @@ impl Microsurface {
             if !self.is_dielectric() {
                 return Vec3::ZERO;
             }
-            let Some(RefractionHalf {
-                h,
-                ci,
-                co,
-                jacobian,
-            }) = refraction_half(i, o, eta)
-            else {
-                return Vec3::ZERO;
-            };
-            // Walter et al. 2007, eq. (17), with the visible-normal density.
-            let p = (1.0 - fresnel::dielectric_pair(ci, co, eta)) * ci * self.ndf.d(h) / sigma_i
-                * jacobian;
-            Vec3::splat(p)
+            // Refraction: the phase function is its own sampling density.
+            Vec3::splat(self.phase_pdf(i, o, eta, true) as f32)
         }
     }
 
@@ -278,6 +267,7 @@ impl Microsurface {
             else {
                 return 0.0;
             };
+            // Walter et al. 2007, eq. (17), with the visible-normal density.
             let f = fresnel::dielectric_pair(ci, co, eta);
             ((1.0 - f) * self.ndf.d_visible(i, h) * jacobian) as f64
         } else {
@@ -411,6 +401,86 @@ pub trait DepthState: Sized {
     /// segment between two vertices along a direction with `Lambda = lam`.
     fn segment_ratio(_lam: f64) -> f64 {
         1.0
+    }
+}
+
+/// A depth state held as the Laplace transform `R(s)` of the current
+/// collision's depth density given the directions so far (Cui et al. 2023's
+/// segment term, Bitterli and d'Eon 2022's hyperexponential `p_exit`),
+/// renormalised after every step to `R(0) = 1`: then `R(s)` is the exact
+/// conditional probability of leaving along a direction with `Lambda = s`,
+/// the walk leaves with it (the distribution of Heitz et al.'s height walk
+/// with the heights integrated out) and its weight is the product of the
+/// Fresnel factors.
+pub trait ExitTransform: Sized {
+    /// `R(s) = l0 / (l0 + s)` up to a factor, after the incident direction
+    /// with `l0 = |Lambda(d_0)|`.
+    fn start(l0: f64) -> Self;
+    /// The transform after travelling along a direction with signed
+    /// `Lambda = lambda` (up to a factor).
+    fn push(&mut self, lambda: f64);
+    /// `R(s)`, `s >= 0`.
+    fn value(&self, s: f64) -> f64;
+    /// Multiplies `R` by `f`.
+    fn scale(&mut self, f: f64);
+    /// The state could not hold the path (capacity).
+    fn overflowed(&self) -> bool;
+
+    /// Pushes `lambda` and renormalises to `R(0) = 1`.
+    #[inline]
+    fn push_normalized(&mut self, lambda: f64) -> Travel {
+        self.push(lambda.max(-f64::MAX));
+        let r0 = self.value(0.0);
+        if self.overflowed() || !(r0 > 0.0 && r0.is_finite()) {
+            return Travel::Lost;
+        }
+        self.scale(1.0 / r0);
+        Travel::Hit
+    }
+}
+
+impl<T: ExitTransform> DepthState for T {
+    #[inline]
+    fn enter(lam0: f64, _rng: &mut Rng) -> Self {
+        let mut t = T::start(-lam0);
+        let r0 = t.value(0.0);
+        t.scale(1.0 / r0);
+        t
+    }
+
+    #[inline]
+    fn exit(&self, lam_o: f64, _crossed: bool) -> f64 {
+        let p = self.value(lam_o);
+        if p.is_finite() {
+            p.clamp(0.0, 1.0)
+        } else {
+            0.0
+        }
+    }
+
+    #[inline]
+    fn travel(&mut self, lam: f64, rng: &mut Rng) -> Travel {
+        if lam >= 0.0 {
+            if !lam.is_finite() {
+                return Travel::Hit;
+            }
+            if open_uniform(rng) < self.exit(lam, false) {
+                return Travel::Escape;
+            }
+        }
+        self.push_normalized(lam)
+    }
+
+    #[inline]
+    fn travel_forced(&mut self, lam: f64, _rng: &mut Rng) -> Option<f64> {
+        if !lam.is_finite() {
+            return Some(1.0);
+        }
+        let hit = 1.0 - self.exit(lam, false);
+        match self.push_normalized(lam) {
+            Travel::Hit => Some(hit),
+            _ => Some(0.0),
+        }
     }
 }
 

@@ -131,7 +131,6 @@ use crate::multiple::microsurface::{self, DepthState, Microsurface, Travel, Walk
 use crate::ndf::Ndf;
 use crate::rng::Rng;
 use glam::Vec3;
-use std::f32::consts::PI;
 
 /// The bounce limit used when the description asks for the default (0):
 /// 10 vertices (Wang et al. 2022 sec. 4.1) while that truncation drops less than 0.1%
@@ -715,13 +714,6 @@ impl PositionFree {
         }
         sum
     }
-
-    /// Exact density of the first vertex sending `wi` to `wo` (the
-    /// single-scattering lobe of the walk).
-    #[inline]
-    fn single_pdf(&self, d0: Dir, dk: Dir) -> f32 {
-        self.vertex(d0, dk).pdf
-    }
 }
 
 impl ScatterModel for PositionFree {
@@ -773,15 +765,8 @@ impl ScatterModel for PositionFree {
     }
 
     fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
-        let Some((d0, dk)) = self.endpoints(wi, wo) else {
-            return 0.0;
-        };
-        let lambert = if self.is_dielectric() {
-            wo.z.abs() / (2.0 * PI)
-        } else {
-            wo.z.abs() / PI
-        };
-        let c = self.lambert_weight;
-        (1.0 - c) * self.single_pdf(d0, dk) + c * lambert
+        // The walks' approximate pdf: the first vertex with weight 1 - c, a
+        // Lambert lobe (both hemispheres for dielectrics) with weight c.
+        microsurface::approximate_pdf(&self.ms, self.lambert_weight, wi, wo)
     }
 }
