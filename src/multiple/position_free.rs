@@ -327,14 +327,11 @@ impl PositionFree {
         self.estimator
     }
 
-    /// Conductor Fresnel per channel by the vectorised closed form (1 for
-    /// other facets).
+    /// Conductor Fresnel per channel (the kernel's: 1 for other facets and
+    /// for the white conductor).
     #[inline]
     fn conductor_fresnel(&self, cos_i: f32) -> Vec3 {
-        match self.facet {
-            Facet::Conductor { eta, k } => fresnel::conductor_rgb(cos_i, eta, k),
-            _ => Vec3::ONE,
-        }
+        self.ms.fresnel(cos_i)
     }
 
     #[inline]
