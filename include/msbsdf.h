@@ -737,7 +737,10 @@ msbsdf_status msbsdf_eval_pdf(const struct msbsdf_material *material, const stru
  * multiple scattering of ENERGY_COMPENSATED, the bounce count of a
  * V-groove), `u1, u2` the first visible normal; stochastic models (and the
  * V-groove's partner facet) draw the rest from `ctx->rng`, which they then
- * need. Deterministic models give the same record for the same uniforms,
+ * need. NULL_SCATTERING draws its collisions and facet normals by
+ * rejection (d'Eon 2023, sec. 3.1), which a fixed number of uniforms cannot
+ * drive: it ignores them and takes every number from `ctx->rng`.
+ * Deterministic models give the same record for the same uniforms,
  * bit for bit. `*rec` must have its `struct_size` set
  * (`msbsdf_sample_record_init`); on failure it is zeroed (keeping
  * `struct_size`) unless `struct_size` is too small. Since 0.3.0.

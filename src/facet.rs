@@ -29,11 +29,14 @@ pub enum Facet {
 
 impl Facet {
     /// Conductor Fresnel reflectance for the cosine between the incident
-    /// direction and the facet normal (1 for non-conductors).
+    /// direction and the facet normal (1 for non-conductors, and exactly 1
+    /// without computing it for the perfect reflector `eta = 0, k = 1`).
     #[inline]
     pub fn conductor_fresnel(&self, cos_i: f32) -> Vec3 {
         match *self {
-            Facet::Conductor { eta, k } => fresnel::conductor_rgb(cos_i, eta, k),
+            Facet::Conductor { eta, k } if !(eta == Vec3::ZERO && k == Vec3::ONE) => {
+                fresnel::conductor_rgb(cos_i, eta, k)
+            }
             _ => Vec3::ONE,
         }
     }

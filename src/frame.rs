@@ -24,6 +24,32 @@ pub fn refract(v: Vec3, m: Vec3, eta: f32) -> Option<Vec3> {
     Some((-v / eta + (cos_i / eta - cos_t) * m).normalize_or_zero())
 }
 
+/// Two unit tangents `(t, b)` completing the unit vector `n` to a
+/// right-handed orthonormal basis (Duff et al. 2017, "Building an
+/// orthonormal basis, revisited"; continuous except across `n.z = 0`).
+#[inline]
+pub fn basis(n: Vec3) -> (Vec3, Vec3) {
+    let sign = 1.0f32.copysign(n.z);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    (
+        Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
+        Vec3::new(b, sign + n.y * n.y * a, -n.y),
+    )
+}
+
+/// [`basis`] in f64.
+#[inline]
+pub fn basis_f64(n: glam::DVec3) -> (glam::DVec3, glam::DVec3) {
+    let sign = 1.0f64.copysign(n.z);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    (
+        glam::DVec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
+        glam::DVec3::new(b, sign + n.y * n.y * a, -n.y),
+    )
+}
+
 /// Direction from spherical angles (theta from +z, phi from +x).
 #[inline]
 pub fn spherical(theta: f32, phi: f32) -> Vec3 {

@@ -117,6 +117,30 @@ pub fn conductor_rgb(cos_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
     }
 }
 
+/// [`conductor_rgb`]'s closed form for one channel in `f64` (for tables
+/// built once per material, e.g. the V-groove model's Fresnel table).
+pub fn conductor_f64(cos_i: f64, eta: f64, k: f64) -> f64 {
+    let c = cos_i.clamp(0.0, 1.0);
+    let c2 = c * c;
+    let s2 = 1.0 - c2;
+    let (eta2, k2) = (eta * eta, k * k);
+    let t0 = eta2 - k2 - s2;
+    let ab2 = (t0 * t0 + 4.0 * eta2 * k2).max(0.0).sqrt();
+    let a = (0.5 * (ab2 + t0)).max(0.0).sqrt();
+    let t1 = ab2 + c2;
+    let t2 = 2.0 * c * a;
+    let rs = (t1 - t2) / (t1 + t2);
+    let t3 = c2 * ab2 + s2 * s2;
+    let t4 = t2 * s2;
+    let rp = rs * (t3 - t4) / (t3 + t4);
+    let f = 0.5 * (rs + rp);
+    if f.is_finite() {
+        f.clamp(0.0, 1.0)
+    } else {
+        conductor_scalar(c as f32, eta as f32, k as f32) as f64
+    }
+}
+
 /// Unpolarised reflectance of a dielectric interface, `eta` = n_transmitted /
 /// n_incident, for `cos_i >= 0` measured on the incident side. Returns 1 under
 /// total internal reflection.
@@ -207,6 +231,18 @@ mod tests {
                     (a - b).abs().max_element() < 2e-5,
                     "cos {c} eta {eta} k {k}: {a} vs {b}"
                 );
+            }
+        }
+    }
+
+    #[test]
+    fn conductor_f64_matches_complex_form() {
+        for (eta, k) in [(0.143, 3.983), (1.5, 0.0), (0.27, 2.6), (0.0, 1.0)] {
+            for i in 0..=200 {
+                let c = i as f32 / 200.0;
+                let a = conductor_f64(c as f64, eta as f64, k as f64);
+                let b = conductor_scalar(c, eta, k) as f64;
+                assert!((a - b).abs() < 2e-5, "cos {c} eta {eta} k {k}: {a} vs {b}");
             }
         }
     }

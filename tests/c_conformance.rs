@@ -21,13 +21,6 @@
 
 mod clib;
 
-/// Whether the five random-walk models take `msbsdf_sample_with`'s uniforms
-/// for their first vertex. False while they forward to `sample` (the
-/// placeholders of this branch); set to true when the walk kernel's
-/// implementation is merged, which turns on the check of
-/// `sample_with_uniforms_walks`.
-const WALKS_TAKE_UNIFORMS: bool = false;
-
 use clib::{repo, run_ok};
 use msbsdf::capi::msbsdf_material_size;
 use std::path::{Path, PathBuf};
@@ -449,16 +442,14 @@ fn integrator_calls_eval_pdf_uniforms_transport_lobes_specular() {
     assert!(text.contains("pdf integrates to"), "{text}");
 }
 
-/// `msbsdf_sample_with` on the walks (tests/c/uniforms_walks.c); the check
-/// that their first vertex follows the uniforms is on when
-/// [`WALKS_TAKE_UNIFORMS`] is.
+/// `msbsdf_sample_with` on the walks (tests/c/uniforms_walks.c): their
+/// first vertex follows the uniforms (NULL_SCATTERING excepted, documented).
 #[test]
 fn sample_with_uniforms_walks() {
-    let define = format!("-DWALKS_TAKE_UNIFORMS={}", u8::from(WALKS_TAKE_UNIFORMS));
     let exe = compile(
         "uniforms_walks",
         &["uniforms_walks.c"],
-        &[define, "-lm".into()],
+        &["-lm".into()],
         Link::Shared,
     );
     assert_program_passes(&exe, "uniforms_walks");

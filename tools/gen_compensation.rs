@@ -262,42 +262,21 @@ const MS_TARGET_PATHS: u64 = 6000;
 /// ...or this many walks.
 const MS_MAX_WALKS: u64 = 300_000;
 
-fn open_uniform(rng: &mut Rng) -> f64 {
-    ((rng.next_u32() >> 8) as f64 + 0.5) * (1.0 / 16_777_216.0)
-}
-
-/// One walk of Heitz et al. 2016 over conductor facets with F = 1 (the
-/// same stochastic process as `MSBSDF_MODEL_HEITZ_RANDOM_WALK`; heights by
-/// the log of the uniform height CDF): true if it leaves the surface, with
-/// the cosine `|w.m|` of every reflection in `cos`.
+/// One walk of Heitz et al. 2016 over conductor facets with F = 1: the
+/// library's HEITZ_RANDOM_WALK sampler (`microsurface::sample_walk` with the
+/// height state), `MS_MAX_BOUNCES - 1` vertices at most: true if it leaves
+/// the surface, with the cosine `|w.m|` of every reflection in `cos`.
 fn ms_walk(ndf: &Ndf, wi: Vec3, rng: &mut Rng, cos: &mut Vec<f32>) -> bool {
+    use msbsdf::multiple::heitz::HeightState;
+    use msbsdf::multiple::microsurface::{Microsurface, first_uniforms, sample_walk};
     cos.clear();
-    let mut w = -wi;
-    let mut lc = 0.0f64; // ln C1(h)
-    for _ in 0..MS_MAX_BOUNCES {
-        let lam = ndf.lambda(w) as f64;
-        let u = open_uniform(rng);
-        if w.z > 0.0 {
-            if lam.is_finite() {
-                let escape = (lam * lc).exp();
-                if u < escape {
-                    return true;
-                }
-                lc = (lc - (1.0 - u + escape).ln() / lam).min(0.0);
-            }
-        } else if lam.is_finite() && lam < 0.0 {
-            lc += u.ln() / (-lam);
-        }
-        let i = -w;
-        let m = ndf.sample_visible(i, rng.next_f32(), rng.next_f32());
-        let ci = i.dot(m);
-        if ci <= 0.0 || !m.is_finite() {
-            return false;
-        }
-        cos.push(ci);
-        w = msbsdf::frame::reflect(i, m);
-    }
-    false
+    let white = Facet::Conductor {
+        eta: Vec3::ZERO,
+        k: Vec3::ONE,
+    };
+    let ms = Microsurface::new(*ndf, white, MS_MAX_BOUNCES as u32 - 1);
+    let u = first_uniforms(rng);
+    sample_walk::<HeightState, _>(&ms, wi, u, rng, |c| cos.push(c)).is_ok()
 }
 
 fn schlick(c: f32, f0: f64) -> f64 {

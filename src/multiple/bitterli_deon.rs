@@ -1,5 +1,5 @@
 //! `MSBSDF_MODEL_BITTERLI_DEON`: the exit probability `p_exit` of Bitterli
-//! and d'Eon 2022 as given in seed 003's supplement (eqs. 5-7, Alg. 5),
+//! and d'Eon 2022 as given in the supplement of Cui et al. 2023 (eqs. 5-7, Alg. 5),
 //! with the unidirectional (PT) estimator, conductor facets.
 //!
 //! A path `d_0 = -wi, d_1, ..., d_k = wo` contributes
@@ -10,7 +10,11 @@
 //! far (`b_j = |Lambda|` of that direction), and
 //! `p_exit = sum_j a_j / (b_j + Lambda(d_k))` (eq. 5). It equals
 //! `prod |Lambda(d_i)| S_k` (eq. 7), so this model has the same values and,
-//! with the same random numbers, the same variance as INVARIANCE (PT); it
+//! with the same random numbers, the same variance as INVARIANCE (PT): the
+//! two are one estimator on the shared walk
+//! ([`crate::multiple::microsurface`]), differing only in the depth state
+//! (renormalised to `raw(0) = 1` after every step, so that `p_exit` is the
+//! conditional exit probability given the directions so far). This one
 //! costs more per bounce (a partial-fraction update of all terms at every
 //! downward bounce).
 //!
@@ -44,9 +48,10 @@ use crate::desc::MAX_BOUNCES;
 use crate::facet::Facet;
 use crate::frame::flip_z;
 use crate::multiple::invariance::{
-    CAP_MAX, CAP_SMALL, ExitState, RR_DEPTH, RR_MIN_Q, default_max_bounces_for, lambda_signed,
-    sample_walk, scatter, two_sided_hapke_pdf,
+    CAP_MAX, CAP_SMALL, TWO_WALKS_BELOW_ALPHA, default_max_bounces_for, eval_two_walks,
+    sample_exact_exit, two_sided_hapke_pdf,
 };
+use crate::multiple::microsurface::{self, Microsurface};
 use crate::ndf::Ndf;
 use crate::rng::Rng;
 use glam::Vec3;
@@ -65,15 +70,30 @@ pub struct HeightDistribution<const C: usize> {
     overflow: bool,
 }
 
-impl<const C: usize> ExitState for HeightDistribution<C> {
+/// The collision-depth density as the walk's depth state (see
+/// [`microsurface::ExitTransform`]): `raw(s)` is the exit transform.
+impl<const C: usize> microsurface::ExitTransform for HeightDistribution<C> {
+    #[inline]
     fn start(l0: f64) -> Self {
         HeightDistribution::start(l0)
     }
+    #[inline]
     fn push(&mut self, lambda: f64) {
         HeightDistribution::push(self, lambda)
     }
-    fn exit_value(&self, s: f64) -> f64 {
+    #[inline]
+    fn value(&self, s: f64) -> f64 {
         self.raw(s)
+    }
+    #[inline]
+    fn scale(&mut self, f: f64) {
+        for a in &mut self.a[..self.n] {
+            *a *= f;
+        }
+    }
+    #[inline]
+    fn overflowed(&self) -> bool {
+        self.overflow
     }
 }
 
@@ -159,9 +179,8 @@ impl<const C: usize> HeightDistribution<C> {
 /// The Bitterli-d'Eon model (conductor facets, PT estimator).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BitterliDeon {
-    ndf: Ndf,
-    facet: Facet,
     max_bounces: u32,
+    ms: Microsurface,
 }
 
 impl BitterliDeon {
@@ -174,9 +193,8 @@ impl BitterliDeon {
             max_bounces.min(MAX_BOUNCES)
         };
         BitterliDeon {
-            ndf,
-            facet,
             max_bounces,
+            ms: Microsurface::new(ndf, facet, max_bounces),
         }
     }
 
@@ -185,81 +203,25 @@ impl BitterliDeon {
         self.max_bounces
     }
 
-    /// Phase function `f_p(d, o) = F D_{-d}(h) / (4 |d.h|)` (supplement eq. 4).
-    fn phase(&self, d: Vec3, o: Vec3) -> Vec3 {
-        let h = (o - d).normalize_or_zero();
-        let c = -d.dot(h);
-        if c <= 0.0 || h.z <= 0.0 {
-            return Vec3::ZERO;
-        }
-        self.facet.conductor_fresnel(c) * (self.ndf.d_visible(-d, h) / (4.0 * c))
+    /// The PT estimator (supplement eq. 3) on the shared walk, `p_exit`
+    /// as its state.
+    fn eval_pt<const C: usize>(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3 {
+        let ndf = &self.ms.ndf;
+        let two = 0.5 * (ndf.alpha_x + ndf.alpha_y) < TWO_WALKS_BELOW_ALPHA;
+        eval_two_walks::<HeightDistribution<C>>(&self.ms, wi, wo, two, rng)
     }
 
-    fn eval_pt<const C: usize>(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3 {
-        let lo = lambda_signed(&self.ndf, wo);
-        let mut d = -wi;
-        let mut hd = HeightDistribution::<C>::start(-lambda_signed(&self.ndf, d));
-        let mut w = Vec3::ONE;
-        let mut f = Vec3::ZERO;
-        let mut k = 0u32;
-        // Probability of reaching the current collision (once RR starts).
-        let mut mass = f64::NAN;
-        loop {
-            k += 1;
-            // NEE: f_p(d_{k-1}, wo) p_exit(d_0..d_{k-1}, wo).
-            let fp = self.phase(d, wo);
-            if fp != Vec3::ZERO {
-                f += w * fp * hd.p_exit(lo) as f32;
-            }
-            if k >= self.max_bounces {
-                break;
-            }
-            let Some((o, fr)) = scatter(&self.ndf, &self.facet, d, rng) else {
-                break;
-            };
-            let lam_o = lambda_signed(&self.ndf, o);
-            w *= fr;
-            if k >= RR_DEPTH {
-                if mass.is_nan() {
-                    mass = hd.raw(0.0);
-                }
-                hd.push(lam_o);
-                // The same exact continuation probability as INVARIANCE
-                // (1 after a downward direction).
-                let (q, new_mass) = if lam_o < 0.0 {
-                    (1.0, mass)
-                } else {
-                    let nm = hd.raw(0.0);
-                    let q = if mass > 0.0 {
-                        (nm / mass).clamp(RR_MIN_Q, 1.0)
-                    } else {
-                        0.0
-                    };
-                    (q, nm)
-                };
-                if q.is_nan() || q <= 0.0 || (q < 1.0 && (rng.next_f32() as f64) >= q) {
-                    break;
-                }
-                w /= q as f32;
-                mass = new_mass;
-            } else {
-                hd.push(lam_o);
-            }
-            d = o;
-            if !w.is_finite() || w.max_element() <= 0.0 {
-                break;
-            }
+    /// Draws wo from caller uniforms: u[0] chooses the lobe at the first vertex, u[1], u[2] the 2D sample of the first visible-normal draw; stochastic models take the rest from rng.
+    pub fn sample_with(&self, wi: Vec3, u: [f32; 3], rng: &mut Rng) -> Sample {
+        if (self.max_bounces as usize) < CAP_SMALL {
+            sample_exact_exit::<HeightDistribution<CAP_SMALL>>(&self.ms, wi, u, rng)
+        } else {
+            sample_exact_exit::<HeightDistribution<CAP_MAX>>(&self.ms, wi, u, rng)
         }
-        f
     }
 }
 
 impl ScatterModel for BitterliDeon {
-    // PLACEHOLDER(kernel branch): replaced at merge
-    fn sample_with(&self, wi: Vec3, _u: [f32; 3], rng: &mut Rng) -> Sample {
-        self.sample(wi, rng)
-    }
-
     fn eval(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3 {
         let (wi, wo) = if wi.z < 0.0 {
             (flip_z(wi), flip_z(wo))
@@ -277,26 +239,15 @@ impl ScatterModel for BitterliDeon {
     }
 
     fn sample(&self, wi: Vec3, rng: &mut Rng) -> Sample {
-        if (self.max_bounces as usize) < CAP_SMALL {
-            sample_walk::<HeightDistribution<CAP_SMALL>>(
-                &self.ndf,
-                &self.facet,
-                self.max_bounces,
-                wi,
-                rng,
-            )
-        } else {
-            sample_walk::<HeightDistribution<CAP_MAX>>(
-                &self.ndf,
-                &self.facet,
-                self.max_bounces,
-                wi,
-                rng,
-            )
-        }
+        let u = microsurface::first_uniforms(rng);
+        self.sample_with(wi, u, rng)
+    }
+
+    fn sample_with(&self, wi: Vec3, u: [f32; 3], rng: &mut Rng) -> Sample {
+        Self::sample_with(self, wi, u, rng)
     }
 
     fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
-        two_sided_hapke_pdf(&self.ndf, wi, wo)
+        two_sided_hapke_pdf(&self.ms.ndf, wi, wo)
     }
 }

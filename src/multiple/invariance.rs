@@ -1,9 +1,9 @@
 //! `MSBSDF_MODEL_INVARIANCE`: multiple-bounce Smith microfacet BRDF from the
-//! invariance principle (seed 003, Cui et al. 2023), conductor facets.
+//! invariance principle (Cui et al. 2023, Cui et al. 2023), conductor facets.
 //!
-//! A path is a list of directions `d_0 = -wi, d_1, ..., d_k = wo` (seed 003,
+//! A path is a list of directions `d_0 = -wi, d_1, ..., d_k = wo` (Cui et al. 2023,
 //! sec. 3.1); its contribution is the product of the position-free vertex
-//! terms `v(d_i, d_{i+1}) = F D(h) / (4 |d_i.z|)` (seed 003, eq. 2) and one
+//! terms `v(d_i, d_{i+1}) = F D(h) / (4 |d_i.z|)` (Cui et al. 2023, eq. 2) and one
 //! segment term `S_k(d_0, ..., d_k)` for the whole path (eq. 3). `S_k` is the
 //! height-free transmittance of the path in the equivalent semi-infinite
 //! medium whose collision rate per unit optical depth along `d` is
@@ -37,14 +37,24 @@
 //!   of two Lambdas, unlike the hyperexponential form of Bitterli and
 //!   d'Eon. It equals `p_exit / prod |Lambda|` of
 //!   [`crate::multiple::bitterli_deon`] to 1e-6 on random sequences (tests).
-//! - **Sample** follows Alg. 2's walk (VNDF at each bounce, decide to exit on
-//!   upward directions) but exits with the exact conditional probability
-//!   given the directions so far, `R(Lambda(d))/R(0)`, instead of `G1`: the
-//!   walk then has the distribution of Heitz et al.'s height walk and the
-//!   weight is the product of the Fresnel factors (exactly 1 in the white
-//!   furnace), instead of `S_k / prod G1` which is noisy.
-//! - **Russian roulette** (Alg. 3) uses the same exact continuation
-//!   probability instead of a constant `q`, clamped below at 0.1.
+//! - **The walk** is the shared microsurface walk
+//!   ([`crate::multiple::microsurface`]) with the segment term as its depth
+//!   state, renormalised to `R(0) = 1` after every step: `R(s)` is then the
+//!   exact conditional probability of leaving along a direction with
+//!   `Lambda = s` given the directions so far. **Sample** follows Alg. 2
+//!   (VNDF at each bounce, exit on upward directions) but exits with that
+//!   probability instead of `G1`: the walk has the distribution of Heitz et
+//!   al.'s height walk and its weight is the product of the Fresnel factors
+//!   (exactly 1 in the white furnace), instead of `S_k / prod G1`.
+//! - **Eval** (PT, Alg. 3) adds single scattering in closed form (the
+//!   height-correlated SINGLE term, which order 1 of the segment term is),
+//!   forces the first collisions after vertices 1 and 2 (weight the hit
+//!   probability; Alg. 3's `rrDepth = 3`) and lets the walk leave with the
+//!   exact probability afterwards (Russian roulette with the walk's own
+//!   continuation probability, without weights). Below a mean roughness of
+//!   0.75 it runs a walk from `wi` and one from `wo`, weighted by the
+//!   balance heuristic on their direction densities (unbiased for any
+//!   weights that sum to 1; measured in `docs/efficiency.md`).
 //! - **Hapke lobe** (eq. 15): `H(mu) = (1 + 2 mu) / (1 + 2 mu sqrt(1 - a))`
 //!   (Hapke 1981; the extraction of the paper reads `sqrt(1 - a mu)`, which
 //!   makes `H < 1` and the lobe negative), `a = min((alpha_x + alpha_y)/2, 1)`.
@@ -54,34 +64,14 @@
 //! `max_bounces` default: see [`default_max_bounces`] and, for heavy-tailed
 //! NDFs (Student-T with shape below 2), [`default_max_bounces_for`].
 //!
-//! # Measured cost and variance (`examples/invariance_efficiency.rs`)
-//! GGX gold (eta (0.143, 0.374, 1.442), k (3.983, 2.385, 1.603)), variance of
-//! one evaluation (green) averaged over 7 outgoing directions in the
-//! incidence plane; cost in instructions per call (cachegrind: wall time on
-//! the shared 2-core machine varied by 2x between runs); efficiency
-//! `1 / (variance x cost)` relative to INVARIANCE PT:
-//!
-//! | alpha, theta_i | INV PT instr (var) | INV BDPT | BITTERLI_DEON PT | HEITZ |
-//! |---|---|---|---|---|
-//! | 0.5, 0  | 3253 (3.83e-3) | 23548 (7.00e-4): 0.75x | 3295 (same var): 0.98x | 3624 (8.26e-3): 0.41x |
-//! | 0.5, 60 | 3251 (4.89e-3) | 19677 (2.18e-3): 0.37x | 3293: 0.98x | 3611 (6.42e-3): 0.68x |
-//! | 1.0, 0  | 3567 (4.27e-3) | 24164 (1.43e-3): 0.44x | 3675: 0.97x | 5095 (2.2e-1): 0.01x |
-//! | 1.0, 60 | 3383 (2.96e-3) | 20136 (1.61e-3): 0.31x | 3457: 0.97x | 4667 (4.55e-3): 0.47x |
-//!
-//! INVARIANCE and BITTERLI_DEON have the same variance (the same estimator,
-//! eq. 7); INVARIANCE is 2-3% cheaper because its downward bounces are O(1)
-//! and its next event needs no `sigma`. BDPT cuts the variance 2-5x at 6-7x
-//! the cost, so at these roughnesses PT is the more efficient estimator;
-//! the relative error of the mean of 4 BDPT evaluations is still 9-14%, not
-//! near noise-free. BDPT pays off at low roughness, where the PT estimator
-//! is heavy-tailed (next-event estimation from a grazing inner direction
-//! through the sharp `D(h)` peak; GGX alpha 0.1: single evaluations up to
-//! 4.5e3 times the mean, against 5 for BDPT). Variance of one evaluation,
-//! same setting, PT / BDPT: alpha 0.1, theta_i 0: 8.9e-3 / 4.3e-6 (2100x);
-//! theta_i 60: 2.2e-1 / 4.7e-3 (46x); alpha 0.3: 17x and 3.3x. So BDPT is
-//! the more efficient estimator for alpha <= 0.3, PT for alpha >= 0.5.
-//!
-//! # Student-T (seed 001)
+//! # Cost and variance
+//! Measured by `examples/efficiency.rs` (instructions, variance and
+//! efficiency per eval against HEITZ_RANDOM_WALK, GGX with F = 1) in
+//! `docs/efficiency.md`. BDPT pays off at low roughness, where the PT
+//! next event from a grazing inner direction through the sharp `D(h)` peak
+//! is heavy-tailed; the two-walk MIS of PT removes most of that tail.
+
+//! # Student-T (d'Eon 2023)
 //! Beckmann, GGX and Student-T are accepted. Nothing here (nor in
 //! [`crate::multiple::bitterli_deon`]) depends on the distribution beyond
 //! the generic [`Ndf`] API: full-sphere `Lambda`, `D`, `sigma` and visible
@@ -131,6 +121,7 @@ use crate::bsdf::{Sample, ScatterModel};
 use crate::desc::{Estimator, MAX_BOUNCES};
 use crate::facet::Facet;
 use crate::frame::flip_z;
+use crate::multiple::microsurface::{self, DepthState, Microsurface, WalkOptions};
 use crate::ndf::Ndf;
 use crate::rng::Rng;
 use glam::{DVec3, Vec3};
@@ -140,12 +131,7 @@ pub(crate) const CAP_MAX: usize = MAX_BOUNCES as usize + 1;
 /// Capacity used when `max_bounces < CAP_SMALL` (keeps the stack arrays small).
 pub(crate) const CAP_SMALL: usize = 24;
 
-/// Russian roulette starts after this many bounces (Alg. 3's `rrDepth`).
-pub(crate) const RR_DEPTH: u32 = 3;
-/// Smallest Russian-roulette continuation probability.
-pub(crate) const RR_MIN_Q: f64 = 0.1;
-
-/// The segment term of a growing path (seed 003, eq. 14; exact for any
+/// The segment term of a growing path (Cui et al. 2023, eq. 14; exact for any
 /// sequence of directions, see the module docs), in O(N) per upward bounce,
 /// O(1) per downward bounce and O(N) per query, N the number of downward
 /// directions so far, on fixed-size stack arrays of capacity `C`.
@@ -241,6 +227,85 @@ impl<const C: usize> SegmentTerm<C> {
     }
 }
 
+/// The segment term as the walk's depth state (Cui et al. 2023, eq. (14);
+/// see [`microsurface::ExitTransform`]).
+impl<const C: usize> microsurface::ExitTransform for SegmentTerm<C> {
+    #[inline]
+    fn start(l0: f64) -> Self {
+        SegmentTerm::start(l0)
+    }
+    #[inline]
+    fn push(&mut self, lambda: f64) {
+        SegmentTerm::push(self, lambda)
+    }
+    #[inline]
+    fn value(&self, s: f64) -> f64 {
+        SegmentTerm::value(self, s)
+    }
+    #[inline]
+    fn scale(&mut self, f: f64) {
+        for c in &mut self.c[..self.n] {
+            *c *= f;
+        }
+    }
+    #[inline]
+    fn overflowed(&self) -> bool {
+        self.overflow
+    }
+}
+
+/// The first vertices whose upward segments are forced to collide (weight
+/// the hit probability) in the PT estimators of INVARIANCE and
+/// BITTERLI_DEON: Alg. 3's Russian roulette starts after `rrDepth = 3`
+/// vertices; before, every path goes on (at low roughness most walks
+/// escape after one reflection, and the rare second collision would carry
+/// the whole multiple-scattering estimate).
+pub(crate) const FORCED_VERTICES: u32 = 2;
+
+/// Mean roughness below which the PT estimators of INVARIANCE and
+/// BITTERLI_DEON run two walks (from `wi` and from `wo`) weighted by MIS on
+/// their direction densities, and from which they run one walk from `wi`.
+/// Measured (`examples/efficiency.rs`, GGX, F = 1, efficiency relative to
+/// HEITZ_RANDOM_WALK at commit 9f91b5f, theta_i 0 / 60 / 80): alpha 0.3:
+/// two walks 7.5 / 4.5 / 6.6x, one walk 0.7 / 1.1 / 2.4x; alpha 0.5:
+/// 3.2 / 1.9 / 2.9x against 1.3 / 1.2 / 2.0x; alpha 1: 1.5 / 1.6 / 2.4x
+/// against 3.0 / 1.7 / 2.8x (the direction densities ignore the escape
+/// probabilities, which rough surfaces make matter).
+pub(crate) const TWO_WALKS_BELOW_ALPHA: f32 = 0.75;
+
+/// The PT estimate with the depth state `S`: single scattering in closed
+/// form plus, with `two_walks`, the MIS-weighted walks from `wi` and from
+/// `wo` (the latter scaled by reciprocity, `f(wi, wo) |wo.z| = f(wo, wi)
+/// |wi.z| |wo.z| / |wi.z|`), else one walk from `wi`. The first
+/// [`FORCED_VERTICES`] upward segments are forced to collide.
+pub(crate) fn eval_two_walks<S: DepthState>(
+    ms: &Microsurface,
+    wi: Vec3,
+    wo: Vec3,
+    two_walks: bool,
+    rng: &mut Rng,
+) -> Vec3 {
+    let opt = WalkOptions {
+        forced: FORCED_VERTICES,
+        mis: two_walks,
+        order_one: false,
+        roulette: false,
+    };
+    let mut f = Vec3::ZERO;
+    microsurface::walk::<S, _>(ms, wi, wo, rng, opt, &mut f);
+    if two_walks {
+        let mut bwd = Vec3::ZERO;
+        microsurface::walk::<S, _>(ms, wo, wi, rng, opt, &mut bwd);
+        f += bwd * (wo.z / wi.z);
+    }
+    let v = ms.single(wi, wo) + f;
+    if v.is_finite() {
+        v.max(Vec3::ZERO)
+    } else {
+        Vec3::ZERO
+    }
+}
+
 /// The signed full-sphere `Lambda(d)` of a travel direction (finite).
 #[inline]
 pub(crate) fn lambda_signed(ndf: &Ndf, d: Vec3) -> f64 {
@@ -294,7 +359,7 @@ pub(crate) fn scatter(ndf: &Ndf, facet: &Facet, d: Vec3, rng: &mut Rng) -> Optio
 }
 
 /// Position-free vertex term `v(d, o) = F D(h) / (4 |d.z|)`, `h` the half
-/// vector of the travel direction `d` and the outgoing `o` (seed 003, eq. 2),
+/// vector of the travel direction `d` and the outgoing `o` (Cui et al. 2023, eq. 2),
 /// and `D(h)` alone (for MIS).
 #[inline]
 pub(crate) fn vertex(ndf: &Ndf, facet: &Facet, d: Vec3, o: Vec3) -> (Vec3, f32) {
@@ -307,7 +372,7 @@ pub(crate) fn vertex(ndf: &Ndf, facet: &Facet, d: Vec3, o: Vec3) -> (Vec3, f32) 
     (facet.conductor_fresnel(c) * (dm / (4.0 * d.z.abs())), dm)
 }
 
-/// The default bounce limit for a roughness: 10 (seed 000 and 003's choice)
+/// The default bounce limit for a roughness: 10 (the choice of Wang et al. 2022 and Cui et al. 2023)
 /// while the energy of longer paths stays below 0.1% at every incidence up to
 /// 89 degrees, `ceil(5 alpha + 5)` beyond (`alpha` the larger of the two).
 /// Measured with the exact-exit walk in the white furnace (fraction of
@@ -426,7 +491,7 @@ pub(crate) fn two_sided_hapke_pdf(ndf: &Ndf, wi: Vec3, wo: Vec3) -> f32 {
     hapke_pdf(ndf, wi, wo)
 }
 
-/// Hapke-based pdf of seed 003, eqs. (15)-(16), for `wi.z > 0`, `wo.z > 0`,
+/// Hapke-based pdf of Cui et al. 2023, eqs. (15)-(16), for `wi.z > 0`, `wo.z > 0`,
 /// normalised as described in the module docs.
 pub(crate) fn hapke_pdf(ndf: &Ndf, wi: Vec3, wo: Vec3) -> f32 {
     let h = (wi + wo).normalize_or_zero();
@@ -475,6 +540,7 @@ pub struct Invariance {
     facet: Facet,
     estimator: Estimator,
     max_bounces: u32,
+    ms: Microsurface,
 }
 
 impl Invariance {
@@ -491,6 +557,7 @@ impl Invariance {
             facet,
             estimator,
             max_bounces,
+            ms: Microsurface::new(ndf, facet, max_bounces),
         }
     }
 
@@ -499,73 +566,23 @@ impl Invariance {
         self.max_bounces
     }
 
-    /// Unidirectional estimator with next-event estimation (seed 003, Alg. 3).
+    /// Unidirectional estimator with next-event estimation (Cui et al.
+    /// 2023, Alg. 3) on the shared walk, the segment term as its state.
     fn eval_pt<const C: usize>(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3 {
-        let lo = lambda_signed(&self.ndf, wo);
-        let mut d = -wi;
-        let mut lam_d = lambda_signed(&self.ndf, d);
-        let mut seg = SegmentTerm::<C>::start(-lam_d);
-        // Throughput and result in f64: prod |Lambda| and S_k can pass the f32
-        // range on long paths (their product stays below 1 / v).
-        let mut w = DVec3::ONE;
-        let mut f = DVec3::ZERO;
-        let mut k = 0u32;
-        // R_k(0): probability of reaching collision k over prod |Lambda|
-        // (computed once Russian roulette starts).
-        let mut mass = f64::NAN;
-        loop {
-            k += 1;
-            // Next-event estimation to wo from collision k: v(d_{k-1}, wo) S(d_0..d_{k-1}, wo).
-            let (v, _) = vertex(&self.ndf, &self.facet, d, wo);
-            if v != Vec3::ZERO {
-                f += w * v.as_dvec3() * seg.value(lo);
-            }
-            if k >= self.max_bounces {
-                break;
-            }
-            let Some((o, fr)) = scatter(&self.ndf, &self.facet, d, rng) else {
-                break;
-            };
-            // v / pdf = F |Lambda(d)| (seed 003, eq. 5: f_p |Lambda| = v).
-            let lam_o = lambda_signed(&self.ndf, o);
-            w *= fr.as_dvec3() * lam_d.abs();
-            if k >= RR_DEPTH {
-                if mass.is_nan() {
-                    mass = seg.value(0.0);
-                }
-                seg.push(lam_o);
-                // Continue with the walk's own probability of another collision,
-                // P(collision k + 1 | collision k) = |Lambda(d_k)| R_{k+1}(0) / R_k(0)
-                // (1 after a downward direction, which always collides).
-                let (q, new_mass) = if lam_o < 0.0 {
-                    (1.0, mass / -lam_o)
-                } else {
-                    let nm = seg.value(0.0);
-                    let q = if mass > 0.0 {
-                        (lam_o * nm / mass).clamp(RR_MIN_Q, 1.0)
-                    } else {
-                        0.0
-                    };
-                    (q, nm)
-                };
-                if q.is_nan() || q <= 0.0 || (q < 1.0 && (rng.next_f32() as f64) >= q) {
-                    break;
-                }
-                w /= q;
-                mass = new_mass;
-            } else {
-                seg.push(lam_o);
-            }
-            lam_d = lam_o;
-            d = o;
-            if !w.is_finite() || w.max_element() <= 0.0 {
-                break;
-            }
-        }
-        f.as_vec3()
+        let two = 0.5 * (self.ndf.alpha_x + self.ndf.alpha_y) < TWO_WALKS_BELOW_ALPHA;
+        eval_two_walks::<SegmentTerm<C>>(&self.ms, wi, wo, two, rng)
     }
 
-    /// Bidirectional estimator (seed 000, sec. 4.2, eqs. 14-16) with `S_k`
+    /// Draws wo from caller uniforms: u[0] chooses the lobe at the first vertex, u[1], u[2] the 2D sample of the first visible-normal draw; stochastic models take the rest from rng.
+    pub fn sample_with(&self, wi: Vec3, u: [f32; 3], rng: &mut Rng) -> Sample {
+        if (self.max_bounces as usize) < CAP_SMALL {
+            sample_exact_exit::<SegmentTerm<CAP_SMALL>>(&self.ms, wi, u, rng)
+        } else {
+            sample_exact_exit::<SegmentTerm<CAP_MAX>>(&self.ms, wi, u, rng)
+        }
+    }
+
+    /// Bidirectional estimator (Wang et al. 2022, sec. 4.2, eqs. 14-16) with `S_k`
     /// as the segment term: a camera sub-path from `-wi` and a light
     /// sub-path from `-wo`, every connection of `s` camera and `t` light
     /// directions with `s + t - 1 <= max_bounces` bounces, balance heuristic.
@@ -706,11 +723,6 @@ impl Invariance {
 }
 
 impl ScatterModel for Invariance {
-    // PLACEHOLDER(kernel branch): replaced at merge
-    fn sample_with(&self, wi: Vec3, _u: [f32; 3], rng: &mut Rng) -> Sample {
-        self.sample(wi, rng)
-    }
-
     fn eval(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3 {
         let (wi, wo) = if wi.z < 0.0 {
             (flip_z(wi), flip_z(wo))
@@ -730,11 +742,12 @@ impl ScatterModel for Invariance {
     }
 
     fn sample(&self, wi: Vec3, rng: &mut Rng) -> Sample {
-        if (self.max_bounces as usize) < CAP_SMALL {
-            sample_walk::<SegmentTerm<CAP_SMALL>>(&self.ndf, &self.facet, self.max_bounces, wi, rng)
-        } else {
-            sample_walk::<SegmentTerm<CAP_MAX>>(&self.ndf, &self.facet, self.max_bounces, wi, rng)
-        }
+        let u = microsurface::first_uniforms(rng);
+        self.sample_with(wi, u, rng)
+    }
+
+    fn sample_with(&self, wi: Vec3, u: [f32; 3], rng: &mut Rng) -> Sample {
+        Self::sample_with(self, wi, u, rng)
     }
 
     fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
@@ -742,69 +755,22 @@ impl ScatterModel for Invariance {
     }
 }
 
-/// What the conductor walk needs of its depth state: the (unnormalised)
-/// probability `R(s)` that a path of the directions pushed so far escapes
-/// along a direction of Lambda `s`. [`SegmentTerm`] (seed 003) and the
-/// Bitterli-d'Eon hyperexponential recursion give the same values at
-/// different cost.
-pub(crate) trait ExitState: Sized {
-    /// The state after the incident direction (Lambda `l0` of `-wi`).
-    fn start(l0: f64) -> Self;
-    /// Adds a path direction of signed Lambda `lambda`.
-    fn push(&mut self, lambda: f64);
-    /// `R(s)`.
-    fn exit_value(&self, s: f64) -> f64;
-}
-
-impl<const C: usize> ExitState for SegmentTerm<C> {
-    fn start(l0: f64) -> Self {
-        SegmentTerm::start(l0)
-    }
-    fn push(&mut self, lambda: f64) {
-        SegmentTerm::push(self, lambda)
-    }
-    fn exit_value(&self, s: f64) -> f64 {
-        self.value(s)
-    }
-}
-
-/// The walk of seed 003, Alg. 2, for a two-sided conductor, exiting with
-/// the exact conditional probability `R(Lambda(d)) / R(0)` (module docs).
-pub(crate) fn sample_walk<S: ExitState>(
-    ndf: &Ndf,
-    facet: &Facet,
-    max_bounces: u32,
-    wi_in: Vec3,
+/// The exact-exit walk of Cui et al. 2023, Alg. 2, for a two-sided
+/// conductor with the depth state `S` (exit with the exact conditional
+/// probability, module docs), pdf the Hapke lobe.
+pub(crate) fn sample_exact_exit<S: DepthState>(
+    ms: &Microsurface,
+    wi: Vec3,
+    u: [f32; 3],
     rng: &mut Rng,
 ) -> Sample {
-    let flipped = wi_in.z < 0.0;
-    let wi = if flipped { flip_z(wi_in) } else { wi_in };
-    let mut d = -wi;
-    let mut state = S::start(-lambda_signed(ndf, d));
-    let mut w = Vec3::ONE;
-    for _ in 0..max_bounces {
-        let Some((o, fr)) = scatter(ndf, facet, d, rng) else {
-            return Sample::ABSORBED;
-        };
-        w *= fr;
-        let lam = lambda_signed(ndf, o);
-        if o.z > 0.0 {
-            let r0 = state.exit_value(0.0);
-            let p_exit = if r0 > 0.0 {
-                state.exit_value(lam) / r0
-            } else {
-                1.0
-            };
-            if (rng.next_f32() as f64) < p_exit {
-                let pdf = hapke_pdf(ndf, wi, o);
-                let wo = if flipped { flip_z(o) } else { o };
-                return Sample::new(wi_in, wo, w, pdf);
-            }
+    match microsurface::sample_walk::<S, _>(ms, wi, u, rng, |_| {}) {
+        Ok(e) if e.wo.z != 0.0 && crate::bsdf::same_side(wi, e.wo) => {
+            let pdf = two_sided_hapke_pdf(&ms.ndf, wi, e.wo);
+            Sample::new(wi, e.wo, e.weight, pdf)
         }
-        state.push(lam);
-        d = o;
+        _ => Sample::ABSORBED,
     }
-    Sample::ABSORBED
 }
 
 #[cfg(test)]

@@ -13,6 +13,7 @@ pub mod compensation_ms_tables;
 pub mod compensation_tables;
 pub mod heitz;
 pub mod invariance;
+pub mod microsurface;
 pub mod null_scattering;
 pub mod position_free;
 pub mod vgroove;

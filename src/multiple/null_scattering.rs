@@ -1,9 +1,9 @@
 //! `MSBSDF_MODEL_NULL_SCATTERING`: multiple scattering from a rough surface
 //! seen as a half space of microflakes, for any bounded NDF, including
-//! NDFs that extend over the full sphere (seed 001, section 3; Dupuy et al.
+//! NDFs that extend over the full sphere (d'Eon 2023, section 3; Dupuy et al.
 //! 2016's volumetric Smith model).
 //!
-//! ## Sampling (seed 001, section 3.1)
+//! ## Sampling (d'Eon 2023, section 3.1)
 //! The walk starts at depth 0 travelling along `w = -wi`. Collisions are
 //! drawn against the constant majorant NDF `D_max` (cross-section
 //! `pi D_max` for every direction, so free paths are exponential with a
@@ -26,7 +26,7 @@
 //! CDF becomes `1 - C1`, so depth maps to `-ln(1 - e^-t)` (as in Heitz et
 //! al. 2016's height walk with `h -> -h`).
 //!
-//! ## Evaluation (seed 001, section 3.2)
+//! ## Evaluation (d'Eon 2023, section 3.2)
 //! The same walk with next-event estimation. For conductor and dielectric
 //! facets the estimate is added at *every tentative* collision with the
 //! analytic facet phase density `<-w, h> D(h) / (pi D_max) |dh / do| F`
@@ -40,7 +40,7 @@
 //! one-sided estimate is then heavy-tailed (measured: grazing transmission
 //! under-estimated by half with 3e4 estimates). The extinction towards `wo`
 //! uses `sigma(-wo)`, computed once per call by integrating the Dirac-NDF
-//! cross-section (seed 001, eqs. 25-33) against `D(u)` with Gauss-Legendre
+//! cross-section (d'Eon 2023, eqs. 25-33) against `D(u)` with Gauss-Legendre
 //! quadrature: pieces split at the kinks `u' = +-sqrt(1 - u^2)` of
 //! `sigma_delta` and at `u' = 0` (where height-field NDFs jump to 0); the
 //! outer piece in the angle `u' = cos(theta)` (resolves peaks at `u' = 1`),
@@ -58,7 +58,7 @@
 //! ## NDFs
 //! Beckmann, GGX, Student-T (`gamma >= 2`: below 2 the NDF is unbounded at
 //! the horizon, refused), von Mises-Fisher `D = C exp(2 (u - 1) / alpha^2)`
-//! on the full sphere (seed 001, section 5.3), exponential (eq. 43, isotropic)
+//! on the full sphere (d'Eon 2023, section 5.3), exponential (eq. 43, isotropic)
 //! and Bessel K0 (eq. 40 with argument `2 tan / alpha` as eq. 36 gives;
 //! eq. 40 drops the `1/u`). K0 is unbounded at `u = 1`, so no constant
 //! majorant exists; it is walked "shape-invariantly" instead (the other
@@ -73,7 +73,7 @@
 //! the side of `wi` for opaque facets, half of it on each side for
 //! dielectrics.
 //!
-//! ## Cost versus roughness (seed 001, section 3.3)
+//! ## Cost versus roughness (d'Eon 2023, section 3.3)
 //! The tentative-collision rate is `pi D_max`: about `1 / alpha^2` times the
 //! real rate at low roughness, and, for GGX, Beckmann, Student-T and the
 //! exponential NDF above alpha ~1, large again because their maximum moves
@@ -117,13 +117,13 @@
 
 use crate::bsdf::{Sample, ScatterModel, opposite_sides, same_side};
 use crate::facet::Facet;
-use crate::frame::{flip_z, reflect, refract};
+use crate::frame::{basis_f64, flip_z, reflect, refract};
 use crate::fresnel;
 use crate::math::{FRAC_1_SQRT_PI, erf, erfcx_pos};
 use crate::ndf::{Ndf, NdfKind, beckmann};
 use crate::rng::Rng;
 use crate::specfun::bessel_k;
-use glam::{DVec3, Vec3};
+use glam::Vec3;
 use std::f64::consts::PI;
 use std::sync::OnceLock;
 
@@ -152,11 +152,11 @@ pub enum NullNdfKind {
     Ggx,
     /// Student-T, shape >= 2.
     StudentT,
-    /// von Mises-Fisher over the full sphere (seed 001, section 5.3).
+    /// von Mises-Fisher over the full sphere (d'Eon 2023, section 5.3).
     Vmf,
-    /// Exponential slopes (seed 001, eq. 43).
+    /// Exponential slopes (d'Eon 2023, eq. 43).
     Exponential,
-    /// Bessel K0 (seed 001, eqs. 36 and 40-42), walked analytically.
+    /// Bessel K0 (d'Eon 2023, eqs. 36 and 40-42), walked analytically.
     BesselK0,
 }
 
@@ -332,7 +332,7 @@ impl NullNdf {
         }
     }
 
-    /// Seed 001 eq. (33) by piecewise Gauss-Legendre quadrature (isotropic):
+    /// d'Eon 2023 eq. (33) by piecewise Gauss-Legendre quadrature (isotropic):
     /// [`GL_NODES_SMOOTH`] nodes per piece for vMF, [`GL_NODES`] otherwise.
     pub fn sigma_quadrature(&self, u: f64) -> f64 {
         let nodes = match self.kind {
@@ -343,7 +343,7 @@ impl NullNdf {
     }
 }
 
-/// Seed 001 eq. (42) (with the up-welling exponent's sign corrected):
+/// d'Eon 2023 eq. (42) (with the up-welling exponent's sign corrected):
 /// the K0 cross-section for a direction of cosine `u`.
 pub fn k0_sigma(alpha: f64, u: f64) -> f64 {
     let s = (1.0 - u * u).max(0.0).sqrt();
@@ -354,7 +354,7 @@ pub fn k0_sigma(alpha: f64, u: f64) -> f64 {
     if u > 0.0 { u + tail } else { tail }
 }
 
-/// The Dirac-NDF cross-section `sigma_delta(u, u_n)` (seed 001, eqs. 26-30):
+/// The Dirac-NDF cross-section `sigma_delta(u, u_n)` (d'Eon 2023, eqs. 26-30):
 /// the projected area, seen from a direction of cosine `u`, of unit density
 /// of normals on the ring of cosine `u_n` (`integral_0^{2 pi} max(0, v.m) dphi`).
 pub fn sigma_dirac(u: f64, un: f64) -> f64 {
@@ -424,7 +424,7 @@ pub fn gauss_legendre(n: usize) -> &'static ([f64; GL_NODES], [f64; GL_NODES]) {
 }
 
 /// `integral_{-1}^{1} sigma_delta(u, u') D(u') du'` for any `D(u')`
-/// (seed 001, eq. 33), split at `u' = +-s`, `s = sqrt(1 - u^2)`, and `0`.
+/// (d'Eon 2023, eq. 33), split at `u' = +-s`, `s = sqrt(1 - u^2)`, and `0`.
 pub fn sigma_quadrature_with(d: impl Fn(f64) -> f64, u: f64) -> f64 {
     sigma_quadrature_nodes(d, u, GL_NODES)
 }
@@ -470,21 +470,9 @@ pub fn sigma_quadrature_nodes(d: impl Fn(f64) -> f64, u: f64, nodes: usize) -> f
     total
 }
 
-/// An orthonormal basis around the unit vector `n` (Duff et al. 2017).
-#[inline]
-fn basis(n: DVec3) -> (DVec3, DVec3) {
-    let sign = 1.0f64.copysign(n.z);
-    let a = -1.0 / (sign + n.z);
-    let b = n.x * n.y * a;
-    (
-        DVec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
-        DVec3::new(b, sign + n.y * n.y * a, -n.y),
-    )
-}
-
 /// Samples a K0 visible normal seen from the unit direction `v` (either
 /// hemisphere), exactly: the mixture index `t` of the Beckmann component of
-/// roughness `alpha t / sqrt(2)` (seed 001, eq. 35 with `a = 1`: Rayleigh
+/// roughness `alpha t / sqrt(2)` (d'Eon 2023, eq. 35 with `a = 1`: Rayleigh
 /// weights) has density `t e^{-t^2/2} sigma_B(v; alpha t / sqrt 2)`, which
 /// is bounded by `t e^{-t^2/2} (u+ + alpha_B s / (2 sqrt pi))` (Rayleigh plus
 /// Maxwell components) and sampled by rejection.
@@ -559,7 +547,7 @@ pub struct NullScattering {
     ndf: NullNdf,
     facet: Facet,
     max_bounces: u32,
-    /// Composition (seed 001 section 4): the facets scatter as this opaque
+    /// Composition (d'Eon 2023 section 4): the facets scatter as this opaque
     /// material, in a frame whose z is the facet normal.
     inner: Option<crate::dispatch::Inner>,
 }
@@ -598,7 +586,7 @@ impl NullScattering {
     }
 
     /// The same walk with facets that scatter as the opaque material `inner`
-    /// (microsurface as a BSDF, seed 001 section 4: e.g. a rough conductor
+    /// (microsurface as a BSDF, d'Eon 2023 section 4: e.g. a rough conductor
     /// on a rough macro-structure, biscale roughness). The facet's tangent
     /// frame is built from its normal alone, so an anisotropic `inner` has an
     /// arbitrary azimuth on each facet. `eval` uses next-event estimation at
@@ -742,7 +730,7 @@ impl NullScattering {
                 }
                 // Candidate normal: uniform disk orthogonal to w, onto the sphere.
                 let wd = w.as_dvec3().normalize();
-                let (e1, e2) = basis(wd);
+                let (e1, e2) = basis_f64(wd);
                 let r = rng.next_f64().sqrt();
                 let phi = 2.0 * PI * rng.next_f64();
                 let m = (e1 * (r * phi.cos()) + e2 * (r * phi.sin())
@@ -768,7 +756,7 @@ impl NullScattering {
             }
             if let Some(inner) = &self.inner {
                 // Scatter by the inner material in the facet's frame.
-                let (t1, t2) = basis(m.as_dvec3());
+                let (t1, t2) = basis_f64(m.as_dvec3());
                 let (t1, t2) = (t1.as_vec3(), t2.as_vec3());
                 let to_local = |v: Vec3| Vec3::new(v.dot(t1), v.dot(t2), v.dot(m));
                 let wi_loc = to_local(wi_l);
@@ -805,7 +793,7 @@ impl NullScattering {
                         }
                     }
                     weight *= albedo;
-                    let (e1, e2) = basis(m.as_dvec3());
+                    let (e1, e2) = basis_f64(m.as_dvec3());
                     let r = rng.next_f64().sqrt();
                     let phi = 2.0 * PI * rng.next_f64();
                     let d = e1 * (r * phi.cos())
@@ -932,11 +920,6 @@ impl NullScattering {
 }
 
 impl ScatterModel for NullScattering {
-    // PLACEHOLDER(kernel branch): replaced at merge
-    fn sample_with(&self, wi: Vec3, _u: [f32; 3], rng: &mut Rng) -> Sample {
-        self.sample(wi, rng)
-    }
-
     fn eval(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3 {
         let mut st = WalkStats::default();
         self.eval_reciprocal(wi, wo, rng, &mut st)
@@ -945,6 +928,14 @@ impl ScatterModel for NullScattering {
     fn sample(&self, wi: Vec3, rng: &mut Rng) -> Sample {
         let mut st = WalkStats::default();
         self.sample_with_stats(wi, rng, &mut st)
+    }
+
+    fn sample_with(&self, wi: Vec3, _u: [f32; 3], rng: &mut Rng) -> Sample {
+        // The null-collision walk draws its collision distances and facet
+        // normals by rejection (d'Eon 2023, sec. 3.1): a fixed number of
+        // caller uniforms cannot select them, so all of the walk's numbers
+        // come from rng.
+        self.sample(wi, rng)
     }
 
     fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {

@@ -1,6 +1,5 @@
 //! `MSBSDF_MODEL_POSITION_FREE`: the position-free multiple-bounce Smith
-//! microfacet BSDF of Wang, Jin, Fan, Yang, Holzschuch and Yan 2022 (seed 000,
-//! second extraction seed 004), with its two estimators: path tracing with
+//! microfacet BSDF of Wang, Jin, Fan, Yang, Holzschuch and Yan 2022 (Wang et al. 2022), with its two estimators: path tracing with
 //! next-event estimation at every bounce (eqs. 11-13) and bidirectional path
 //! tracing with balance-heuristic MIS over every split of a path (eqs. 14-16).
 //!
@@ -100,64 +99,15 @@
 //! worst incidence among 0..89 degrees) is recorded in the docs of
 //! [`default_max_bounces`].
 //!
-//! # Measured white furnace (`tests/position_free.rs`)
+//! # Measured white furnace and comparison with HEITZ_RANDOM_WALK
 //!
-//! Conductor facets with eta 0, k 1 (F = 1), default bounce limit. The
-//! directional albedo through `sample` is 1.00000 at every entry below
-//! (20 000 walks each, none absorbed). Through `eval` (the integral of eval
-//! over the sphere by importance sampling a mixture of the single-scattering
-//! lobe and a cosine lobe, until the standard error is below 0.0024; PT,
-//! except BDPT for alpha 0.1 isotropic, see "Variance" below), mean ±
-//! standard error, by theta_i in degrees:
-//!
-//! | NDF | alpha | 0 | 30 | 60 | 80 | 89 |
-//! |---|---|---|---|---|---|---|
-//! | Ggx | 0.1, 0.1 | 0.9987 ± 0.0022 | 0.9997 ± 0.0024 | 0.9966 ± 0.0023 | 1.0007 ± 0.0023 | 1.0010 ± 0.0022 |
-//! | Ggx | 0.5, 0.5 | 0.9984 ± 0.0022 | 0.9977 ± 0.0022 | 0.9981 ± 0.0022 | 1.0029 ± 0.0023 | 1.0031 ± 0.0022 |
-//! | Ggx | 1, 1 | 0.9965 ± 0.0023 | 1.0001 ± 0.0023 | 1.0012 ± 0.0024 | 1.0031 ± 0.0022 | 0.9981 ± 0.0020 |
-//! | Ggx | 2, 2 | 0.9969 ± 0.0024 | 1.0018 ± 0.0024 | 1.0031 ± 0.0023 | 1.0016 ± 0.0023 | 0.9984 ± 0.0024 |
-//! | Ggx | 0.1, 1 | 1.0019 ± 0.0024 | 0.9954 ± 0.0024 | 1.0012 ± 0.0024 | 1.0020 ± 0.0024 | 1.0007 ± 0.0023 |
-//! | Beckmann | 0.1, 0.1 | 0.9983 ± 0.0023 | 0.9997 ± 0.0024 | 0.9980 ± 0.0024 | 1.0001 ± 0.0024 | 1.0048 ± 0.0023 |
-//! | Beckmann | 0.5, 0.5 | 0.9981 ± 0.0021 | 0.9958 ± 0.0024 | 0.9965 ± 0.0024 | 0.9999 ± 0.0023 | 0.9974 ± 0.0023 |
-//! | Beckmann | 1, 1 | 0.9996 ± 0.0023 | 0.9985 ± 0.0024 | 1.0045 ± 0.0024 | 1.0038 ± 0.0020 | 0.9978 ± 0.0020 |
-//! | Beckmann | 2, 2 | 0.9976 ± 0.0024 | 0.9989 ± 0.0024 | 1.0017 ± 0.0023 | 1.0026 ± 0.0023 | 0.9980 ± 0.0022 |
-//! | Beckmann | 0.1, 1 | 1.0043 ± 0.0024 | 0.9949 ± 0.0024 | 0.9993 ± 0.0024 | 0.9970 ± 0.0024 | 0.9997 ± 0.0024 |
-//!
-//! Every entry is within 1% of 1 and within 4 sigma + 0.1% of 1 (the 0.1%
-//! bounds the truncation). Dielectric eta 1.5 (BDPT, reflected plus
-//! transmitted, standard error 0.0011): GGX 0.1 at 0 degrees 1.0002 from
-//! above, 0.9998 from below; GGX 0.5 at 70 degrees 1.0011 / 0.9988; GGX 1
-//! at 0 degrees 1.0003 / 1.0001; Beckmann 0.5 at 30 degrees 0.9995 / 0.9996.
-//!
-//! Student-T (seed 001; white conductor, default bounce limit, same
-//! procedure; PT unless marked BDPT), eval albedo by theta_i in degrees:
-//!
-//! | shape | alpha | 0 | 60 | 89 |
-//! |---|---|---|---|---|
-//! | 1.8 | 0.3 | 0.9991 ± 0.0023 | 0.9964 ± 0.0023 | 0.9989 ± 0.0023 (BDPT 1.0013 ± 0.0037) |
-//! | 1.8 | 1 | 1.0005 ± 0.0024 (BDPT 1.0019 ± 0.0065) | 1.0029 ± 0.0023 | 0.9961 ± 0.0023 |
-//! | 3 | 0.3 | 0.9963 ± 0.0022 | 1.0004 ± 0.0024 | 1.0009 ± 0.0024 |
-//! | 3 | 1 | 0.9980 ± 0.0023 | 0.9985 ± 0.0022 (BDPT 1.0012 ± 0.0038) | 1.0017 ± 0.0018 |
-//! | 20 | 0.3 | 1.0006 ± 0.0021 (BDPT 1.0043 ± 0.0029) | 0.9974 ± 0.0023 | 0.9984 ± 0.0023 |
-//! | 20 | 1 | 1.0039 ± 0.0024 | 0.9997 ± 0.0024 | 0.9999 ± 0.0023 (BDPT 1.0001 ± 0.0032) |
-//!
-//! Sample albedo 1.00000 except 0.99975 (shape 1.8, alpha 1, normal
-//! incidence: the truncation). Student-T glass (eta 1.5, BDPT, reflected
-//! plus transmitted): shape 1.8 alpha 0.5 at 30 degrees 1.0037 ± 0.0024
-//! from above, 1.0014 ± 0.0024 from below; shape 20 alpha 1 at 60 degrees
-//! 1.0005 ± 0.0025 / 1.0071 ± 0.0025. One vertex equals SINGLE with the
-//! uncorrelated G2 for Student-T as for GGX and Beckmann (to 5e-5). The
-//! walk uses only the generic `Ndf` API (visible normals from either
-//! hemisphere, full-sphere `Lambda` and `sigma`); the bounce limit scales
-//! with the tail for shapes below 2 ([`default_max_bounces`]). Cost per eval
-//! (ns, gold, as measured for INVARIANCE in [`crate::multiple::invariance`]):
-//!
-//! | estimator, alpha | GGX | Beckmann | Student-T 1.8 | 3 | 20 |
-//! |---|---|---|---|---|---|
-//! | PT, 0.3 | 334 | 802 | 2841 | 2239 | 3144 |
-//! | PT, 1 | 464 | 1237 | 4819 | 3010 | 3593 |
-//! | BDPT, 0.3 | 2139 | 6389 | 25222 | 24137 | 34405 |
-//! | BDPT, 1 | 2051 | 7276 | 28606 | 24432 | 37589 |
+//! Every white-furnace albedo (conductor and glass, GGX, Beckmann and
+//! Student-T, theta_i up to 89 degrees) is within 1% of 1 and within 4
+//! sigma plus 0.1% (the truncation); tables in `docs/position_free.md`,
+//! with the differences to HEITZ_RANDOM_WALK: near normal incidence 2-13%,
+//! in the grazing mirror direction POSITION_FREE is 50-70% darker
+//! (height-uncorrelated segments, Wang et al. 2022, sec. 6), the energy
+//! reappearing in the multiply scattered lobe.
 //!
 //! # Variance
 //!
@@ -171,70 +121,19 @@
 //! about 4-5 times the cost per eval, so PT is the more efficient
 //! estimator for rough conductors and BDPT for smooth surfaces and
 //! dielectrics.
-//!
-//! # Against HEITZ_RANDOM_WALK
-//!
-//! POSITION_FREE (BDPT) minus HEITZ_RANDOM_WALK eval (`f |cos theta_o|`,
-//! 40 000 evals each, white conductor; theta_i in degrees, wo as (theta,
-//! phi) with wi at phi 0; relative difference to HEITZ):
-//!
-//! | material | theta_i | wo (theta, phi) | POSITION_FREE | HEITZ | diff | diff / HEITZ |
-//! |---|---|---|---|---|---|---|
-//! | Ggx 0.5 mirror | 0 | (0, -180) | 0.4212 +- 0.0005 | 0.4295 +- 0.0009 | -0.0083 +- 0.0010 | -0.019 |
-//! | Ggx 0.5 mirror | 0 | (30, 0) | 0.3042 +- 0.0003 | 0.3114 +- 0.0007 | -0.0072 +- 0.0008 | -0.023 |
-//! | Ggx 0.5 mirror | 0 | (45, 90) | 0.2169 +- 0.0003 | 0.2202 +- 0.0006 | -0.0032 +- 0.0006 | -0.015 |
-//! | Ggx 0.5 mirror | 60 | (60, -180) | 0.5577 +- 0.0006 | 0.5628 +- 0.0007 | -0.0051 +- 0.0009 | -0.009 |
-//! | Ggx 0.5 mirror | 60 | (60, 0) | 0.0882 +- 0.0002 | 0.0883 +- 0.0004 | -0.0001 +- 0.0004 | -0.001 |
-//! | Ggx 0.5 mirror | 60 | (45, 90) | 0.1577 +- 0.0003 | 0.1576 +- 0.0005 | +0.0001 +- 0.0006 | +0.000 |
-//! | Ggx 0.5 mirror | 85 | (85, -180) | 0.3201 +- 0.0001 | 0.6362 +- 0.0010 | -0.3162 +- 0.0010 | -0.497 |
-//! | Ggx 0.5 mirror | 85 | (85, 0) | 0.0224 +- 0.0000 | 0.0435 +- 0.0001 | -0.0211 +- 0.0001 | -0.485 |
-//! | Ggx 0.5 mirror | 85 | (45, 90) | 0.1547 +- 0.0003 | 0.1358 +- 0.0005 | +0.0189 +- 0.0006 | +0.139 |
-//! | Ggx 1 mirror | 0 | (0, -180) | 0.3187 +- 0.0010 | 0.3659 +- 0.0021 | -0.0472 +- 0.0023 | -0.129 |
-//! | Ggx 1 mirror | 0 | (30, 0) | 0.2759 +- 0.0006 | 0.3042 +- 0.0017 | -0.0283 +- 0.0018 | -0.093 |
-//! | Ggx 1 mirror | 0 | (45, 90) | 0.2255 +- 0.0005 | 0.2317 +- 0.0009 | -0.0062 +- 0.0010 | -0.027 |
-//! | Ggx 1 mirror | 60 | (60, -180) | 0.1597 +- 0.0003 | 0.1658 +- 0.0004 | -0.0061 +- 0.0005 | -0.037 |
-//! | Ggx 1 mirror | 60 | (60, 0) | 0.1597 +- 0.0003 | 0.1658 +- 0.0004 | -0.0061 +- 0.0005 | -0.037 |
-//! | Ggx 1 mirror | 60 | (45, 90) | 0.2254 +- 0.0005 | 0.2236 +- 0.0006 | +0.0018 +- 0.0007 | +0.008 |
-//! | Ggx 1 mirror | 85 | (85, -180) | 0.0278 +- 0.0000 | 0.0904 +- 0.0002 | -0.0627 +- 0.0002 | -0.693 |
-//! | Ggx 1 mirror | 85 | (85, 0) | 0.0278 +- 0.0000 | 0.0904 +- 0.0002 | -0.0627 +- 0.0002 | -0.693 |
-//! | Ggx 1 mirror | 85 | (45, 90) | 0.2254 +- 0.0004 | 0.1878 +- 0.0008 | +0.0376 +- 0.0009 | +0.200 |
-//! | Beckmann 1 mirror | 0 | (0, -180) | 0.3192 +- 0.0007 | 0.3326 +- 0.0011 | -0.0134 +- 0.0013 | -0.040 |
-//! | Beckmann 1 mirror | 0 | (30, 0) | 0.2695 +- 0.0006 | 0.2774 +- 0.0010 | -0.0079 +- 0.0012 | -0.029 |
-//! | Beckmann 1 mirror | 0 | (45, 90) | 0.2155 +- 0.0005 | 0.2187 +- 0.0007 | -0.0032 +- 0.0009 | -0.015 |
-//! | Beckmann 1 mirror | 60 | (60, -180) | 0.1689 +- 0.0004 | 0.1698 +- 0.0004 | -0.0009 +- 0.0006 | -0.005 |
-//! | Beckmann 1 mirror | 60 | (60, 0) | 0.1002 +- 0.0000 | 0.1014 +- 0.0001 | -0.0013 +- 0.0001 | -0.012 |
-//! | Beckmann 1 mirror | 60 | (45, 90) | 0.2580 +- 0.0004 | 0.2570 +- 0.0006 | +0.0010 +- 0.0007 | +0.004 |
-//! | Beckmann 1 mirror | 85 | (85, -180) | 0.0657 +- 0.0000 | 0.1420 +- 0.0002 | -0.0763 +- 0.0002 | -0.537 |
-//! | Beckmann 1 mirror | 85 | (85, 0) | 0.0000 +- 0.0000 | 0.0000 +- 0.0000 | +0.0000 +- 0.0000 | +0.000 |
-//! | Beckmann 1 mirror | 85 | (45, 90) | 0.2651 +- 0.0002 | 0.2638 +- 0.0007 | +0.0012 +- 0.0008 | +0.005 |
-//! | Ggx 1 glass | 0 | (0, -180) | 0.0039 +- 0.0000 | 0.0039 +- 0.0001 | -0.0001 +- 0.0001 | -0.013 |
-//! | Ggx 1 glass | 0 | (30, -180) T | 0.2862 +- 0.0002 | 0.2852 +- 0.0011 | +0.0010 +- 0.0011 | +0.004 |
-//! | Ggx 1 glass | 60 | (60, -180) | 0.0075 +- 0.0000 | 0.0081 +- 0.0000 | -0.0007 +- 0.0000 | -0.082 |
-//! | Ggx 1 glass | 60 | (30, -180) T | 0.4910 +- 0.0006 | 0.5164 +- 0.0021 | -0.0254 +- 0.0022 | -0.049 |
-//! | Ggx 1 glass | 85 | (85, -180) | 0.0164 +- 0.0000 | 0.0512 +- 0.0001 | -0.0348 +- 0.0001 | -0.680 |
-//! | Ggx 1 glass | 85 | (30, -180) T | 0.2347 +- 0.0008 | 0.3861 +- 0.0060 | -0.1514 +- 0.0061 | -0.392 |
-//!
-//! (GGX alpha 1 has a constant D = 1 / pi, so its mirror and retro
-//! directions coincide in value.) The gap is the one seed 000 sec. 6 describes: the segments are
-//! height-uncorrelated, so single scattering carries `G1(wi) G1(wo)`
-//! instead of `1 / (1 + Lambda(wi) + Lambda(wo))`. Near normal incidence the
-//! two differ by 2-13%; in the grazing mirror direction POSITION_FREE is
-//! 50-70% darker, and the energy reappears in the multiply scattered lobe
-//! (+14% to +20% at (45, 90) from 85 degrees), both models passing the
-//! furnace.
 
 use crate::bsdf::{Sample, ScatterModel};
 use crate::desc::{Estimator, MAX_BOUNCES};
 use crate::facet::Facet;
 use crate::frame::{RefractionHalf, flip_z, reflect, refract, refraction_half};
 use crate::fresnel;
+use crate::multiple::microsurface::{self, DepthState, Microsurface, Travel, WalkOptions};
 use crate::ndf::Ndf;
 use crate::rng::Rng;
 use glam::Vec3;
-use std::f32::consts::PI;
 
 /// The bounce limit used when the description asks for the default (0):
-/// 10 vertices (seed 000 sec. 4.1) while that truncation drops less than 0.1%
+/// 10 vertices (Wang et al. 2022 sec. 4.1) while that truncation drops less than 0.1%
 /// of the white-furnace energy at any incidence, more for rougher surfaces.
 ///
 /// Measured fraction of energy in paths longer than the limit (conductor
@@ -294,7 +193,7 @@ pub fn default_max_bounces(ndf: &Ndf, facet: &Facet) -> u32 {
     n.max(floor).min(MAX_BOUNCES)
 }
 
-/// The position-free multiple-bounce BSDF (seed 000).
+/// The position-free multiple-bounce BSDF (Wang et al. 2022).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PositionFree {
     ndf: Ndf,
@@ -302,6 +201,51 @@ pub struct PositionFree {
     estimator: Estimator,
     max_bounces: u32,
     lambert_weight: f32,
+    ms: Microsurface,
+}
+
+/// The position-free model's depth state: none. Each segment is
+/// height-uncorrelated, so a path at a vertex leaves along an upward `d`
+/// with `G1_dist(d) = 1 / (1 + Lambda(d))` whatever came before (Wang et al.
+/// 2022, eqs. (6)-(7)); a downward one always hits again. Its MIS segment
+/// ratio is exact: `(1 + L) / L` for either sign of `L`.
+#[derive(Clone, Copy, Debug)]
+pub struct ExitTerm;
+
+impl DepthState for ExitTerm {
+    #[inline]
+    fn enter(_lam0: f64, _rng: &mut Rng) -> Self {
+        ExitTerm
+    }
+
+    #[inline]
+    fn exit(&self, lam_o: f64, _crossed: bool) -> f64 {
+        1.0 / (1.0 + lam_o)
+    }
+
+    #[inline]
+    fn travel(&mut self, lam: f64, rng: &mut Rng) -> Travel {
+        if lam >= 0.0 && (rng.next_f32() as f64) * (1.0 + lam) < 1.0 {
+            Travel::Escape
+        } else {
+            Travel::Hit
+        }
+    }
+
+    #[inline]
+    fn travel_forced(&mut self, lam: f64, _rng: &mut Rng) -> Option<f64> {
+        // 1 - G1 = Lambda / (1 + Lambda), for precision.
+        Some(if lam.is_finite() {
+            lam / (1.0 + lam)
+        } else {
+            1.0
+        })
+    }
+
+    #[inline]
+    fn segment_ratio(lam: f64) -> f64 {
+        microsurface::uncorrelated_segment_ratio(lam)
+    }
 }
 
 /// A direction with the medium it travels in (`inside` = below the
@@ -333,14 +277,14 @@ fn above(x: f32, t: f32) -> bool {
     x > t
 }
 
-/// Exit probability of a direction leaving a vertex (seed 000, eqs. (7) and (9)):
+/// Exit probability of a direction leaving a vertex (Wang et al. 2022, eqs. (7) and (9)):
 /// `G1_dist(d)` upwards, 0 downwards.
 #[inline]
 fn exit_prob(ndf: &Ndf, d: Vec3) -> f32 {
     if d.z > 0.0 { ndf.g1(d) } else { 0.0 }
 }
 
-/// Probability to hit the surface again (seed 000, eq. (6)): `1 - G1_dist(d)` upwards,
+/// Probability to hit the surface again (Wang et al. 2022, eq. (6)): `1 - G1_dist(d)` upwards,
 /// written `Lambda / (1 + Lambda)` for precision, 1 downwards.
 #[inline]
 fn continue_prob(ndf: &Ndf, d: Vec3) -> f32 {
@@ -369,6 +313,7 @@ impl PositionFree {
             estimator,
             max_bounces,
             lambert_weight,
+            ms: Microsurface::new(ndf, facet, max_bounces),
         }
     }
 
@@ -382,14 +327,11 @@ impl PositionFree {
         self.estimator
     }
 
-    /// Conductor Fresnel per channel by the vectorised closed form (1 for
-    /// other facets).
+    /// Conductor Fresnel per channel (the kernel's: 1 for other facets and
+    /// for the white conductor).
     #[inline]
     fn conductor_fresnel(&self, cos_i: f32) -> Vec3 {
-        match self.facet {
-            Facet::Conductor { eta, k } => fresnel::conductor_rgb(cos_i, eta, k),
-            _ => Vec3::ONE,
-        }
+        self.ms.fresnel(cos_i)
     }
 
     #[inline]
@@ -412,7 +354,7 @@ impl PositionFree {
         }
     }
 
-    /// The vertex term times its entering segment term (seed 000, eqs. (2, 8-10)) as a
+    /// The vertex term times its entering segment term (Wang et al. 2022, eqs. (2, 8-10)) as a
     /// phase function: a ray travelling along `w` hits a facet and leaves
     /// along `o` (pointing away from the facet). Also returns the density with
     /// which [`Self::sample_vertex`] picks `o`.
@@ -447,7 +389,7 @@ impl PositionFree {
             }
             let ci = v.dot(m);
             let co = o.v.dot(m);
-            // chi+ on both sides of the facet (seed 000, eq. (8)).
+            // chi+ on both sides of the facet (Wang et al. 2022, eq. (8)).
             if ci <= 0.0 || co <= 0.0 {
                 return ZERO_VERTEX;
             }
@@ -500,8 +442,8 @@ impl PositionFree {
     /// weight `phase / pdf` (conductor Fresnel, or 1 for dielectrics).
     #[inline]
     fn sample_vertex(&self, w: Dir, rng: &mut Rng) -> Option<(Dir, Vec3)> {
-        let v = -w.v;
         let (u1, u2) = (rng.next_f32(), rng.next_f32());
+        let v = -w.v;
         let m = self.ndf.sample_visible(v, u1, u2);
         let ci = v.dot(m);
         if !above(ci, 0.0) {
@@ -588,49 +530,7 @@ impl PositionFree {
         }
     }
 
-    /// Path tracing with next-event estimation at every vertex (seed 000, eqs. (11-13)).
-    fn eval_pt(&self, d0: Dir, dk: Dir, rng: &mut Rng) -> Vec3 {
-        let exit = exit_prob(&self.ndf, dk.v); // e_k, seed 000, eq. (7)
-        if exit <= 0.0 {
-            return Vec3::ZERO;
-        }
-        let mut sum = Vec3::ZERO;
-        // Throughput reaching the current vertex, exit factors e_i (seed 000, eq. (6))
-        // included deterministically; `e_w` is the factor of the direction
-        // that reached it.
-        let mut beta = Vec3::ONE;
-        let mut e_w = 1.0f32;
-        let mut w = d0;
-        for bounce in 0..self.max_bounces {
-            // Next event: this vertex sends the path to wo (seed 000, eq. (12)).
-            sum += beta * self.vertex(w, dk).value;
-            if bounce + 1 == self.max_bounces {
-                break;
-            }
-            // Going on past this vertex: Russian roulette with the
-            // probability e_w already in beta (so the next-event term at
-            // every reached vertex keeps the exact factor, and long paths
-            // are cut where they are unlikely).
-            if e_w < 1.0 {
-                if rng.next_f32() >= e_w {
-                    break;
-                }
-                beta /= e_w;
-            }
-            let Some((o, weight)) = self.sample_vertex(w, rng) else {
-                break;
-            };
-            e_w = continue_prob(&self.ndf, o.v);
-            beta *= weight * e_w;
-            if !above(beta.max_element(), 0.0) {
-                break;
-            }
-            w = o;
-        }
-        sum * exit
-    }
-
-    /// Bidirectional estimator with the balance heuristic (seed 000, eqs. (14-16)),
+    /// Bidirectional estimator with the balance heuristic (Wang et al. 2022, eqs. (14-16)),
     /// subpaths stored in arrays of `CAP` entries.
     fn eval_bdpt<const CAP: usize>(&self, d0: Dir, dk: Dir, rng: &mut Rng) -> Vec3 {
         let n_max = (self.max_bounces as usize).min(CAP);
@@ -769,7 +669,7 @@ impl PositionFree {
                     },
                 );
                 let n = s + t + 1;
-                // pf(j), pb(j) over the whole path (seed 000, eq. (14)).
+                // pf(j), pb(j) over the whole path (Wang et al. 2022, eq. (14)).
                 let pf = |j: usize| -> f32 {
                     if j < s {
                         cam_pf[j]
@@ -788,7 +688,7 @@ impl PositionFree {
                         lig_pb[n - 1 - j]
                     }
                 };
-                // Balance heuristic (seed 000, eq. (15)): sum over s' of p_{s'} / p_s.
+                // Balance heuristic (Wang et al. 2022, eq. (15)): sum over s' of p_{s'} / p_s.
                 let mut denom = 1.0f32;
                 let mut r = 1.0f32;
                 for j in s..n - 1 {
@@ -811,43 +711,27 @@ impl PositionFree {
         }
         sum
     }
-
-    /// Exact density of the first vertex sending `wi` to `wo` (the
-    /// single-scattering lobe of the walk).
-    #[inline]
-    fn single_pdf(&self, d0: Dir, dk: Dir) -> f32 {
-        self.vertex(d0, dk).pdf
-    }
-
-    /// Runs the walk of sec. 4.3 from `d0`; returns the leaving direction
-    /// and the weight, `None` when absorbed.
-    fn walk(&self, d0: Dir, rng: &mut Rng) -> Option<(Dir, Vec3)> {
-        let mut w = d0;
-        let mut beta = Vec3::ONE;
-        for _ in 0..self.max_bounces {
-            let (o, weight) = self.sample_vertex(w, rng)?;
-            beta *= weight;
-            if o.v.z > 0.0 && rng.next_f32() < self.ndf.g1(o.v) {
-                return Some((o, beta));
-            }
-            w = o;
-        }
-        None
-    }
 }
 
 impl ScatterModel for PositionFree {
-    // PLACEHOLDER(kernel branch): replaced at merge
-    fn sample_with(&self, wi: Vec3, _u: [f32; 3], rng: &mut Rng) -> Sample {
-        self.sample(wi, rng)
-    }
-
     fn eval(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3 {
         let Some((d0, dk)) = self.endpoints(wi, wo) else {
             return Vec3::ZERO;
         };
         match self.estimator {
-            Estimator::Pt => self.eval_pt(d0, dk, rng),
+            Estimator::Pt => {
+                // The shared walk, next event at every vertex with the
+                // exact exit factor, Russian roulette past it (module docs).
+                let opt = WalkOptions {
+                    forced: 0,
+                    mis: false,
+                    order_one: true,
+                    roulette: true,
+                };
+                let mut f = Vec3::ZERO;
+                microsurface::walk::<ExitTerm, _>(&self.ms, wi, wo, rng, opt, &mut f);
+                f
+            }
             Estimator::Bdpt => {
                 if self.max_bounces <= 16 {
                     self.eval_bdpt::<16>(d0, dk, rng)
@@ -861,42 +745,25 @@ impl ScatterModel for PositionFree {
     }
 
     fn sample(&self, wi: Vec3, rng: &mut Rng) -> Sample {
-        let dielectric = self.is_dielectric();
-        let flipped = !dielectric && wi.z < 0.0;
-        let wi_l = if flipped { flip_z(wi) } else { wi };
-        let d0 = if dielectric && wi.z < 0.0 {
-            Dir {
-                v: flip_z(-wi),
-                inside: true,
+        let u = [rng.next_f32(), rng.next_f32(), rng.next_f32()];
+        self.sample_with(wi, u, rng)
+    }
+
+    fn sample_with(&self, wi: Vec3, u: [f32; 3], rng: &mut Rng) -> Sample {
+        // Sec. 4.3's walk on the shared kernel: visible normals, Fresnel as
+        // the choice (dielectric) or the weight (conductor), G1_dist(d) as
+        // the probability to leave along an upward d.
+        match microsurface::sample_walk::<ExitTerm, _>(&self.ms, wi, u, rng, |_| {}) {
+            Ok(e) if e.wo.z != 0.0 && e.wo.is_finite() => {
+                Sample::new(wi, e.wo, e.weight, self.pdf(wi, e.wo))
             }
-        } else {
-            Dir {
-                v: -wi_l,
-                inside: false,
-            }
-        };
-        let Some((o, weight)) = self.walk(d0, rng) else {
-            return Sample::ABSORBED;
-        };
-        let wo_l = if o.inside { flip_z(o.v) } else { o.v };
-        let wo = if flipped { flip_z(wo_l) } else { wo_l };
-        if !(wo.z != 0.0 && wo.is_finite()) {
-            return Sample::ABSORBED;
+            _ => Sample::ABSORBED,
         }
-        let pdf = self.pdf(wi, wo);
-        Sample::new(wi, wo, weight, pdf)
     }
 
     fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
-        let Some((d0, dk)) = self.endpoints(wi, wo) else {
-            return 0.0;
-        };
-        let lambert = if self.is_dielectric() {
-            wo.z.abs() / (2.0 * PI)
-        } else {
-            wo.z.abs() / PI
-        };
-        let c = self.lambert_weight;
-        (1.0 - c) * self.single_pdf(d0, dk) + c * lambert
+        // The walks' approximate pdf: the first vertex with weight 1 - c, a
+        // Lambert lobe (both hemispheres for dielectrics) with weight c.
+        microsurface::approximate_pdf(&self.ms, self.lambert_weight, wi, wo)
     }
 }

@@ -22,7 +22,7 @@ pub enum NdfKind {
     Beckmann,
     /// GGX / Trowbridge-Reitz.
     Ggx,
-    /// Student-T with shape [`Ndf::shape`] > 1.5 (seed 001).
+    /// Student-T with shape [`Ndf::shape`] > 1.5 (d'Eon 2023).
     StudentT,
 }
 
@@ -93,7 +93,7 @@ impl Ndf {
         }
     }
 
-    /// Full-sphere Smith Lambda (seed 000, eq. 8): `Lambda(v) >= 0` for
+    /// Full-sphere Smith Lambda (Wang et al. 2022, eq. 8): `Lambda(v) >= 0` for
     /// `v.z > 0`, `Lambda(v) = -1 - Lambda(-v) <= -1` for `v.z < 0`.
     #[inline]
     pub fn lambda(&self, v: Vec3) -> f32 {

@@ -1,12 +1,12 @@
 //! Student-T microfacet distribution (Ribardiere et al. 2017) with shape
 //! `gamma > 3/2` (`gamma = 2` is GGX, `gamma -> inf` Beckmann), and its
 //! visible-normal sampling as a gamma superposition of Beckmann
-//! distributions (seed 001, section 2).
+//! distributions (d'Eon 2023, section 2).
 //!
 //! Everything is computed in the stretched configuration (roughness 1), where
 //! the view direction has cosine `u` and `mu = u / sqrt(1 - u^2)`.
 //!
-//! - `D` (seed 001, eq. 3): `(1 + tan^2 / (gamma - 1))^-gamma / (pi a_x a_y cos^4)`.
+//! - `D` (d'Eon 2023, eq. 3): `(1 + tan^2 / (gamma - 1))^-gamma / (pi a_x a_y cos^4)`.
 //! - Slope marginal (eq. 5) of roughness 1:
 //!   `P2(p) = C (gamma - 1 + p^2)^(1/2 - gamma)`,
 //!   `C = (gamma - 1)^gamma Gamma(gamma - 1/2) / (sqrt(pi) Gamma(gamma))`.
@@ -16,7 +16,7 @@
 //!   cancellation at large `mu`, unlike eq. 6, which is kept as
 //!   [`sigma_eq6`] and checked against it).
 //!
-//! ## Visible normals (seed 001, eqs. 7-17)
+//! ## Visible normals (d'Eon 2023, eqs. 7-17)
 //! `D^ST = integral g(m) D^B(alpha sqrt((gamma - 1) / m)) dm` with `g` the
 //! Gamma(`gamma - 1`) density (eq. 7). The visible density of the mixture
 //! index `m` for a view of cosine `u` is `f(m, u) = g(m) sigma_B(u, alpha_B(m))`
@@ -33,7 +33,7 @@
 //! A Beckmann visible normal of roughness `alpha sqrt((gamma - 1) / m)` then
 //! completes the sample.
 //!
-//! **Up-welling views** (`u < 0`, seed 001 section 2.6): `T_A + T_C <= 0`,
+//! **Up-welling views** (`u < 0`, d'Eon 2023 section 2.6): `T_A + T_C <= 0`,
 //! so `f <= T_B`, and sampling `T_B` and accepting with
 //! `f / T_B = 1 - sqrt(pi) |a| erfcx(|a|)` is *exact* (our addition).
 //! [`sample_visible`] uses it. The paper's generalised-gamma approximation
@@ -73,7 +73,7 @@ use crate::rng::Rng;
 use crate::specfun::{beta_inc_reg, gamma_variate, hyp2f1_half_b_3half};
 use glam::{DVec3, Vec3};
 
-/// D(m) for a unit normal `m` (0 below the macro-surface), seed 001 eq. (3)
+/// D(m) for a unit normal `m` (0 below the macro-surface), d'Eon 2023 eq. (3)
 /// with anisotropic stretching.
 #[inline]
 pub fn d(ax: f32, ay: f32, gamma: f32, m: Vec3) -> f32 {
@@ -89,7 +89,7 @@ pub fn d(ax: f32, ay: f32, gamma: f32, m: Vec3) -> f32 {
     v as f32
 }
 
-/// Slope distribution `P22(p, q)` (seed 001, eq. 4), anisotropic by
+/// Slope distribution `P22(p, q)` (d'Eon 2023, eq. 4), anisotropic by
 /// stretching: `(g-1)^g / (pi a_x a_y) (g - 1 + (p/a_x)^2 + (q/a_y)^2)^-g`.
 /// `D(m) = P22(-m.x/m.z, -m.y/m.z) / m.z^4`.
 pub fn slope_p22(ax: f64, ay: f64, g: f64, p: f64, q: f64) -> f64 {
@@ -97,7 +97,7 @@ pub fn slope_p22(ax: f64, ay: f64, g: f64, p: f64, q: f64) -> f64 {
     (g * (g - 1.0).ln() - g * (g - 1.0 + r2).ln()).exp() / (std::f64::consts::PI * ax * ay)
 }
 
-/// Marginal slope distribution `P2(p)` of roughness `alpha` (seed 001,
+/// Marginal slope distribution `P2(p)` of roughness `alpha` (d'Eon 2023,
 /// eq. 5): `(g-1)^g alpha^(2g-2) Gamma(g - 1/2) (alpha^2 (g-1) + p^2)^(1/2-g)
 /// / (sqrt(pi) Gamma(g))`.
 pub fn slope_p2(alpha: f64, g: f64, p: f64) -> f64 {
@@ -105,7 +105,7 @@ pub fn slope_p2(alpha: f64, g: f64, p: f64) -> f64 {
     (ln_c(g) + (2.0 * g - 2.0) * alpha.ln() + (0.5 - g) * (a2 * (g - 1.0) + p * p).ln()).exp()
 }
 
-/// `ln C` of the slope marginal (seed 001 eq. 5 at roughness 1).
+/// `ln C` of the slope marginal (d'Eon 2023 eq. 5 at roughness 1).
 #[inline]
 fn ln_c(g: f64) -> f64 {
     g * (g - 1.0).ln() + ln_gamma(g - 0.5) - 0.5 * std::f64::consts::PI.ln() - ln_gamma(g)
@@ -168,7 +168,7 @@ fn sigma_f64(ax: f32, ay: f32, g: f64, v: Vec3) -> f64 {
     if z > 0.0 { (1.0 + l) * z } else { l * -z }
 }
 
-/// Seed 001 eq. (6): the cross-section of the isotropic Student-T NDF of
+/// d'Eon 2023 eq. (6): the cross-section of the isotropic Student-T NDF of
 /// roughness `alpha` for a direction of cosine `u` in (-1, 1), written with
 /// `2F1` (kept for validation; [`sigma`] avoids its cancellation).
 pub fn sigma_eq6(u: f64, alpha: f64, g: f64) -> f64 {
@@ -280,7 +280,7 @@ pub fn index_mean(g: f64, u: f64) -> f64 {
     (0.5 * (g - 1.0) * u * one_plus_e + (g - 1.5) * b * ib) / sigma
 }
 
-/// Seed 001 eq. (19), the paper's closed form of [`index_mean`] (kept to
+/// d'Eon 2023 eq. (19), the paper's closed form of [`index_mean`] (kept to
 /// check the transcription; valid for `-1 < u < 1`). As printed it is twice
 /// the unnormalised moment; halved and divided by `sigma` it equals
 /// [`index_mean`] to 1e-9 (`tests/student_t.rs`).
@@ -302,7 +302,7 @@ pub fn index_mean_eq19(g: f64, u: f64) -> f64 {
         / sigma
 }
 
-/// Generalised-gamma parameters `(a, b, c)` of seed 001 eqs. (20)-(22) for
+/// Generalised-gamma parameters `(a, b, c)` of d'Eon 2023 eqs. (20)-(22) for
 /// an up-welling view of stretched cosine `u < 0`.
 pub fn upwelling_gg_params(g: f64, u: f64) -> (f64, f64, f64) {
     let a = g - 0.065_515_6 * (u + 0.044_266_4) / ((g + 0.633_638).cos() + 1.206_97) - 1.492_93; // eq. (21)
@@ -332,7 +332,7 @@ fn beckmann_component(ax: f32, ay: f32, g: f64, m: f64, v: Vec3, rng: &mut Rng) 
     beckmann::sample_visible(bx, by, v, rng.next_f32(), rng.next_f32())
 }
 
-/// The paper's approximate up-welling sampler (seed 001 eqs. 18-22): the
+/// The paper's approximate up-welling sampler (d'Eon 2023 eqs. 18-22): the
 /// mixture index from a generalised gamma `b x^(1/c)`, `x ~ Gamma(a)`
 /// (Tadikamalla 1979). For `v.z >= 0` (stretched) it falls back to the
 /// exact sampler. One gamma variate per sample.
