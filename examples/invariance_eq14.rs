@@ -1,4 +1,4 @@
-//! Compares seed 003's eq. (14), taken literally, with the exact segment
+//! Compares Cui et al. 2023's eq. (14), taken literally, with the exact segment
 //! term used by INVARIANCE, in the white furnace.
 //!
 //! Eq. (14): `S_k(d_0..d_k) = S_1(d_0, d_k) (S_{k-1}(d_0..d_{k-1}) + S_{k-1}(d_1..d_k))`,

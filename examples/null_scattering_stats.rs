@@ -1,4 +1,4 @@
-//! Measurements behind the null-scattering documentation (seed 001,
+//! Measurements behind the null-scattering documentation (d'Eon 2023,
 //! section 3): albedo, real / tentative collision ratio, ns per sample and
 //! per eval, versus NDF and roughness. Run with
 //! `cargo run --release --example null_scattering_stats [quick]`.

@@ -1,4 +1,4 @@
-//! Measurements behind the Student-T documentation (seed 001, section 2):
+//! Measurements behind the Student-T documentation (d'Eon 2023, section 2):
 //! shape 60 versus Beckmann, gamma variates per visible-normal sample,
 //! sampling cost versus GGX. Run with `cargo run --release --example student_t_stats`.
 

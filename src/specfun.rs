@@ -1,5 +1,5 @@
 //! Special functions behind the Student-T, Bessel-K and exponential NDFs
-//! (seed 001): the regularised incomplete beta function, the Gauss
+//! (d'Eon 2023): the regularised incomplete beta function, the Gauss
 //! hypergeometric function `2F1(1/2, b; 3/2; z)` for `z <= 0`, the modified
 //! Bessel functions `K_nu`, and gamma variates (Marsaglia and Tsang 2000).
 //! All in f64, allocation-free.
@@ -74,7 +74,7 @@ pub fn beta_inc_reg(a: f64, b: f64, x: f64) -> f64 {
 }
 
 /// Gauss hypergeometric function `2F1(1/2, b; 3/2; z)` for `b > 1/2` and
-/// `z <= 0`: the family in the Student-T cross-section (seed 001, eq. 6)
+/// `z <= 0`: the family in the Student-T cross-section (d'Eon 2023, eq. 6)
 /// and first moment (eq. 19).
 ///
 /// With `z = -x^2`, `2F1 = (1/x) integral_0^x (1 + t^2)^-b dt`. For

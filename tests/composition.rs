@@ -1,4 +1,4 @@
-//! Composition (`MSBSDF_FACET_MATERIAL`, seed 001 section 4): a
+//! Composition (`MSBSDF_FACET_MATERIAL`, d'Eon 2023 section 4): a
 //! NULL_SCATTERING microsurface whose facets scatter as another msbsdf
 //! material. Furnace with energy-conserving inner facets, eval against
 //! sample, the smooth-inner limit, and validation.

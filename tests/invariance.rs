@@ -1,4 +1,4 @@
-//! INVARIANCE (seed 003) and BITTERLI_DEON (seed 003 supplement, eqs. 5-7):
+//! INVARIANCE (Cui et al. 2023) and BITTERLI_DEON (Cui et al. 2023 supplement, eqs. 5-7):
 //! white furnace through sample and through eval, one-bounce limit equals
 //! SINGLE, agreement of the two models, BDPT against PT, reciprocity,
 //! sample-vs-eval histograms, the Bitterli-d'Eon singularity guard, and a
@@ -748,7 +748,7 @@ fn invariance_equals_heitz_within_4_sigma() {
     eprintln!("invariance vs heitz: worst deviation {worst:.2} sigma");
 }
 
-/// The Hapke-based pdf (seed 003, eqs. 15-16, normalised) integrates to at
+/// The Hapke-based pdf (Cui et al. 2023, eqs. 15-16, normalised) integrates to at
 /// most 1 over the hemisphere and is positive everywhere above it.
 #[test]
 fn hapke_pdf_integrates_to_at_most_one() {
@@ -859,7 +859,7 @@ fn large_bounce_limits_work() {
 }
 
 // ---------------------------------------------------------------------------
-// Student-T (seed 001): the walks use only the generic Smith API (Lambda,
+// Student-T (d'Eon 2023): the walks use only the generic Smith API (Lambda,
 // sigma, D, visible normals from either hemisphere), so the same claims are
 // checked for Student-T shapes 1.8 (heavier-tailed than GGX), 3 and 20
 // (close to Beckmann), alpha 0.3 and 1, incidences up to 89 degrees.

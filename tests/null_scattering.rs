@@ -1,4 +1,4 @@
-//! Null-scattering multiple scattering (seed 001, section 3): the Dirac-NDF
+//! Null-scattering multiple scattering (d'Eon 2023, section 3): the Dirac-NDF
 //! cross-section and its quadrature, white furnace for every NDF, eval
 //! against sample, vMF against Beckmann with gold facets.
 
@@ -25,7 +25,7 @@ const GOLD: Facet = Facet::Conductor {
 
 #[test]
 fn dirac_cross_section_is_symmetric_and_normalised() {
-    // seed 001, eqs. (31) and (32).
+    // d'Eon 2023, eqs. (31) and (32).
     for i in 0..=40 {
         let a = -1.0 + 2.0 * i as f64 / 40.0;
         for j in 0..=40 {
@@ -441,7 +441,7 @@ fn material_validation() {
     };
     let m = Material::new(&base).unwrap();
     assert!(m.is_stochastic());
-    // Below the supported roughness (rejection rate, seed 001 section 3.3).
+    // Below the supported roughness (rejection rate, d'Eon 2023 section 3.3).
     for a in [0.05f32, 0.199] {
         let d = MaterialDesc {
             alpha_x: a,

@@ -1,4 +1,4 @@
-//! MSBSDF_MODEL_POSITION_FREE (seed 000): white furnace through eval and
+//! MSBSDF_MODEL_POSITION_FREE (Wang et al. 2022): white furnace through eval and
 //! sample, agreement of eval with sample, the single-bounce reduction to
 //! uncorrelated Cook-Torrance, BDPT against PT variance, reciprocity, a
 //! chi-square of sample against eval, and a stability sweep.
@@ -340,7 +340,7 @@ fn eval_integrates_to_the_sample_albedo() {
 #[test]
 fn single_bounce_equals_uncorrelated_single() {
     // A path with one vertex is s_0 v_0 s_1 = F D G1(wi) G1(wo) / (4 ...):
-    // the height-UNcorrelated Cook-Torrance (seed 000 sec. 3.4), exactly.
+    // the height-UNcorrelated Cook-Torrance (Wang et al. 2022 sec. 3.4), exactly.
     let mut rng = Rng::new(99, 1);
     let mut worst = 0.0f32;
     let mut max_corr_gap = 0.0f32;
@@ -802,7 +802,7 @@ fn position_free_minus_heitz_table() {
             if r[2] > 0.0 { diff / r[2] } else { 0.0 }
         );
     }
-    // What is stable (seed 000 sec. 5 and 6: the models differ through the
+    // What is stable (Wang et al. 2022 sec. 5 and 6: the models differ through the
     // height-uncorrelated segments, most at grazing angles):
     let rel = |i: usize| (results[i][0] - results[i][2]) / results[i][2];
     let sigma = |i: usize| (results[i][1].powi(2) + results[i][3].powi(2)).sqrt();
@@ -880,7 +880,7 @@ fn pdf_integrates_to_at_most_one() {
     }
 }
 
-/// Student-T (seed 001) white conductor, shapes 1.8 (heavier-tailed than
+/// Student-T (d'Eon 2023) white conductor, shapes 1.8 (heavier-tailed than
 /// GGX), 3 and 20, alpha 0.3 and 1, incidences 0, 60 and 89 degrees: the
 /// same claims and tolerances as `furnace_conductor_white_eval_within_1_percent`
 /// (PT; eval integral within 4 sigma + 0.1% and 1% of 1, sample albedo

@@ -1,4 +1,4 @@
-//! Student-T NDF (seed 001, section 2): special functions against `mpmath`,
+//! Student-T NDF (d'Eon 2023, section 2): special functions against `mpmath`,
 //! Lambda and the cross-section of eq. (6), the GGX (gamma = 2) and
 //! Beckmann (gamma -> inf) limits, and visible-normal sampling (exact
 //! gamma superposition, paper's up-welling approximation) by chi-square.
@@ -191,7 +191,7 @@ fn slope_distributions_are_consistent() {
 
 #[test]
 fn eq6_cross_section_equals_the_lambda_form() {
-    // seed 001 eq. (6) with 2F1, against (1 + Lambda(u)) u on the full sphere.
+    // d'Eon 2023 eq. (6) with 2F1, against (1 + Lambda(u)) u on the full sphere.
     for g in [1.6f32, 2.0, 3.0, 10.0] {
         for alpha in [0.3f32, 1.0, 2.5] {
             for i in 1..40 {

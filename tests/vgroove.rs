@@ -1,4 +1,4 @@
-//! The V-groove models (seed 002): the paper's Table 1 (kaleidoscope against
+//! The V-groove models (Lee et al. 2018): the paper's Table 1 (kaleidoscope against
 //! a brute-force 2D ray tracer) and Table 2 (bounce counts), the reduction
 //! to Cook-Torrance at k = 1 (eq. 25), white furnace, reciprocity,
 //! sample-vs-pdf chi-square and a stability sweep.
@@ -175,7 +175,7 @@ fn par_errors<T: Sync + Send + Copy + std::fmt::Debug>(
     (max.0, sum / items.len() as f64, max.1)
 }
 
-/// seed 002, Table 1, symmetric column: theta_i from -89 to 89 degrees in
+/// Lee et al. 2018, Table 1, symmetric column: theta_i from -89 to 89 degrees in
 /// 1-degree steps, apertures from 1 to 176 degrees in 5-degree steps (6444
 /// pairs). Paper: max L1 error 0.003, mean 0.0005 (against 1000 random
 /// walks per pair). Our reference traces 4000 evenly spaced rays per pair,
@@ -200,7 +200,7 @@ fn vgroove_reproduces_table1_symmetric() {
     assert!(mean <= 0.0005, "mean L1 error {mean}");
 }
 
-/// seed 002, Table 1, nonsymmetric column: facet angles theta_l, theta_r
+/// Lee et al. 2018, Table 1, nonsymmetric column: facet angles theta_l, theta_r
 /// from 5 to 90 degrees in 5-degree steps (324 grooves) at the same 179
 /// incident angles. The groove with both walls vertical (90, 90) has no
 /// opening and is skipped (323 grooves). Paper: max 0.004, mean 0.0005.
@@ -232,7 +232,7 @@ fn vgroove_reproduces_table1_nonsymmetric() {
     assert!(mean <= 0.0005, "mean L1 error {mean}");
 }
 
-/// seed 002, Table 2: maximum bounces per NDF percentile, entry by entry.
+/// Lee et al. 2018, Table 2: maximum bounces per NDF percentile, entry by entry.
 #[test]
 fn vgroove_reproduces_table2() {
     let table: [(Family, [[u32; 3]; 3]); 3] = [
@@ -255,7 +255,7 @@ fn phong_d(alpha: f64, h: DVec3) -> f64 {
     (e + 2.0) / (2.0 * PI) * h.z.max(0.0).powf(e)
 }
 
-/// Cook-Torrance's V-groove masking (seed 002, eq. 2).
+/// Cook-Torrance's V-groove masking (Lee et al. 2018, eq. 2).
 fn g1_vgroove(v: DVec3, h: DVec3) -> f64 {
     if v.dot(h) / v.z <= 0.0 {
         return 0.0;
@@ -275,7 +275,7 @@ const GOLD: (Vec3, Vec3) = (
     Vec3::new(GOLD_K[0], GOLD_K[1], GOLD_K[2]),
 );
 
-/// seed 002, eq. (25): the k = 1 term of the symmetric model is
+/// Lee et al. 2018, eq. (25): the k = 1 term of the symmetric model is
 /// Cook-Torrance with the V-groove G = min(G1(i), G1(o)) (eq. 3), to 1e-5,
 /// with the same Fresnel reflectance on both sides (the model's own; its
 /// distance to the complex conductor Fresnel is bounded by
@@ -373,7 +373,7 @@ fn furnace(symmetric: bool, configs: &[(Family, f32, f32, f64)], n: usize, tol: 
     assert!(max <= tol, "furnace: |albedo - 1| = {max} at {worst:?}");
 }
 
-/// seed 002, Fig. 12 / sec. 7.1: with F = 1 (eta 0, k 1) the symmetric
+/// Lee et al. 2018, Fig. 12 / sec. 7.1: with F = 1 (eta 0, k 1) the symmetric
 /// model's albedo is 1 within 0.5% for alpha up to 1 and theta_i up to 80.
 /// Measured: within 0.1% everywhere (the quadrature error of the 160 x 320
 /// grid is below 1e-4; the rest is the energy dropped above N).

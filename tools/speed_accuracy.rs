@@ -415,7 +415,7 @@ fn main() {
     );
     std::fs::write(format!("{docs}/speed_accuracy.md"), md).expect("write md");
     eprintln!("measurements done in {:.0} s", t.elapsed().as_secs_f64());
-    // Lobes (seed 003 Fig. 5 style).
+    // Lobes (Cui et al. 2023 Fig. 5 style).
     let k = if quick { 16 } else { 2048 };
     let find = |name: &str| refs.iter().find(|r| r.mat.name == name);
     let mut top = Vec::new();

@@ -154,7 +154,7 @@ impl MatResult {
 
 /// A reflection pair whose half vector is within 1 degree of the normal:
 /// the exact mirror configuration, where VGROOVE's `1 / sin(theta_h)` of
-/// seed 002 eq. (14) is singular (evaluated with a floor, so 10^4 times the
+/// Lee et al. 2018 eq. (14) is singular (evaluated with a floor, so 10^4 times the
 /// typical value) and point errors say nothing about the model's accuracy.
 pub fn is_mirror_pair(wi: glam::Vec3, wo: glam::Vec3) -> bool {
     if wi.z * wo.z <= 0.0 {

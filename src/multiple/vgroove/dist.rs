@@ -1,8 +1,8 @@
 //! The facet distributions of the V-groove models: `D(s)` for Beckmann, GGX
 //! and Phong, how the first facet is sampled, the partner-angle density
-//! `P(theta_r)` of nonsymmetric grooves (seed 002, eq. 20 and Appendix C)
+//! `P(theta_r)` of nonsymmetric grooves (Lee et al. 2018, eq. 20 and Appendix C)
 //! with its tabulated inverse CDF, and the bounce-count percentiles of
-//! seed 002 Table 2.
+//! Lee et al. 2018 Table 2.
 //!
 //! Phong lives here privately (the crate's `Ndf` has no Lambda for it, and
 //! the V-groove models need none). Roughness maps to the Phong exponent as
@@ -116,7 +116,7 @@ impl GrooveNdf {
     /// Normaliser of the visible-normal density from `i` (`i.z > 0`):
     /// `sigma(i) = integral max(0, i.s) D(s) ds` for Beckmann and GGX, whose
     /// first facet is sampled from the visible normals; `None` for Phong,
-    /// which samples `D(s) s.z` (seed 002, sec. 6).
+    /// which samples `D(s) s.z` (Lee et al. 2018, sec. 6).
     #[inline]
     pub fn sigma(&self, i: Vec3) -> Option<f64> {
         self.crate_ndf().map(|n| n.sigma(i) as f64)
@@ -131,7 +131,7 @@ impl GrooveNdf {
     }
 
     /// Samples the facet hit first: visible normals (Heitz and d'Eon 2014)
-    /// for Beckmann and GGX, `D(s) s.z` for Phong (seed 002, sec. 6). The
+    /// for Beckmann and GGX, `D(s) s.z` for Phong (Lee et al. 2018, sec. 6). The
     /// caller rejects facets facing away from `i`.
     #[inline]
     pub fn sample_first(&self, i: Vec3, u1: f32, u2: f32) -> DVec3 {
@@ -170,7 +170,7 @@ impl GrooveNdf {
         }
     }
 
-    /// `P(theta_r | phi)` per radian (seed 002, eq. 20, with the azimuth
+    /// `P(theta_r | phi)` per radian (Lee et al. 2018, eq. 20, with the azimuth
     /// dependence the paper allows after eq. 20):
     /// `D(theta_r, phi) sin^2 theta_r / integral_0^{pi/2} D sin^2`, for
     /// `theta_r` in `[0, pi/2)`; `shape` from [`GrooveNdf::plane_shape`].
@@ -424,10 +424,10 @@ fn lookup_phong(w: f64, u: f64) -> f64 {
 /// The quantile `theta_p` of the facet angle under the projected-area
 /// distribution `D(s) s.z ds` (isotropic roughness `alpha`), and from it the
 /// largest reflection count in a symmetric groove of those facets,
-/// `ceil(pi / theta_v)`, `theta_v = pi - 2 theta_p` (the count of seed 002,
+/// `ceil(pi / theta_v)`, `theta_v = pi - 2 theta_p` (the count of Lee et al. 2018,
 /// eq. 4, maximised over the incident angle and position).
 ///
-/// This reproduces seed 002 Table 2 entry by entry for Beckmann, Phong and
+/// This reproduces Lee et al. 2018 Table 2 entry by entry for Beckmann, Phong and
 /// GGX at alpha 0.5, 0.7 and 1.0 and percentiles 90, 95 and 99.
 pub fn max_bounces_at_percentile(family: Family, alpha: f64, p: f64) -> u32 {
     let p = p.clamp(0.0, 1.0 - 1e-12);

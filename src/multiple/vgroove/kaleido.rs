@@ -1,5 +1,5 @@
 //! The kaleidoscopic analysis of one V-groove in its cross-section plane
-//! (seed 002, section 4), for symmetric and nonsymmetric grooves alike.
+//! (Lee et al. 2018, section 4), for symmetric and nonsymmetric grooves alike.
 //!
 //! # Conventions (all angles in radians, in the plane perpendicular to the
 //! groove axis)
@@ -9,16 +9,16 @@
 //! towards `+e`. The facet hit first has its normal at angle `a` in `[0, pi/2)`
 //! (it is the wall going up towards `-e` from the groove bottom); the other
 //! facet has its normal at angle `-b`, `b` in `[0, pi/2)`. Both peaks lie on
-//! the macro-surface (seed 002, sec. 5 assumptions), so the walls have lengths
+//! the macro-surface (Lee et al. 2018, sec. 5 assumptions), so the walls have lengths
 //! proportional to `sin b` and `sin a`. The aperture is `theta_v = pi - a - b`
-//! (seed 002, Fig. 5: `|pi + theta_l - theta_r|` with the paper's signs).
-//! The symmetric groove of seed 002 sec. 4.1 is `a = b = |theta_s|`.
+//! (Lee et al. 2018, Fig. 5: `|pi + theta_l - theta_r|` with the paper's signs).
+//! The symmetric groove of Lee et al. 2018 sec. 4.1 is `a = b = |theta_s|`.
 //! `ti` is the in-plane angle of the direction towards the light, in
 //! `(-pi/2, pi/2)`.
 //!
 //! # Method
 //!
-//! Unfolding the groove about the wall a ray crosses (seed 002, Fig. 4a and
+//! Unfolding the groove about the wall a ray crosses (Lee et al. 2018, Fig. 4a and
 //! 5a) turns the reflected path into a straight line through a fan of virtual
 //! walls at polar angles `psi_j = psi_a - j theta_v` from the travel
 //! direction, alternately of the two lengths. A line at offset `f` from the
@@ -184,7 +184,7 @@ impl Hit {
     }
 
     /// `G_k`: the fraction of the wall's projected width whose light leaves
-    /// after exactly `k >= 1` reflections (seed 002, eqs. 6 and 9).
+    /// after exactly `k >= 1` reflections (Lee et al. 2018, eqs. 6 and 9).
     #[inline]
     pub fn g(&self, k: u32) -> f64 {
         if k == 0 || self.f_a <= 0.0 || self.f_lo >= self.f_a {
@@ -230,7 +230,7 @@ impl Hit {
     }
 
     /// Largest reflection count any ray of this wall can reach,
-    /// `floor(psi_a / theta_v) + 1` (seed 002, eq. 4 with `f -> 0`).
+    /// `floor(psi_a / theta_v) + 1` (Lee et al. 2018, eq. 4 with `f -> 0`).
     #[inline]
     pub fn max_count(&self) -> u32 {
         let x = self.psi_a / self.theta_v;
@@ -256,7 +256,7 @@ impl Hit {
     }
 
     /// Draws the reflection count for a uniform `u` in `[0, 1)` with
-    /// probability `G_k / lit` (seed 002, sec. 6: `k` chosen by the
+    /// probability `G_k / lit` (Lee et al. 2018, sec. 6: `k` chosen by the
     /// geometric attenuation); `None` when nothing is lit or when the count
     /// exceeds `kmax` (the path is then dropped).
     pub fn choose(&self, u: f64, kmax: u32) -> Option<u32> {
@@ -298,7 +298,7 @@ impl Hit {
 }
 
 /// In-plane angle of the outgoing direction after `k` reflections starting
-/// on the wall `a` (seed 002, eq. 8; eq. 5 for `a = b`), wrapped to
+/// on the wall `a` (Lee et al. 2018, eq. 8; eq. 5 for `a = b`), wrapped to
 /// `(-pi, pi]`:
 /// odd `k`: `(k + 1) a + (k - 1) b - ti`; even `k`: `ti - pi - k (a + b)`.
 #[inline]
@@ -324,8 +324,8 @@ pub fn wrap(t: f64) -> f64 {
 }
 
 /// `d theta_h / d a` at fixed `b` for `k` reflections: `k` for symmetric
-/// grooves (seed 002, eq. 28), `(k + 1) / 2` (odd `k`) or `k / 2` (even `k`)
-/// for nonsymmetric ones (seed 002, after eq. 23:
+/// grooves (Lee et al. 2018, eq. 28), `(k + 1) / 2` (odd `k`) or `k / 2` (even `k`)
+/// for nonsymmetric ones (Lee et al. 2018, after eq. 23:
 /// `0.5 |0.5 - (-1)^k (k + 0.5)|`).
 #[inline]
 pub fn dtheta_h(k: u32, symmetric: bool) -> f64 {

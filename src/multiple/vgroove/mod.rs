@@ -1,7 +1,7 @@
 //! `MSBSDF_MODEL_VGROOVE` and `MSBSDF_MODEL_VGROOVE_NONSYMMETRIC`: the
 //! kaleidoscopic V-groove BRDF of Lee, Jarabo, Jeon, Gutierrez and Kim,
 //! *Practical Multiple Scattering for Rough Surfaces* (ACM TOG 37(6), 2018;
-//! seed 002). Analytic and deterministic: eval never touches the rng.
+//! Lee et al. 2018). Analytic and deterministic: eval never touches the rng.
 //!
 //! # Model
 //!
@@ -9,17 +9,17 @@
 //! the macro-surface; light reflects specularly inside one groove until it
 //! leaves. For a pair `(i, o)` every reflection keeps the component along
 //! the groove axis, so the groove's cross-section plane contains `n` and the
-//! half vector `h` (seed 002, eq. 27: `phi_h = phi_s`); the problem is 2D in
+//! half vector `h` (Lee et al. 2018, eq. 27: `phi_h = phi_s`); the problem is 2D in
 //! that plane ([`kaleido`]). Per reflection count `k`:
 //!
-//! - symmetric grooves (seed 002, eqs. 14-17): the facet `s` hit first
+//! - symmetric grooves (Lee et al. 2018, eqs. 14-17): the facet `s` hit first
 //!   solves eq. (5) for `(theta_i, theta_o, k)`; the solutions are
 //!   `a = (theta_i + theta_o + 2 pi m) / (2k)` (odd `k`) or
 //!   `(theta_i - theta_o - pi + 2 pi m) / (2k)` (even `k`), of which only
 //!   those inside the window where `k` reflections are possible (eq. 4)
 //!   are tried (the paper's two solutions `s_1`, `s_2`);
 //!   `f |o.n| = sum |i.s| D(s) G_k prod_j F_j sin(theta_s) / (k sin(theta_h) 4 |o.h| |i.n|)`;
-//! - nonsymmetric grooves (seed 002, eqs. 20-23): the other facet's angle
+//! - nonsymmetric grooves (Lee et al. 2018, eqs. 20-23): the other facet's angle
 //!   `theta_r` is independent with density `P(theta_r)` (eq. 20), the first
 //!   facet solves eq. (8) for each `theta_r`, and the `theta_r` integral is
 //!   done by Gauss-Legendre quadrature over the interval where `k`
@@ -57,7 +57,7 @@
 //! A nonzero `max_bounces` in the description overrides `N`. Table 2's own
 //! 99% column (`N` = 16 for GGX alpha 1) would drop about 1% of the energy.
 //!
-//! # Sampling (seed 002, sec. 6)
+//! # Sampling (Lee et al. 2018, sec. 6)
 //!
 //! The first facet is drawn from the visible normals (Beckmann, GGX; the
 //! paper allows it) or from `D(s) s.z` (Phong), the partner angle
@@ -71,13 +71,13 @@
 //! # Singularity at the mirror direction
 //!
 //! For `k >= 2` the Jacobian carries `1 / sin(theta_h)` (eq. 14): a genuine
-//! integrable singularity at mirror reflection (seed 002, sec. 8: multiple
+//! integrable singularity at mirror reflection (Lee et al. 2018, sec. 8: multiple
 //! scattering focuses towards the mirror direction). We evaluate it with
 //! `sin(theta_h)` floored at [`SIN_THETA_H_MIN`] = 1e-4, which caps the value
 //! at about 10^4 times its typical size and changes the albedo by less than
 //! 1e-4 (the cone `theta_h < 1e-4` has solid angle 3e-8 sr).
 //!
-//! # Discontinuities (seed 002, Fig. 14)
+//! # Discontinuities (Lee et al. 2018, Fig. 14)
 //!
 //! Seed 002 attributes the bands of Fig. 14 to the V-groove shadowing and
 //! masking. With `G_k` computed exactly from the zone offsets (module
@@ -271,7 +271,7 @@ const GL8_W: [f64; 4] = [
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct VGroove {
     ndf: GrooveNdf,
-    /// Conductor reflectance over the cosine (seed 002, eq. 11).
+    /// Conductor reflectance over the cosine (Lee et al. 2018, eq. 11).
     fresnel: FresnelTable,
     /// `eta = 0, k = 1`: every reflection has F = 1 (skips Fresnel).
     mirror: bool,
@@ -419,7 +419,7 @@ impl VGroove {
     }
 
     /// Product of the conductor Fresnel reflectances of the `k` reflections
-    /// (seed 002, eq. 11); `rho` is the in-plane length of the direction.
+    /// (Lee et al. 2018, eq. 11); `rho` is the in-plane length of the direction.
     #[inline]
     fn fresnel_product(&self, hit: &Hit, k: u32, rho: f64) -> DVec3 {
         if self.mirror {
@@ -605,7 +605,7 @@ impl VGroove {
             return (DVec3::ZERO, 0.0);
         }
         let s = ctx.ex * sa + DVec3::new(0.0, 0.0, ca);
-        // seed 002, eq. (13)/(30): |ds/do| = sin(theta_s) / (c_k sin(theta_h)) / (4 cos(theta_d));
+        // Lee et al. 2018, eq. (13)/(30): |ds/do| = sin(theta_s) / (c_k sin(theta_h)) / (4 cos(theta_d));
         // for k = 1, s = h and the ratio is exactly 1 (eq. 25).
         let jac = if k == 1 {
             1.0
@@ -617,7 +617,7 @@ impl VGroove {
         let mut f = DVec3::ZERO;
         let mut p = 0.0;
         if ctx.want.f {
-            // seed 002, eq. (14) / (23) times |o.n|.
+            // Lee et al. 2018, eq. (14) / (23) times |o.n|.
             let v = is * d * g * jac * partner / ctx.i.z;
             if v > 0.0 {
                 f = self.fresnel_product(hit, k, ctx.rho) * v;
@@ -634,7 +634,7 @@ impl VGroove {
 
     /// Symmetric grooves, `k = 1` in 3D, without the groove frame: the
     /// facet is the half vector and the term is Cook-Torrance with the
-    /// V-groove shadowing and masking, seed 002, eq. (25):
+    /// V-groove shadowing and masking, Lee et al. 2018, eq. (25):
     /// `f |o.z| = F(i.h) D(h) G / (4 i.z)`,
     /// `G = min(1, 2 h.z i.z / (i.h), 2 h.z o.z / (o.h))`, the first two
     /// terms being the lit fraction of the facet ([`Hit::lit`]). Written
@@ -984,7 +984,7 @@ struct Ctx {
 /// for some lit ray of the symmetric groove `a` lit from `ti`: the count
 /// `floor((psi_a - asin f) / theta_v) + 1` over `f` in `(f_lo, f_a)`, with
 /// `asin f_a = min(psi_a, pi - psi_a)` and `asin f_lo = max(0, pi - psi_b)`
-/// (seed 002, eq. 4 and Appendix B).
+/// (Lee et al. 2018, eq. 4 and Appendix B).
 #[inline]
 fn symmetric_count_possible(ti: f64, a: f64, kf: f64) -> bool {
     let psi_a = a - ti + FRAC_PI_2;
@@ -1225,7 +1225,7 @@ fn symmetric_k_range(ti: f64, x: f64, k_max: u32) -> (u32, u32) {
 
 /// The `theta_r` interval of a line `a = a0 + a1 b` inside `a, b` in
 /// `(0, pi/2)` where `k` reflections are possible, `(k - 1) theta_v <= psi_a`
-/// (seed 002, eq. 7), and the first facet faces the light.
+/// (Lee et al. 2018, eq. 7), and the first facet faces the light.
 #[inline]
 fn beta_interval(a0: f64, a1: f64, kf: f64, ti: f64) -> Option<(f64, f64)> {
     let (mut lo, mut hi) = (0.0f64, FRAC_PI_2);
