@@ -396,6 +396,12 @@ fn from_rgb(v: Vec3) -> msbsdf_rgb {
 #[inline]
 fn direction(v: msbsdf_vec3) -> Result<Vec3, Error> {
     let v = to_vec3(v);
+    // The common case in one test: a normal squared length excludes NaN,
+    // infinities, zero and lengths that under- or overflow.
+    let l2 = v.length_squared();
+    if l2.is_normal() {
+        return Ok(v * l2.sqrt().recip());
+    }
     if !v.is_finite() {
         return Err(Error::InvalidDirection);
     }
