@@ -396,6 +396,12 @@ fn from_rgb(v: Vec3) -> msbsdf_rgb {
 #[inline]
 fn direction(v: msbsdf_vec3) -> Result<Vec3, Error> {
     let v = to_vec3(v);
+    // The common case in one test: a normal squared length excludes NaN,
+    // infinities, zero and lengths that under- or overflow.
+    let l2 = v.length_squared();
+    if l2.is_normal() {
+        return Ok(v * l2.sqrt().recip());
+    }
     if !v.is_finite() {
         return Err(Error::InvalidDirection);
     }
@@ -403,10 +409,13 @@ fn direction(v: msbsdf_vec3) -> Result<Vec3, Error> {
     if largest == 0.0 {
         return Err(Error::InvalidDirection);
     }
+    // The one normalisation of the query: the Rust API's `*_unit` entry
+    // points take it as it is (rescaled first when the squared length
+    // under- or overflows).
     if v.length_squared().is_normal() {
-        Ok(v)
+        Ok(v.normalize())
     } else {
-        Ok(v / largest)
+        Ok((v / largest).normalize())
     }
 }
 
@@ -906,7 +915,7 @@ pub unsafe extern "C" fn msbsdf_eval(
         let (wi, wo) = (direction(wi)?, direction(wo)?);
         // SAFETY: the caller guarantees `rng` is NULL or valid.
         let rng = unsafe { rng.as_mut() };
-        let value = with_rng(m, rng, |r| m.eval(wi, wo, r))?;
+        let value = with_rng(m, rng, |r| m.eval_unit(wi, wo, r))?;
         // SAFETY: `out` checked above.
         unsafe { out.write(from_rgb(value)) };
         Ok(())
@@ -932,7 +941,8 @@ fn with_rng<T>(
             Ok(v)
         }
         None if m.is_stochastic() => Err(Error::NullPointer),
-        None => Ok(f(&mut Rng::new(0, 0))),
+        // Deterministic models never draw from it: no seeding cost.
+        None => Ok(f(&mut Rng { state: 0, inc: 1 })),
     }
 }
 
@@ -997,7 +1007,7 @@ pub unsafe extern "C" fn msbsdf_pdf(
         // SAFETY: forwarded contract on `material`.
         let m = unsafe { material_ref(material) }?;
         let (wi, wo) = (direction(wi)?, direction(wo)?);
-        let p = m.pdf(wi, wo);
+        let p = m.pdf_unit(wi, wo);
         // SAFETY: `out` checked above.
         unsafe { out.write(p) };
         Ok(())
@@ -1114,7 +1124,7 @@ pub unsafe extern "C" fn msbsdf_eval_pdf(
         // SAFETY: forwarded contract on `ctx`.
         let (c, rng) = unsafe { context_from_c(ctx) }?;
         let (wi, wo) = (direction(wi)?, direction(wo)?);
-        let (f, p) = with_rng(m, rng, |r| m.eval_pdf(wi, wo, &c, r))?;
+        let (f, p) = with_rng(m, rng, |r| m.eval_pdf_unit(wi, wo, &c, r))?;
         // SAFETY: as above.
         unsafe {
             if let Some(v) = value.as_mut() {
@@ -1296,7 +1306,7 @@ mod tests {
             // Subnormal inputs keep fewer significant bits.
             let tol = if scale < 1e-37 { 1e-3 } else { 1e-6 };
             assert!(
-                (d.normalize() - unit).abs().max_element() < tol,
+                (d - unit).abs().max_element() < tol && (d.length() - 1.0).abs() < 1e-6,
                 "scale {scale}: {d:?}"
             );
         }
@@ -1305,7 +1315,10 @@ mod tests {
             y: -0.2,
             z: 0.9,
         };
-        assert_eq!(direction(ordinary), Ok(Vec3::new(0.3, -0.2, 0.9)));
+        assert_eq!(
+            direction(ordinary),
+            Ok(Vec3::new(0.3, -0.2, 0.9).normalize())
+        );
         for bad in [
             Vec3::ZERO,
             Vec3::new(f32::NAN, 0.0, 1.0),

@@ -8,8 +8,7 @@ use crate::bsdf::{
     ScatterModel, Transport, opposite_sides,
 };
 use crate::dispatch::{
-    BaseModel, Inner, eval_guarded, eval_prepared, finite_or_zero, prepare, prepare_one,
-    sample_guarded,
+    BaseModel, Inner, eval_prepared, finite_or_zero, prepare, prepare_one, sample_guarded,
 };
 use crate::facet::Facet;
 use crate::multiple::auto;
@@ -451,10 +450,27 @@ impl Material {
     /// `f(wi, wo) |wo.z|` per RGB channel. Directions need not be normalised;
     /// invalid or horizon directions give zero.
     pub fn eval(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3 {
-        if self.desc.one_sided && wi.z < 0.0 && self.desc.facet == FacetKind::Conductor {
+        match prepare(wi, wo) {
+            Some((wi, wo)) => self.eval_unit(wi, wo, rng),
+            None => Vec3::ZERO,
+        }
+    }
+
+    /// [`Material::eval`] of directions already checked and normalised
+    /// (finite, unit length), as the C layer passes them: the checks happen
+    /// once, at the boundary. Horizon directions give zero.
+    #[inline]
+    pub(crate) fn eval_unit(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3 {
+        if wi.z == 0.0 || wo.z == 0.0 || self.back_face(wi) {
             return Vec3::ZERO;
         }
-        eval_guarded(&self.imp, self.chosen.evaluations, wi, wo, rng)
+        finite_or_zero(eval_prepared(
+            &self.imp,
+            self.chosen.evaluations,
+            wi,
+            wo,
+            rng,
+        ))
     }
 
     /// Samples an outgoing direction for `wi` (need not be normalised).
@@ -470,10 +486,17 @@ impl Material {
     /// Density with which [`Material::sample`] picks `wo` (exact for
     /// deterministic models; an approximation for stochastic ones).
     pub fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
-        let Some((wi, wo)) = prepare(wi, wo) else {
-            return 0.0;
-        };
-        if self.back_face(wi) {
+        match prepare(wi, wo) {
+            Some((wi, wo)) => self.pdf_unit(wi, wo),
+            None => 0.0,
+        }
+    }
+
+    /// [`Material::pdf`] of checked unit directions (see
+    /// [`Material::eval_unit`]).
+    #[inline]
+    pub(crate) fn pdf_unit(&self, wi: Vec3, wo: Vec3) -> f32 {
+        if wi.z == 0.0 || wo.z == 0.0 || self.back_face(wi) {
             return 0.0;
         }
         positive_or_zero(self.imp.pdf(wi, wo))
@@ -489,10 +512,23 @@ impl Material {
     /// unrestricted sampler, whose samples in the other lobe
     /// [`Material::sample_ctx`] reports as absorbed.
     pub fn eval_pdf(&self, wi: Vec3, wo: Vec3, ctx: &Context, rng: &mut Rng) -> (Vec3, f32) {
-        let Some((wi, wo)) = prepare(wi, wo) else {
-            return (Vec3::ZERO, 0.0);
-        };
-        if self.back_face(wi) || !ctx.allows(wi, wo) {
+        match prepare(wi, wo) {
+            Some((wi, wo)) => self.eval_pdf_unit(wi, wo, ctx, rng),
+            None => (Vec3::ZERO, 0.0),
+        }
+    }
+
+    /// [`Material::eval_pdf`] of checked unit directions (see
+    /// [`Material::eval_unit`]).
+    #[inline]
+    pub(crate) fn eval_pdf_unit(
+        &self,
+        wi: Vec3,
+        wo: Vec3,
+        ctx: &Context,
+        rng: &mut Rng,
+    ) -> (Vec3, f32) {
+        if wi.z == 0.0 || wo.z == 0.0 || self.back_face(wi) || !ctx.allows(wi, wo) {
             return (Vec3::ZERO, 0.0);
         }
         let (f, p) = match &self.imp {

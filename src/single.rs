@@ -50,6 +50,8 @@ pub struct Single {
     ndf: Ndf,
     facet: Facet,
     g2: G2Form,
+    /// The perfect reflector (conductor eta 0, k 1): F = 1, decided once.
+    white: bool,
 }
 
 /// Relative index and directions in the frame where `wi.z > 0`.
@@ -73,7 +75,28 @@ fn sym_cos(wi: Vec3, wo: Vec3, h: Vec3) -> f32 {
 impl Single {
     /// A single-scattering BSDF; `facet` must be a conductor or a dielectric.
     pub fn new(ndf: Ndf, facet: Facet, g2: G2Form) -> Self {
-        Single { ndf, facet, g2 }
+        let white = facet
+            == Facet::Conductor {
+                eta: Vec3::ZERO,
+                k: Vec3::ONE,
+            };
+        Single {
+            ndf,
+            facet,
+            g2,
+            white,
+        }
+    }
+
+    /// Conductor Fresnel for the cosine `ci` (exactly 1 for the perfect
+    /// reflector, without comparing its indices on every call).
+    #[inline(always)]
+    fn conductor_fresnel(&self, ci: f32) -> Vec3 {
+        if self.white {
+            Vec3::ONE
+        } else {
+            self.facet.conductor_fresnel(ci)
+        }
     }
 
     #[inline]
@@ -205,8 +228,7 @@ impl Single {
                 }
                 let d = self.ndf.d(h);
                 let f = if want_f {
-                    self.facet.conductor_fresnel(ci)
-                        * (d * self.g2_reflection(wi, wo) / (4.0 * wi.z))
+                    self.conductor_fresnel(ci) * (d * self.g2_reflection(wi, wo) / (4.0 * wi.z))
                 } else {
                     Vec3::ZERO
                 };
@@ -294,8 +316,8 @@ impl Single {
                 if wo.z <= 0.0 || (ci < GRAZING_HALF_COS && !self.half_vector_sees(wi_l, wo)) {
                     return Sample::ABSORBED;
                 }
-                let weight = self.facet.conductor_fresnel(ci) * self.g2_reflection(wi_l, wo)
-                    / self.ndf.g1(wi_l);
+                let weight =
+                    self.conductor_fresnel(ci) * self.g2_reflection(wi_l, wo) / self.ndf.g1(wi_l);
                 let pdf = self.ndf.d_visible(wi_l, m) / (4.0 * ci);
                 let wo = if flipped { flip_z(wo) } else { wo };
                 Sample::new(wi, wo, weight, pdf)
