@@ -96,19 +96,8 @@
 //! the HEITZ estimate is the noisier (heavy-tailed) one; in three reruns
 //! with other seeds at most 2.6.
 //!
-//! Cost per eval (release, gold, mean over 4 direction pairs, ns; shared
-//! 2-core machine, so +-20%):
-//!
-//! | model, alpha | GGX | Beckmann | Student-T 1.8 | 3 | 20 |
-//! |---|---|---|---|---|---|
-//! | INVARIANCE PT, 0.3 | 805 | 1714 | 5067 | 4636 | 9200 |
-//! | INVARIANCE PT, 1 | 670 | 2252 | 5952 | 4974 | 7252 |
-//! | INVARIANCE BDPT, 0.3 | 4446 | 15244 | 35891 | 38032 | 81760 |
-//! | INVARIANCE BDPT, 1 | 4655 | 15701 | 40605 | 39299 | 79645 |
-//! | BITTERLI_DEON, 0.3 | 715 | 2282 | 5440 | 5430 | 10334 |
-//! | BITTERLI_DEON, 1 | 766 | 2273 | 6601 | 5343 | 7879 |
-//! | HEITZ_RANDOM_WALK, 0.3 | 446 | 1466 | 5151 | 4188 | 5414 |
-//! | HEITZ_RANDOM_WALK, 1 | 746 | 1804 | 8634 | 4990 | 5884 |
+//! Cost and variance per eval of the walks (GGX, F = 1): `docs/efficiency.md`,
+//! written by `examples/efficiency.rs`.
 //!
 //! Student-T costs 6-18 times GGX (BDPT the most: it also needs `sigma`
 //! twice per vertex): every bounce evaluates its `Lambda`

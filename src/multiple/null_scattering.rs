@@ -78,32 +78,9 @@
 //! real rate at low roughness, and, for GGX, Beckmann, Student-T and the
 //! exponential NDF above alpha ~1, large again because their maximum moves
 //! to grazing normals (GGX: `D_max = alpha^2 / pi` at the horizon) while
-//! the walk meets mostly smaller values. Measured with
-//! `cargo run --release --example null_scattering_stats` (F = 1 conductor,
-//! `wi` at 45 degrees, thread CPU time on a loaded 2-core machine;
-//! "real/tent." is the fraction of tentative collisions that are real):
-//!
-//! | NDF | alpha | real/tent. | real per walk | ns/sample | ns/eval |
-//! |-----|------:|-----------:|--------------:|----------:|--------:|
-//! | GGX | 0.05 | 0.001 | 1.00 | 55200 | 527000 |
-//! | GGX | 0.1  | 0.003 | 1.02 | 14900 | 116000 |
-//! | GGX | 0.2  | 0.012 | 1.08 | 4480  | 28400 |
-//! | GGX | 0.4  | 0.053 | 1.29 | 1360  | 6960 |
-//! | GGX | 0.5  | 0.088 | 1.40 | 980   | 4650 |
-//! | GGX | 1.0  | 0.501 | 2.06 | 410   | 1410 |
-//! | GGX | 4.0  | 0.106 | 6.70 | 3800  | 15300 |
-//! | Beckmann | 0.2 | 0.013 | 1.00 | 4170 | 31800 |
-//! | Beckmann | 1.0 | 0.236 | 1.39 | 470  | 1850 |
-//! | Beckmann | 4.0 | 0.104 | 3.85 | 2370 | 9800 |
-//! | Student-T 3 | 1.0 | 0.331 | 1.60 | 510 | 2300 |
-//! | vMF | 0.2 | 0.013 | 1.00 | 3980 | 35500 |
-//! | vMF | 0.5 | 0.066 | 1.16 | 1010 | 8190 |
-//! | vMF | 1.0 | 0.246 | 1.90 | 620  | 5320 |
-//! | vMF | 4.0 | 0.885 | 24.8 | 3580 | 14200 |
-//! | exponential | 0.2 | 0.006 | 1.02 | 8710 | 68700 |
-//! | exponential | 1.0 | 0.186 | 1.52 | 670 | 7050 |
-//! | K0 (analytic) | 0.2 | 1 | 1.01 | 810 | 2410 |
-//! | K0 (analytic) | 1.0 | 1 | 1.36 | 1010 | 2650 |
+//! the walk meets mostly smaller values. Measured per NDF and roughness in
+//! `docs/null_scattering.md`, written by
+//! `cargo run --release --example null_scattering_stats`.
 //!
 //! The cost grows like `1 / alpha^2`; at alpha 0.2 a sample costs about 10
 //! times what it costs at alpha 1 (the paper recommends alpha >= 0.4).
