@@ -173,7 +173,9 @@ pub trait ScatterModel {
     fn eval(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3;
     /// Draws `wo` given `wi`.
     fn sample(&self, wi: Vec3, rng: &mut Rng) -> Sample;
-    /// Draws wo from caller uniforms: u[0] chooses the lobe at the first vertex, u[1], u[2] the 2D sample of the first visible-normal draw; stochastic models take the rest from rng.
+    /// Draws `wo` from caller uniforms: `u[0]` chooses the lobe at the first
+    /// vertex, `u[1], u[2]` the 2D sample of the first visible-normal draw;
+    /// stochastic models take the rest from `rng`.
     fn sample_with(&self, wi: Vec3, u: [f32; 3], rng: &mut Rng) -> Sample;
     /// Density of `sample` choosing `wo` (an approximation for stochastic models,
     /// positive wherever `sample` can go).

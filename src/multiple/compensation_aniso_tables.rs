@@ -4,7 +4,7 @@
 //! quadrature, the command and the commit), written by
 //! `cargo run --release --example gen_compensation -- --aniso` and decoded
 //! into this array at compile time.
-//! Index order: [ndf: Beckmann, GGX][alpha_x][alpha_y][phi][mu].
+//! Index order: `[ndf: Beckmann, GGX][alpha_x][alpha_y][phi][mu]`.
 
 use super::bintable::decode5;
 

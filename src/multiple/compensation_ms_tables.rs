@@ -5,7 +5,7 @@
 //! written by `cargo run --release --example gen_compensation -- --ms` from
 //! Heitz et al. 2016 walks with F = 1 per (NDF, alpha, mu) grid cell of
 //! `compensation_tables`, decoded into these arrays at compile time.
-//! Index order: [ndf: Beckmann, GGX][alpha][mu][bin or F0 node].
+//! Index order: `[ndf: Beckmann, GGX][alpha][mu][bin or F0 node]`.
 
 use super::bintable::decode4;
 use super::compensation_tables::{ALPHA_N, MU_N};

@@ -4,7 +4,7 @@
 //! command and the commit), written by
 //! `cargo run --release --example gen_compensation` from the SINGLE model by
 //! deterministic quadrature and decoded into these arrays at compile time.
-//! Index order: [ndf: Beckmann, GGX][side: eta >= 1, 1/eta]?[eta][alpha][mu].
+//! Index order: `[ndf: Beckmann, GGX][side: eta >= 1, 1/eta]?[eta][alpha][mu]`.
 
 use super::bintable::{decode2, decode3, decode5};
 

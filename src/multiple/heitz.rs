@@ -289,7 +289,9 @@ impl Heitz {
         }
     }
 
-    /// Draws wo from caller uniforms: u[0] chooses the lobe at the first vertex, u[1], u[2] the 2D sample of the first visible-normal draw; stochastic models take the rest from rng.
+    /// Draws `wo` from caller uniforms: `u[0]` chooses the lobe at the first
+    /// vertex, `u[1], u[2]` the 2D sample of the first visible-normal draw;
+    /// stochastic models take the rest from `rng`.
     pub fn sample_with(&self, wi: Vec3, u: [f32; 3], rng: &mut Rng) -> Sample {
         self.sample_counted(wi, u, rng).0
     }

@@ -562,7 +562,9 @@ impl Invariance {
         eval_two_walks::<SegmentTerm<C>>(&self.ms, wi, wo, two, rng)
     }
 
-    /// Draws wo from caller uniforms: u[0] chooses the lobe at the first vertex, u[1], u[2] the 2D sample of the first visible-normal draw; stochastic models take the rest from rng.
+    /// Draws `wo` from caller uniforms: `u[0]` chooses the lobe at the first
+    /// vertex, `u[1], u[2]` the 2D sample of the first visible-normal draw;
+    /// stochastic models take the rest from `rng`.
     pub fn sample_with(&self, wi: Vec3, u: [f32; 3], rng: &mut Rng) -> Sample {
         if (self.max_bounces as usize) < CAP_SMALL {
             sample_exact_exit::<SegmentTerm<CAP_SMALL>>(&self.ms, wi, u, rng)
