@@ -11,6 +11,7 @@ use crate::multiple::heitz::Heitz;
 use crate::multiple::invariance::{self, Invariance};
 use crate::multiple::null_scattering::{self, NullNdf, NullNdfKind, NullScattering};
 use crate::multiple::position_free::PositionFree;
+use crate::multiple::tabulated::{self, Tabulated};
 use crate::multiple::vgroove::{VGroove, dist::Family};
 use crate::ndf::{Ndf, NdfKind};
 use crate::rng::Rng;
@@ -58,6 +59,8 @@ pub enum Model {
     NullScattering,
     /// Picks the cheapest model meeting a tolerance.
     Auto,
+    /// Exact single scattering plus the HEITZ walk's orders >= 2 from tables.
+    Tabulated,
 }
 
 /// Estimator of the position-free models (`MSBSDF_ESTIMATOR_*`).
@@ -165,6 +168,7 @@ macro_rules! dispatch {
             ModelImpl::PositionFree($m) => $body,
             ModelImpl::Compensated($m) => $body,
             ModelImpl::Heitz($m) => $body,
+            ModelImpl::Tabulated($m) => $body,
             ModelImpl::Invariance($m) => $body,
             ModelImpl::BitterliDeon($m) => $body,
             ModelImpl::NullScattering($m) => $body,
@@ -186,6 +190,7 @@ enum ModelImpl {
     NullScattering(NullScattering),
     Compensated(Compensated),
     Heitz(Heitz),
+    Tabulated(Tabulated),
     VGroove(VGroove),
     VGrooveNonsymmetric(VGroove),
 }
@@ -361,6 +366,17 @@ impl Material {
                 let ndf = smith_ndf(kind);
                 ModelImpl::Compensated(Compensated::new(ndf, facet))
             }
+            Model::Tabulated => {
+                // Tables for Beckmann and GGX conductors up to tabulated::MAX_ALPHA.
+                let kind = ndf_kind.ok_or(Error::Unsupported)?;
+                if tabulated::ndf_index(kind).is_none() || !matches!(facet, Facet::Conductor { .. }) {
+                    return Err(Error::Unsupported);
+                }
+                if d.alpha_x > tabulated::MAX_ALPHA || d.alpha_y > tabulated::MAX_ALPHA {
+                    return Err(Error::InvalidArgument);
+                }
+                ModelImpl::Tabulated(Tabulated::new(smith_ndf(kind), facet))
+            }
             Model::HeitzRandomWalk => {
                 let kind = ndf_kind.ok_or(Error::Unsupported)?;
                 let ndf = smith_ndf(kind);
@@ -447,7 +463,7 @@ impl Material {
     /// True when eval is a Monte Carlo estimate (it then needs an [`Rng`]).
     pub fn is_stochastic(&self) -> bool {
         match self.imp {
-            ModelImpl::Single(_) | ModelImpl::Compensated(_) => false,
+            ModelImpl::Single(_) | ModelImpl::Compensated(_) | ModelImpl::Tabulated(_) => false,
             ModelImpl::Invariance(_) | ModelImpl::BitterliDeon(_) => true,
             ModelImpl::NullScattering(_) => true,
             ModelImpl::Heitz(_) => true,

@@ -14,4 +14,5 @@ pub mod heitz;
 pub mod invariance;
 pub mod null_scattering;
 pub mod position_free;
+pub mod tabulated;
 pub mod vgroove;

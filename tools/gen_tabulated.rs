@@ -1,0 +1,458 @@
+//! Generates `data/tabulated_conductor.bin`, the table of
+//! `MSBSDF_MODEL_TABULATED` (layout and grids: `src/multiple/tabulated.rs`).
+//!
+//! `nice cargo run --release --example gen_tabulated -- --walks 2000000`
+//! (`--threads N`, default 2; `--out PATH`). For every NDF (Beckmann, GGX),
+//! roughness node and incident cosine node it runs the library's
+//! HEITZ_RANDOM_WALK (`Heitz::sample_with_bounces`, perfectly reflecting
+//! facets) from `wi` and projects the exit directions of the walks that
+//! scattered twice or more onto hat functions in `sqrt(mu_o)` times
+//! `cos(k phi)`; it counts orders 2, 3 and 4 apart. The table is then
+//! symmetrised in `(mu_i, mu_o)` and rescaled symmetrically so that the
+//! interpolant's multiply scattered albedo equals `1 - E_ss(mu_i)` (SINGLE's
+//! albedo with F = 1 by quadrature). A small instrumented walk (the same
+//! microsurface, validated against the library's through the table by
+//! `tests/tabulated.rs`) records the cosines at which multiply scattered
+//! paths meet facets; three equal-weight quantiles per (NDF, alpha) give the
+//! effective Fresnel reflectance of coloured conductors.
+//!
+//! The file starts with a 4096-byte text header (command, seeds, sample
+//! counts, commit, statistics), then little-endian f32 blocks.
+
+use glam::Vec3;
+use msbsdf::Rng;
+use msbsdf::bsdf::ScatterModel;
+use msbsdf::facet::Facet;
+use msbsdf::frame::reflect;
+use msbsdf::multiple::compensation::single_albedo;
+use msbsdf::multiple::heitz::{Heitz, default_max_bounces};
+use msbsdf::multiple::tabulated::{
+    ALBEDO_LEN, ALPHA_N, CELL, FILE_BYTES, FRESNEL_LEN, FRESNEL_Q, HEADER_BYTES, K_STORED,
+    LOBE_LEN, MAGIC, MU_N, NDF_N, ORDERS, albedo_index, fresnel_index, grid_alpha, grid_mu,
+    lobe_index, mu_coord,
+};
+use msbsdf::ndf::{Ndf, NdfKind};
+use msbsdf::single::{G2Form, Single};
+use std::f64::consts::PI;
+use std::io::Write as _;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+const NDFS: [NdfKind; NDF_N] = [NdfKind::Beckmann, NdfKind::Ggx];
+const SEED_LOBE: u64 = 20261124;
+const SEED_FRESNEL: u64 = 20261125;
+/// Incident cosine used for the node at mu = 0 (a walk needs mu > 0).
+const MU_GRAZING: f32 = 1e-3;
+const CONDUCTOR_F1: Facet = Facet::Conductor {
+    eta: Vec3::ZERO,
+    k: Vec3::ONE,
+};
+
+fn dir(mu: f32) -> Vec3 {
+    Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu)
+}
+
+fn node_mu(i: usize) -> f32 {
+    grid_mu(i).max(MU_GRAZING)
+}
+
+/// Hat function of node `j` in the `sqrt(mu)` coordinate.
+fn hat(j: usize, mu: f64) -> f64 {
+    let x = mu.clamp(0.0, 1.0).sqrt() * (MU_N - 1) as f64;
+    (1.0 - (x - j as f64).abs()).max(0.0)
+}
+
+/// `H_j = int hat_j(mu) mu dmu` (midpoint rule in s = sqrt(mu), fine grid).
+fn hat_moments() -> [f64; MU_N] {
+    let mut h = [0.0; MU_N];
+    let n = 200_000;
+    for t in 0..n {
+        let s = (t as f64 + 0.5) / n as f64;
+        let mu = s * s;
+        for (j, hj) in h.iter_mut().enumerate() {
+            *hj += hat(j, mu) * mu * 2.0 * s / n as f64;
+        }
+    }
+    h
+}
+
+/// Raw sums of one (ndf, alpha, mu_i) job: per mu_o node, the K cosine
+/// moments and the order-2, 3, 4 azimuth-averaged sums.
+struct Sums {
+    walks: u64,
+    moments: Vec<[f64; K_STORED]>,
+    orders: Vec<[f64; ORDERS]>,
+    /// Multiply scattered walks (escaped after >= 2 vertices).
+    ms: u64,
+}
+
+fn lobe_job(kind: NdfKind, alpha: f32, mu_i: f32, walks: u64, stream: u64) -> Sums {
+    let ndf = Ndf::new(kind, alpha, alpha);
+    let walk = Heitz::new(ndf, CONDUCTOR_F1, 0);
+    let wi = dir(mu_i);
+    let mut rng = Rng::new(SEED_LOBE, stream);
+    let mut s = Sums {
+        walks,
+        moments: vec![[0.0; K_STORED]; MU_N],
+        orders: vec![[0.0; ORDERS]; MU_N],
+        ms: 0,
+    };
+    for _ in 0..walks {
+        let (smp, bounces) = walk.sample_with_bounces(wi, &mut rng);
+        if bounces < 2 || smp.wo.z <= 0.0 {
+            continue;
+        }
+        let w = smp.weight.x as f64;
+        if w <= 0.0 {
+            continue;
+        }
+        s.ms += 1;
+        let wo = smp.wo;
+        let sxy = ((wo.x * wo.x + wo.y * wo.y) as f64).sqrt();
+        let c = if sxy > 0.0 { wo.x as f64 / sxy } else { 1.0 };
+        let x = mu_coord(wo.z) as f64;
+        let j0 = (x as usize).min(MU_N - 2);
+        let fr = x - j0 as f64;
+        for (j, hw) in [(j0, 1.0 - fr), (j0 + 1, fr)] {
+            let ww = w * hw;
+            let m = &mut s.moments[j];
+            let (mut t0, mut t1) = (1.0, c);
+            m[0] += ww;
+            m[1] += ww * c;
+            for mk in m.iter_mut().skip(2) {
+                let t2 = 2.0 * c * t1 - t0;
+                *mk += ww * t2;
+                (t0, t1) = (t1, t2);
+            }
+            if (2..2 + ORDERS as u32).contains(&bounces) {
+                s.orders[j][(bounces - 2) as usize] += ww;
+            }
+        }
+    }
+    s
+}
+
+/// Cosines `|w.m|` at which multiply scattered paths (F = 1) meet facets,
+/// from `wi` with cosine-distributed `mu_i`; returns the 1/6, 1/2, 5/6
+/// quantiles. Same steps as the library's walk (log-height `ln C1`,
+/// full-sphere Lambda, visible-normal sampling, mirror reflection).
+fn fresnel_job(kind: NdfKind, alpha: f32, walks: u64, stream: u64) -> [f32; FRESNEL_Q] {
+    let ndf = Ndf::new(kind, alpha, alpha);
+    let max_bounces = default_max_bounces(alpha, alpha, &CONDUCTOR_F1);
+    let mut rng = Rng::new(SEED_FRESNEL, stream);
+    const BINS: usize = 1000;
+    let mut hist = vec![0.0f64; BINS];
+    let mut cos = Vec::with_capacity(64);
+    for _ in 0..walks {
+        let mu = rng.next_f32().sqrt().max(MU_GRAZING);
+        let phi = 2.0 * std::f32::consts::PI * rng.next_f32();
+        let st = (1.0 - mu * mu).max(0.0).sqrt();
+        let wi = Vec3::new(st * phi.cos(), st * phi.sin(), mu);
+        let mut w = -wi;
+        let mut lc = 0.0f64;
+        cos.clear();
+        let mut escaped = false;
+        for _ in 0..=max_bounces {
+            let lam = ndf.lambda(w) as f64;
+            let u = ((rng.next_u32() >> 8) as f64 + 0.5) / 16_777_216.0;
+            if w.z > 0.0 {
+                if lam.is_finite() {
+                    let esc = (lam * lc).exp();
+                    if u < esc {
+                        escaped = true;
+                        break;
+                    }
+                    lc = (lc - (1.0 - u + esc).ln() / lam).min(0.0);
+                }
+            } else if lam.is_finite() && lam < 0.0 {
+                lc += u.ln() / (-lam);
+            }
+            let i = -w;
+            let m = ndf.sample_visible(i, rng.next_f32(), rng.next_f32());
+            let ci = i.dot(m);
+            if ci <= 0.0 || !m.is_finite() {
+                break;
+            }
+            cos.push(ci);
+            w = reflect(i, m);
+        }
+        if escaped && cos.len() >= 2 {
+            for &c in &cos {
+                hist[((c * BINS as f32) as usize).min(BINS - 1)] += 1.0;
+            }
+        }
+    }
+    let total: f64 = hist.iter().sum();
+    let mut out = [1.0f32; FRESNEL_Q];
+    if total <= 0.0 {
+        return out;
+    }
+    let mut acc = 0.0;
+    let mut q = 0;
+    for (b, h) in hist.iter().enumerate() {
+        let before = acc;
+        acc += h;
+        while q < FRESNEL_Q && acc >= total * (q as f64 + 0.5) / FRESNEL_Q as f64 {
+            let target = total * (q as f64 + 0.5) / FRESNEL_Q as f64;
+            let frac = if *h > 0.0 { (target - before) / h } else { 0.5 };
+            out[q] = ((b as f64 + frac) / BINS as f64) as f32;
+            q += 1;
+        }
+    }
+    out
+}
+
+/// Runs jobs on `threads` threads with a progress bar on stderr.
+fn parallel<J: Sync, R: Send>(
+    jobs: &[J],
+    what: &str,
+    threads: usize,
+    f: impl Fn(usize, &J) -> R + Sync,
+) -> Vec<R> {
+    let t0 = std::time::Instant::now();
+    let total = jobs.len();
+    let next = AtomicUsize::new(0);
+    let done = AtomicUsize::new(0);
+    let mut parts: Vec<(usize, R)> = std::thread::scope(|sc| {
+        let hs: Vec<_> = (0..threads)
+            .map(|_| {
+                let (f, next, done) = (&f, &next, &done);
+                sc.spawn(move || {
+                    let mut out = Vec::new();
+                    loop {
+                        let idx = next.fetch_add(1, Ordering::Relaxed);
+                        if idx >= total {
+                            break;
+                        }
+                        out.push((idx, f(idx, &jobs[idx])));
+                        let d = done.fetch_add(1, Ordering::Relaxed) + 1;
+                        let el = t0.elapsed().as_secs_f64();
+                        let width = 40;
+                        let filled = width * d / total;
+                        eprint!(
+                            "\r{what} [{}{}] {d}/{total} {el:.0} s, ETA {:.0} s   ",
+                            "#".repeat(filled),
+                            " ".repeat(width - filled),
+                            el / d as f64 * (total - d) as f64
+                        );
+                    }
+                    out
+                })
+            })
+            .collect();
+        hs.into_iter().flat_map(|h| h.join().unwrap_or_default()).collect()
+    });
+    eprintln!();
+    parts.sort_by_key(|p| p.0);
+    parts.into_iter().map(|p| p.1).collect()
+}
+
+fn git_commit() -> String {
+    let run = |args: &[&str]| {
+        std::process::Command::new("git")
+            .args(args)
+            .output()
+            .ok()
+            .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+            .unwrap_or_default()
+    };
+    let head = run(&["rev-parse", "HEAD"]);
+    let dirty = !run(&["status", "--porcelain", "--untracked-files=no"]).is_empty();
+    if dirty {
+        format!("{head} (with uncommitted changes)")
+    } else {
+        head
+    }
+}
+
+fn arg<T: std::str::FromStr>(args: &[String], name: &str, default: T) -> T {
+    args.iter()
+        .position(|a| a == name)
+        .and_then(|p| args.get(p + 1))
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let walks: u64 = arg(&args, "--walks", 2_000_000);
+    let fresnel_walks: u64 = arg(&args, "--fresnel-walks", 200_000);
+    let threads: usize = arg(&args, "--threads", 2);
+    let out: String = arg(&args, "--out", "data/tabulated_conductor.bin".to_string());
+    let t0 = std::time::Instant::now();
+
+    // Jobs: (ndf, alpha node >= 1, mu_i node).
+    let jobs: Vec<(usize, usize, usize)> = (0..NDF_N)
+        .flat_map(|n| (1..ALPHA_N).flat_map(move |a| (0..MU_N).map(move |i| (n, a, i))))
+        .collect();
+    let sums = parallel(&jobs, "walks", threads, |idx, &(n, a, i)| {
+        lobe_job(NDFS[n], grid_alpha(a), node_mu(i), walks, idx as u64)
+    });
+    let fjobs: Vec<(usize, usize)> = (0..NDF_N)
+        .flat_map(|n| (1..ALPHA_N).map(move |a| (n, a)))
+        .collect();
+    let fq = parallel(&fjobs, "fresnel", threads, |idx, &(n, a)| {
+        fresnel_job(NDFS[n], grid_alpha(a), fresnel_walks, idx as u64)
+    });
+    let ess = parallel(&jobs, "E_ss", threads, |_, &(n, a, i)| {
+        let alpha = grid_alpha(a);
+        let s = Single::new(
+            Ndf::new(NDFS[n], alpha, alpha),
+            CONDUCTOR_F1,
+            G2Form::HeightCorrelated,
+        );
+        single_albedo(
+            |x, y| s.eval(x, y, &mut Rng::new(0, 0)).x,
+            alpha,
+            alpha,
+            dir(node_mu(i)),
+            None,
+            256,
+        )
+    });
+
+    let h = hat_moments();
+    let mut lobe = vec![0.0f64; LOBE_LEN];
+    let mut albedo = vec![0.0f64; ALBEDO_LEN];
+    let mut fresnel = vec![1.0f32; FRESNEL_LEN];
+    let (mut sym_num, mut sym_den, mut sym_max) = (0.0f64, 0.0f64, 0.0f64);
+    let (mut norm_worst, mut mc_worst) = (0.0f64, 0.0f64);
+    let mut total_walks = 0u64;
+    for (jidx, &(n, a, i)) in jobs.iter().enumerate() {
+        let s = &sums[jidx];
+        total_walks += s.walks;
+        for j in 0..MU_N {
+            let b = lobe_index(n, a, i, j);
+            let m0 = s.moments[j][0];
+            for k in 0..K_STORED {
+                let norm = if k == 0 { 2.0 * PI } else { PI };
+                lobe[b + k] = s.moments[j][k] / (s.walks as f64 * h[j] * norm);
+            }
+            for o in 0..ORDERS {
+                lobe[b + K_STORED + o] = if m0 > 0.0 {
+                    s.orders[j][o] / m0
+                } else {
+                    0.0
+                };
+            }
+        }
+    }
+    for (fidx, &(n, a)) in fjobs.iter().enumerate() {
+        let b = fresnel_index(n, a);
+        fresnel[b..b + FRESNEL_Q].copy_from_slice(&fq[fidx]);
+    }
+    // Symmetrise, then rescale symmetrically to the target albedos.
+    let w: Vec<f64> = h.iter().map(|x| 2.0 * PI * x).collect();
+    for n in 0..NDF_N {
+        for a in 1..ALPHA_N {
+            for i in 0..MU_N {
+                for j in i + 1..MU_N {
+                    let (bi, bj) = (lobe_index(n, a, i, j), lobe_index(n, a, j, i));
+                    let (x, y) = (lobe[bi], lobe[bj]);
+                    let d = (x - y).abs();
+                    sym_num += d * d;
+                    sym_den += (0.5 * (x + y)).powi(2);
+                    if x + y > 1e-3 {
+                        sym_max = sym_max.max(d / (0.5 * (x + y)));
+                    }
+                    for k in 0..K_STORED {
+                        let v = 0.5 * (lobe[bi + k] + lobe[bj + k]);
+                        lobe[bi + k] = v;
+                        lobe[bj + k] = v;
+                    }
+                    for o in 0..ORDERS {
+                        let v = if x + y > 0.0 {
+                            (lobe[bi + K_STORED + o] * x + lobe[bj + K_STORED + o] * y) / (x + y)
+                        } else {
+                            0.0
+                        };
+                        lobe[bi + K_STORED + o] = v;
+                        lobe[bj + K_STORED + o] = v;
+                    }
+                }
+            }
+            let target: Vec<f64> = (0..MU_N)
+                .map(|i| {
+                    let jidx = jobs
+                        .iter()
+                        .position(|&x| x == (n, a, i))
+                        .unwrap_or_default();
+                    (1.0 - ess[jidx]).max(0.0)
+                })
+                .collect();
+            let row = |lobe: &[f64], i: usize| -> f64 {
+                (0..MU_N)
+                    .map(|j| w[j] * lobe[lobe_index(n, a, i, j)])
+                    .sum()
+            };
+            for (i, t) in target.iter().enumerate() {
+                let r = row(&lobe, i);
+                if *t > 1e-3 {
+                    mc_worst = mc_worst.max((r / t - 1.0).abs());
+                }
+            }
+            let mut sc = vec![1.0f64; MU_N];
+            for _ in 0..200 {
+                for i in 0..MU_N {
+                    let cur: f64 = (0..MU_N)
+                        .map(|j| w[j] * lobe[lobe_index(n, a, i, j)] * sc[i] * sc[j])
+                        .sum();
+                    if cur > 0.0 && target[i] > 0.0 {
+                        sc[i] *= (target[i] / cur).sqrt();
+                    }
+                }
+            }
+            for i in 0..MU_N {
+                for j in 0..MU_N {
+                    let b = lobe_index(n, a, i, j);
+                    for k in 0..K_STORED {
+                        lobe[b + k] *= sc[i] * sc[j];
+                    }
+                }
+            }
+            for (i, t) in target.iter().enumerate() {
+                let r = row(&lobe, i);
+                albedo[albedo_index(n, a, i)] = r;
+                if *t > 1e-4 {
+                    norm_worst = norm_worst.max((r / t - 1.0).abs());
+                }
+            }
+        }
+    }
+    let _ = CELL;
+    let header = format!(
+        "MSBSDF-TABULATED-v1\n\
+         MSBSDF_MODEL_TABULATED conductor table (layout: src/multiple/tabulated.rs)\n\
+         command: cargo run --release --example gen_tabulated -- {}\n\
+         commit: {}\n\
+         walks: HEITZ_RANDOM_WALK (library, default bounce limit, F = 1) {walks} per (ndf, alpha, mu_i) node, {total_walks} in total; seed Rng::new({SEED_LOBE}, stream = job index)\n\
+         fresnel cosines: instrumented walk, {fresnel_walks} walks per (ndf, alpha); seed Rng::new({SEED_FRESNEL}, stream = job index)\n\
+         E_ss: SINGLE quadrature 256 x 256 (compensation::single_albedo)\n\
+         symmetrisation: RMS relative change {:.3e}, max {:.3e} (cells with f > 1e-3)\n\
+         albedo before rescaling vs 1 - E_ss: worst relative deviation {:.3e} (targets > 1e-3); after: {:.3e}\n\
+         grid: ndf {NDF_N} x alpha {ALPHA_N} x mu_i {MU_N} x mu_o {MU_N} x {CELL} floats (K = {K_STORED} cosine terms, order fractions 2, 3, 4)\n\
+         wall time: {:.0} s on {threads} threads\n",
+        args[1..].join(" "),
+        git_commit(),
+        (sym_num / sym_den.max(1e-300)).sqrt(),
+        sym_max,
+        mc_worst,
+        norm_worst,
+        t0.elapsed().as_secs_f64(),
+    );
+    eprint!("{header}");
+    let mut bytes = Vec::with_capacity(FILE_BYTES);
+    bytes.extend_from_slice(header.as_bytes());
+    assert!(bytes.len() <= HEADER_BYTES, "header too long");
+    assert!(bytes.starts_with(MAGIC));
+    bytes.resize(HEADER_BYTES, 0);
+    for v in lobe.iter().chain(albedo.iter()) {
+        bytes.extend_from_slice(&(*v as f32).to_le_bytes());
+    }
+    for v in &fresnel {
+        bytes.extend_from_slice(&v.to_le_bytes());
+    }
+    assert_eq!(bytes.len(), FILE_BYTES);
+    let mut f = std::fs::File::create(&out).expect("create output");
+    f.write_all(&bytes).expect("write output");
+    eprintln!("wrote {out} ({} bytes)", bytes.len());
+}
