@@ -369,7 +369,8 @@ impl Material {
             Model::Tabulated => {
                 // Tables for Beckmann and GGX conductors up to tabulated::MAX_ALPHA.
                 let kind = ndf_kind.ok_or(Error::Unsupported)?;
-                if tabulated::ndf_index(kind).is_none() || !matches!(facet, Facet::Conductor { .. }) {
+                if tabulated::ndf_index(kind).is_none() || !matches!(facet, Facet::Conductor { .. })
+                {
                     return Err(Error::Unsupported);
                 }
                 if d.alpha_x > tabulated::MAX_ALPHA || d.alpha_y > tabulated::MAX_ALPHA {

@@ -28,8 +28,8 @@ use msbsdf::multiple::compensation::single_albedo;
 use msbsdf::multiple::heitz::{Heitz, default_max_bounces};
 use msbsdf::multiple::tabulated::{
     ALBEDO_LEN, ALPHA_N, CELL, FILE_BYTES, FRESNEL_LEN, FRESNEL_Q, HEADER_BYTES, K_STORED,
-    LOBE_LEN, MAGIC, MU_N, NDF_N, ORDERS, albedo_index, fresnel_index, grid_alpha, grid_mu,
-    lobe_index, mu_coord,
+    LOBE_LEN, MAGIC, MU_N, NDF_N, ORDER0, ORDERS, PEAK, albedo_index, fresnel_index, grid_alpha,
+    grid_mu, hat_moment, lobe_index, mu_coord, project_exit,
 };
 use msbsdf::ndf::{Ndf, NdfKind};
 use msbsdf::single::{G2Form, Single};
@@ -40,6 +40,10 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 const NDFS: [NdfKind; NDF_N] = [NdfKind::Beckmann, NdfKind::Ggx];
 const SEED_LOBE: u64 = 20261124;
 const SEED_FRESNEL: u64 = 20261125;
+const SEED_GRAM: u64 = 20261126;
+/// Ridge of the peaked weight `B`, relative to its Gram entry: keeps `B`
+/// near 0 where `f_ss1` is as smooth as the cosine series.
+const RIDGE: f64 = 0.05;
 /// Incident cosine used for the node at mu = 0 (a walk needs mu > 0).
 const MU_GRAZING: f32 = 1e-3;
 const CONDUCTOR_F1: Facet = Facet::Conductor {
@@ -55,26 +59,6 @@ fn node_mu(i: usize) -> f32 {
     grid_mu(i).max(MU_GRAZING)
 }
 
-/// Hat function of node `j` in the `sqrt(mu)` coordinate.
-fn hat(j: usize, mu: f64) -> f64 {
-    let x = mu.clamp(0.0, 1.0).sqrt() * (MU_N - 1) as f64;
-    (1.0 - (x - j as f64).abs()).max(0.0)
-}
-
-/// `H_j = int hat_j(mu) mu dmu` (midpoint rule in s = sqrt(mu), fine grid).
-fn hat_moments() -> [f64; MU_N] {
-    let mut h = [0.0; MU_N];
-    let n = 200_000;
-    for t in 0..n {
-        let s = (t as f64 + 0.5) / n as f64;
-        let mu = s * s;
-        for (j, hj) in h.iter_mut().enumerate() {
-            *hj += hat(j, mu) * mu * 2.0 * s / n as f64;
-        }
-    }
-    h
-}
-
 /// Raw sums of one (ndf, alpha, mu_i) job: per mu_o node, the K cosine
 /// moments and the order-2, 3, 4 azimuth-averaged sums.
 struct Sums {
@@ -83,11 +67,20 @@ struct Sums {
     orders: Vec<[f64; ORDERS]>,
     /// Multiply scattered walks (escaped after >= 2 vertices).
     ms: u64,
+    /// Per mu_o node: sum of `hat_j f_ss1` over the exits (right-hand side
+    /// of the peaked part).
+    peak: Vec<f64>,
+    /// Per mu_o node: Gram entries `int hat_j cos(k phi) f_ss1 mu dw`
+    /// (k < K_STORED) and `int hat_j f_ss1^2 mu dw`, by visible-normal
+    /// sampling.
+    gram_kb: Vec<[f64; K_STORED]>,
+    gram_bb: Vec<f64>,
 }
 
-fn lobe_job(kind: NdfKind, alpha: f32, mu_i: f32, walks: u64, stream: u64) -> Sums {
+fn lobe_job(kind: NdfKind, alpha: f32, mu_i: f32, walks: u64, gram: u64, stream: u64) -> Sums {
     let ndf = Ndf::new(kind, alpha, alpha);
     let walk = Heitz::new(ndf, CONDUCTOR_F1, 0);
+    let single = Single::new(ndf, CONDUCTOR_F1, G2Form::HeightCorrelated);
     let wi = dir(mu_i);
     let mut rng = Rng::new(SEED_LOBE, stream);
     let mut s = Sums {
@@ -95,7 +88,30 @@ fn lobe_job(kind: NdfKind, alpha: f32, mu_i: f32, walks: u64, stream: u64) -> Su
         moments: vec![[0.0; K_STORED]; MU_N],
         orders: vec![[0.0; ORDERS]; MU_N],
         ms: 0,
+        peak: vec![0.0; MU_N],
+        gram_kb: vec![[0.0; K_STORED]; MU_N],
+        gram_bb: vec![0.0; MU_N],
     };
+    let mut zero = Rng::new(0, 0);
+    // Gram entries of the peaked basis function f_ss1 by sampling SINGLE
+    // (visible normals, F = 1): f_ss1 |wo.z| / pdf = G2 / G1 <= 1.
+    let mut grng = Rng::new(SEED_GRAM, stream);
+    for _ in 0..gram {
+        let smp = single.sample(wi, &mut grng);
+        if smp.wo.z <= 0.0 || smp.pdf <= 0.0 {
+            continue;
+        }
+        let ss1 = single.eval(wi, smp.wo, &mut zero).x as f64;
+        let mut mom = [[0.0f64; K_STORED]; MU_N];
+        project_exit(smp.wo, ss1 / smp.pdf as f64 / gram as f64, &mut mom);
+        let f1 = ss1 / smp.wo.z as f64;
+        for j in 0..MU_N {
+            for k in 0..K_STORED {
+                s.gram_kb[j][k] += mom[j][k];
+            }
+            s.gram_bb[j] += mom[j][0] * f1;
+        }
+    }
     for _ in 0..walks {
         let (smp, bounces) = walk.sample_with_bounces(wi, &mut rng);
         if bounces < 2 || smp.wo.z <= 0.0 {
@@ -107,6 +123,7 @@ fn lobe_job(kind: NdfKind, alpha: f32, mu_i: f32, walks: u64, stream: u64) -> Su
         }
         s.ms += 1;
         let wo = smp.wo;
+        let f1 = single.eval(wi, wo, &mut zero).x as f64 / wo.z as f64;
         let sxy = ((wo.x * wo.x + wo.y * wo.y) as f64).sqrt();
         let c = if sxy > 0.0 { wo.x as f64 / sxy } else { 1.0 };
         let x = mu_coord(wo.z) as f64;
@@ -123,6 +140,7 @@ fn lobe_job(kind: NdfKind, alpha: f32, mu_i: f32, walks: u64, stream: u64) -> Su
                 *mk += ww * t2;
                 (t0, t1) = (t1, t2);
             }
+            s.peak[j] += ww * f1;
             if (2..2 + ORDERS as u32).contains(&bounces) {
                 s.orders[j][(bounces - 2) as usize] += ww;
             }
@@ -239,7 +257,9 @@ fn parallel<J: Sync, R: Send>(
                 })
             })
             .collect();
-        hs.into_iter().flat_map(|h| h.join().unwrap_or_default()).collect()
+        hs.into_iter()
+            .flat_map(|h| h.join().unwrap_or_default())
+            .collect()
     });
     eprintln!();
     parts.sort_by_key(|p| p.0);
@@ -276,6 +296,7 @@ fn main() {
     let args: Vec<String> = std::env::args().collect();
     let walks: u64 = arg(&args, "--walks", 2_000_000);
     let fresnel_walks: u64 = arg(&args, "--fresnel-walks", 200_000);
+    let gram: u64 = arg(&args, "--gram-samples", 400_000);
     let threads: usize = arg(&args, "--threads", 2);
     let out: String = arg(&args, "--out", "data/tabulated_conductor.bin".to_string());
     let t0 = std::time::Instant::now();
@@ -285,7 +306,7 @@ fn main() {
         .flat_map(|n| (1..ALPHA_N).flat_map(move |a| (0..MU_N).map(move |i| (n, a, i))))
         .collect();
     let sums = parallel(&jobs, "walks", threads, |idx, &(n, a, i)| {
-        lobe_job(NDFS[n], grid_alpha(a), node_mu(i), walks, idx as u64)
+        lobe_job(NDFS[n], grid_alpha(a), node_mu(i), walks, gram, idx as u64)
     });
     let fjobs: Vec<(usize, usize)> = (0..NDF_N)
         .flat_map(|n| (1..ALPHA_N).map(move |a| (n, a)))
@@ -310,10 +331,13 @@ fn main() {
         )
     });
 
-    let h = hat_moments();
+    let h: Vec<f64> = (0..MU_N).map(hat_moment).collect();
     let mut lobe = vec![0.0f64; LOBE_LEN];
     let mut albedo = vec![0.0f64; ALBEDO_LEN];
     let mut fresnel = vec![1.0f32; FRESNEL_LEN];
+    // int hat_j f_ss1 mu dw per (ndf, alpha, mu_i) and node j: albedo of the
+    // peaked part.
+    let mut q_int = vec![0.0f64; ALBEDO_LEN * MU_N];
     let (mut sym_num, mut sym_den, mut sym_max) = (0.0f64, 0.0f64, 0.0f64);
     let (mut norm_worst, mut mc_worst) = (0.0f64, 0.0f64);
     let mut total_walks = 0u64;
@@ -323,16 +347,28 @@ fn main() {
         for j in 0..MU_N {
             let b = lobe_index(n, a, i, j);
             let m0 = s.moments[j][0];
+            let nw = s.walks as f64;
+            // Local least squares per mu_o node (inner product weighted by
+            // hat_j mu_o): cosine terms (orthogonal, Gram H_j * norm_k) and
+            // the peaked function f_ss1, eliminated by its Schur complement.
+            let gkk = |k: usize| h[j] * if k == 0 { 2.0 * PI } else { PI };
+            let (mut num, mut den) = (s.peak[j] / nw, s.gram_bb[j]);
             for k in 0..K_STORED {
-                let norm = if k == 0 { 2.0 * PI } else { PI };
-                lobe[b + k] = s.moments[j][k] / (s.walks as f64 * h[j] * norm);
+                num -= s.gram_kb[j][k] * (s.moments[j][k] / nw) / gkk(k);
+                den -= s.gram_kb[j][k] * s.gram_kb[j][k] / gkk(k);
             }
+            let bpk = if s.gram_bb[j] > 0.0 {
+                (num / (den.max(0.0) + RIDGE * s.gram_bb[j])).max(0.0)
+            } else {
+                0.0
+            };
+            for k in 0..K_STORED {
+                lobe[b + k] = (s.moments[j][k] / nw - s.gram_kb[j][k] * bpk) / gkk(k);
+            }
+            lobe[b + PEAK] = bpk;
+            q_int[albedo_index(n, a, i) * MU_N + j] = s.gram_kb[j][0];
             for o in 0..ORDERS {
-                lobe[b + K_STORED + o] = if m0 > 0.0 {
-                    s.orders[j][o] / m0
-                } else {
-                    0.0
-                };
+                lobe[b + ORDER0 + o] = if m0 > 0.0 { s.orders[j][o] / m0 } else { 0.0 };
             }
         }
     }
@@ -354,19 +390,11 @@ fn main() {
                     if x + y > 1e-3 {
                         sym_max = sym_max.max(d / (0.5 * (x + y)));
                     }
-                    for k in 0..K_STORED {
+                    // Cosine terms, the peaked weight and the order fractions.
+                    for k in 0..CELL {
                         let v = 0.5 * (lobe[bi + k] + lobe[bj + k]);
                         lobe[bi + k] = v;
                         lobe[bj + k] = v;
-                    }
-                    for o in 0..ORDERS {
-                        let v = if x + y > 0.0 {
-                            (lobe[bi + K_STORED + o] * x + lobe[bj + K_STORED + o] * y) / (x + y)
-                        } else {
-                            0.0
-                        };
-                        lobe[bi + K_STORED + o] = v;
-                        lobe[bj + K_STORED + o] = v;
                     }
                 }
             }
@@ -379,10 +407,13 @@ fn main() {
                     (1.0 - ess[jidx]).max(0.0)
                 })
                 .collect();
+            let q_row = |i: usize| &q_int[albedo_index(n, a, i) * MU_N..][..MU_N];
+            let cell_albedo = |lobe: &[f64], i: usize, j: usize| -> f64 {
+                let b = lobe_index(n, a, i, j);
+                w[j] * lobe[b] + q_row(i)[j] * lobe[b + PEAK]
+            };
             let row = |lobe: &[f64], i: usize| -> f64 {
-                (0..MU_N)
-                    .map(|j| w[j] * lobe[lobe_index(n, a, i, j)])
-                    .sum()
+                (0..MU_N).map(|j| cell_albedo(lobe, i, j)).sum()
             };
             for (i, t) in target.iter().enumerate() {
                 let r = row(&lobe, i);
@@ -394,7 +425,7 @@ fn main() {
             for _ in 0..200 {
                 for i in 0..MU_N {
                     let cur: f64 = (0..MU_N)
-                        .map(|j| w[j] * lobe[lobe_index(n, a, i, j)] * sc[i] * sc[j])
+                        .map(|j| cell_albedo(&lobe, i, j) * sc[i] * sc[j])
                         .sum();
                     if cur > 0.0 && target[i] > 0.0 {
                         sc[i] *= (target[i] / cur).sqrt();
@@ -404,7 +435,7 @@ fn main() {
             for i in 0..MU_N {
                 for j in 0..MU_N {
                     let b = lobe_index(n, a, i, j);
-                    for k in 0..K_STORED {
+                    for k in 0..=PEAK {
                         lobe[b + k] *= sc[i] * sc[j];
                     }
                 }
@@ -418,7 +449,6 @@ fn main() {
             }
         }
     }
-    let _ = CELL;
     let header = format!(
         "MSBSDF-TABULATED-v1\n\
          MSBSDF_MODEL_TABULATED conductor table (layout: src/multiple/tabulated.rs)\n\
@@ -429,7 +459,8 @@ fn main() {
          E_ss: SINGLE quadrature 256 x 256 (compensation::single_albedo)\n\
          symmetrisation: RMS relative change {:.3e}, max {:.3e} (cells with f > 1e-3)\n\
          albedo before rescaling vs 1 - E_ss: worst relative deviation {:.3e} (targets > 1e-3); after: {:.3e}\n\
-         grid: ndf {NDF_N} x alpha {ALPHA_N} x mu_i {MU_N} x mu_o {MU_N} x {CELL} floats (K = {K_STORED} cosine terms, order fractions 2, 3, 4)\n\
+         peaked part: Gram entries by {gram} SINGLE samples per node (seed Rng::new({SEED_GRAM}, stream = job index)), ridge {RIDGE} x G_BB\n\
+         grid: ndf {NDF_N} x alpha {ALPHA_N} x mu_i {MU_N} x mu_o {MU_N} x {CELL} floats (K = {K_STORED} cosine terms, peaked weight B, order fractions 2, 3, 4)\n\
          wall time: {:.0} s on {threads} threads\n",
         args[1..].join(" "),
         git_commit(),

@@ -65,7 +65,6 @@ use crate::frame::{flip_z, reflect};
 use crate::fresnel;
 use crate::ndf::{Ndf, NdfKind};
 use crate::rng::Rng;
-use crate::single::{G2Form, Single};
 use glam::Vec3;
 use std::f32::consts::PI;
 
@@ -76,13 +75,17 @@ pub const ALPHA_N: usize = 17;
 /// Cosine nodes (uniform in `sqrt(mu)`, from 0 to 1).
 pub const MU_N: usize = 20;
 /// Cosine-series terms stored per cell.
-pub const K_STORED: usize = 10;
+pub const K_STORED: usize = 8;
 /// Cosine-series terms used at eval.
 pub const K: usize = 8;
+/// Offset in a cell of the weight `B` of the peaked part.
+pub const PEAK: usize = K_STORED;
 /// Order fractions stored per cell (orders 2, 3 and 4).
 pub const ORDERS: usize = 3;
+/// Offset in a cell of the first order fraction.
+pub const ORDER0: usize = K_STORED + 1;
 /// Floats per `(ndf, alpha, mu_i, mu_o)` cell.
-pub const CELL: usize = K_STORED + ORDERS;
+pub const CELL: usize = K_STORED + 1 + ORDERS;
 /// Fresnel quantile cosines per `(ndf, alpha)`.
 pub const FRESNEL_Q: usize = 3;
 /// Largest roughness the table covers.
@@ -156,7 +159,10 @@ pub const fn fresnel_index(ndf: usize, a: usize) -> usize {
 const RAW: &[u8] = include_bytes!("../../data/tabulated_conductor.bin");
 
 const _: () = {
-    assert!(RAW.len() == FILE_BYTES, "table file size does not match the grid");
+    assert!(
+        RAW.len() == FILE_BYTES,
+        "table file size does not match the grid"
+    );
     let mut i = 0;
     while i < MAGIC.len() {
         assert!(RAW[i] == MAGIC[i], "table file magic");
@@ -200,14 +206,22 @@ pub fn ndf_index(kind: NdfKind) -> Option<usize> {
     }
 }
 
-/// The multiply scattered lobe with F = 1 and its order fractions at a
-/// table point: `(f_ms, [r2, r3, r4])` (`f_ms` without the cosine).
+/// The multiply scattered lobe with F = 1 at a table point:
+/// `(smooth part, B, [r2, r3, r4])`; the lobe is
+/// `smooth + B f_ss1` with `f_ss1` the single-scattering BSDF with F = 1
+/// (all without the cosine).
 #[inline]
-pub fn lookup(ndf: usize, alpha_c: f32, mu_i: f32, mu_o: f32, cos_phi: f32) -> (f32, [f32; 3]) {
+pub fn lookup(
+    ndf: usize,
+    alpha_c: f32,
+    mu_i: f32,
+    mu_o: f32,
+    cos_phi: f32,
+) -> (f32, f32, [f32; 3]) {
     let (a0, a1, fa) = split(alpha_c, ALPHA_N);
     let (i0, i1, fi) = split(mu_coord(mu_i), MU_N);
     let (j0, j1, fj) = split(mu_coord(mu_o), MU_N);
-    let mut acc = [0.0f32; K + ORDERS];
+    let mut acc = [0.0f32; K + 1 + ORDERS];
     for (a, wa) in [(a0, 1.0 - fa), (a1, fa)] {
         for (i, wi) in [(i0, 1.0 - fi), (i1, fi)] {
             let (b0, b1) = (lobe_index(ndf, a, i, j0), lobe_index(ndf, a, i, j1));
@@ -216,8 +230,8 @@ pub fn lookup(ndf: usize, alpha_c: f32, mu_i: f32, mu_o: f32, cos_phi: f32) -> (
             for k in 0..K {
                 acc[k] += w0 * c0[k] + w1 * c1[k];
             }
-            for k in 0..ORDERS {
-                acc[K + k] += w0 * c0[K_STORED + k] + w1 * c1[K_STORED + k];
+            for k in 0..=ORDERS {
+                acc[K + k] += w0 * c0[PEAK + k] + w1 * c1[PEAK + k];
             }
         }
     }
@@ -229,7 +243,47 @@ pub fn lookup(ndf: usize, alpha_c: f32, mu_i: f32, mu_o: f32, cos_phi: f32) -> (
         f += c * t2;
         (t0, t1) = (t1, t2);
     }
-    (f.max(0.0), [acc[K], acc[K + 1], acc[K + 2]])
+    (f, acc[K], [acc[K + 1], acc[K + 2], acc[K + 3]])
+}
+
+/// `H_j = int hat_j(mu) mu dmu` of the hat function of node `j` in the
+/// `sqrt(mu)` coordinate (midpoint rule over its support): the estimate of
+/// `c_k` at node `j` is the projected sum divided by
+/// `walks * H_j * (2 pi for k = 0, pi otherwise)` (generator and tests).
+pub fn hat_moment(j: usize) -> f64 {
+    let n = 20_000;
+    let scale = (MU_N - 1) as f64;
+    let (lo, hi) = ((j as f64 - 1.0).max(0.0), (j as f64 + 1.0).min(scale));
+    let mut h = 0.0;
+    for t in 0..n {
+        let x = lo + (hi - lo) * (t as f64 + 0.5) / n as f64;
+        let s = x / scale;
+        h += (1.0 - (x - j as f64).abs()).max(0.0) * 2.0 * s * s * s;
+    }
+    h * (hi - lo) / n as f64 / scale
+}
+
+/// Projects one exit direction `wo` (with `wi` in the x-z plane, `wi.x >= 0`)
+/// of weight `w` onto the hat functions in `sqrt(mu_o)` times `cos(k phi)`:
+/// adds to `moments[j][k]` (generator and tests).
+pub fn project_exit(wo: Vec3, w: f64, moments: &mut [[f64; K_STORED]; MU_N]) {
+    let sxy = ((wo.x * wo.x + wo.y * wo.y) as f64).sqrt();
+    let c = if sxy > 0.0 { wo.x as f64 / sxy } else { 1.0 };
+    let x = mu_coord(wo.z) as f64;
+    let j0 = (x as usize).min(MU_N - 2);
+    let fr = x - j0 as f64;
+    for (j, hw) in [(j0, 1.0 - fr), (j0 + 1, fr)] {
+        let ww = w * hw;
+        let m = &mut moments[j];
+        let (mut t0, mut t1) = (1.0, c);
+        m[0] += ww;
+        m[1] += ww * c;
+        for mk in m.iter_mut().skip(2) {
+            let t2 = 2.0 * c * t1 - t0;
+            *mk += ww * t2;
+            (t0, t1) = (t1, t2);
+        }
+    }
 }
 
 /// The multiply scattered albedo with F = 1 from `mu_i`.
@@ -237,9 +291,8 @@ pub fn lookup(ndf: usize, alpha_c: f32, mu_i: f32, mu_o: f32, cos_phi: f32) -> (
 pub fn ms_albedo(ndf: usize, alpha_c: f32, mu_i: f32) -> f32 {
     let (a0, a1, fa) = split(alpha_c, ALPHA_N);
     let (i0, i1, fi) = split(mu_coord(mu_i), MU_N);
-    let v = |a| {
-        ALBEDO[albedo_index(ndf, a, i0)] * (1.0 - fi) + ALBEDO[albedo_index(ndf, a, i1)] * fi
-    };
+    let v =
+        |a| ALBEDO[albedo_index(ndf, a, i0)] * (1.0 - fi) + ALBEDO[albedo_index(ndf, a, i1)] * fi;
     v(a0) * (1.0 - fa) + v(a1) * fa
 }
 
@@ -268,7 +321,6 @@ fn alpha_proj2(ax2: f32, ay2: f32, w: Vec3) -> f32 {
 /// The tabulated microfacet BSDF (conductor facets).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Tabulated {
-    single: Single,
     ndf: Ndf,
     facet: Facet,
     ndf_index: usize,
@@ -300,7 +352,6 @@ impl Tabulated {
             _ => Vec3::ONE,
         };
         Tabulated {
-            single: Single::new(ndf, facet, G2Form::HeightCorrelated),
             ndf,
             facet,
             ndf_index,
@@ -329,10 +380,11 @@ impl Tabulated {
         alpha_coord(a2.sqrt())
     }
 
-    /// The multiply scattered `f |wo.z|` for `wi.z > 0`, `wo.z > 0`.
+    /// The multiply scattered `f |wo.z|` for `wi.z > 0`, `wo.z > 0`, given
+    /// the single-scattering `f_ss1 |wo.z|` with F = 1 of the same pair.
     #[inline]
-    fn multiple(&self, wi: Vec3, wo: Vec3) -> Vec3 {
-        let (f, r) = lookup(
+    fn multiple(&self, wi: Vec3, wo: Vec3, ss1: f32) -> Vec3 {
+        let (f, peak, r) = lookup(
             self.ndf_index,
             self.alpha_c_pair(wi, wo),
             wi.z,
@@ -342,7 +394,7 @@ impl Tabulated {
         let b = self.fbar;
         let r5 = (1.0 - r[0] - r[1] - r[2]).max(0.0);
         let tint = b * b * (Vec3::splat(r[0]) + b * (Vec3::splat(r[1]) + b * (r[2] + b * r5)));
-        tint * (f * wo.z)
+        tint * (f * wo.z + peak * ss1).max(0.0)
     }
 
     /// Weight of the cosine lobe in the sampling mixture for `mu_i`.
@@ -351,34 +403,38 @@ impl Tabulated {
         ms_albedo(self.ndf_index, self.alpha_c, mu_i).clamp(0.02, 0.95)
     }
 
-    /// Single-scattering `f |wo.z|` and the visible-normal pdf of `wo`
-    /// (`wi.z > 0`, `wo.z > 0`), sharing `D` and `Lambda(wi)`:
+    /// Single scattering for `wi.z > 0`, `wo.z > 0`: `f_ss1 |wo.z|` with
+    /// F = 1, the Fresnel factor of the half vector, and the visible-normal
+    /// pdf of `wo`, sharing `D` and `Lambda(wi)`:
     /// `pdf = D_wi(h) / (4 wi.h) = G1(wi) D(h) / (4 wi.z)`.
     #[inline]
-    fn single_and_pdf(&self, wi: Vec3, wo: Vec3) -> (Vec3, f32) {
+    fn single_terms(&self, wi: Vec3, wo: Vec3) -> (f32, Vec3, f32) {
         let h = (wi + wo).normalize_or_zero();
         let ci = wi.dot(h);
         if ci <= 0.0 || h.z <= 0.0 {
-            return (Vec3::ZERO, 0.0);
+            return (0.0, Vec3::ZERO, 0.0);
         }
         let d = self.ndf.d(h);
         let li = self.ndf.lambda(wi);
         let lo = self.ndf.lambda(wo);
         let base = d / (4.0 * wi.z);
-        let f = self.facet.conductor_fresnel(ci) * (base / (1.0 + li + lo));
-        (f, base / (1.0 + li))
+        (
+            base / (1.0 + li + lo),
+            self.facet.conductor_fresnel(ci),
+            base / (1.0 + li),
+        )
     }
 
-    /// `eval` and `pdf` of a pair already in the frame where `wi.z > 0`.
+    /// `f |wo.z|` and pdf of a pair in the frame where `wi.z > 0`.
     #[inline]
     fn eval_pdf_upper(&self, wi: Vec3, wo: Vec3) -> (Vec3, f32) {
         if wo.z <= 0.0 {
             return (Vec3::ZERO, 0.0);
         }
-        let (fs, ps) = self.single_and_pdf(wi, wo);
+        let (ss1, fresnel, ps) = self.single_terms(wi, wo);
         let q = self.cosine_weight(wi.z);
         let pdf = (1.0 - q) * ps + q * wo.z / PI;
-        (fs + self.multiple(wi, wo), pdf)
+        (fresnel * ss1 + self.multiple(wi, wo, ss1), pdf)
     }
 }
 
@@ -406,7 +462,8 @@ impl ScatterModel for Tabulated {
         if wo.z <= 0.0 {
             return Vec3::ZERO;
         }
-        self.single.eval(wi, wo, _rng) + self.multiple(wi, wo)
+        let (ss1, fresnel, _) = self.single_terms(wi, wo);
+        fresnel * ss1 + self.multiple(wi, wo, ss1)
     }
 
     fn sample(&self, wi: Vec3, rng: &mut Rng) -> Sample {
@@ -438,7 +495,7 @@ impl ScatterModel for Tabulated {
         if wo.z <= 0.0 {
             return 0.0;
         }
-        let (_, ps) = self.single_and_pdf(wi, wo);
+        let (_, _, ps) = self.single_terms(wi, wo);
         let q = self.cosine_weight(wi.z);
         (1.0 - q) * ps + q * wo.z / PI
     }
