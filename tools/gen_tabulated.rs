@@ -28,8 +28,10 @@ use msbsdf::multiple::compensation::single_albedo;
 use msbsdf::multiple::heitz::{Heitz, default_max_bounces};
 use msbsdf::multiple::tabulated::{
     ALBEDO_LEN, ALPHA_N, CELL, FILE_BYTES, FRESNEL_LEN, FRESNEL_Q, HEADER_BYTES, K_STORED,
-    LOBE_LEN, MAGIC, MU_N, NDF_N, ORDER0, ORDERS, PEAK, albedo_index, fresnel_index, grid_alpha,
-    grid_mu, hat_moment, lobe_index, mu_coord, project_exit,
+    LOBE_LEN, MAGIC, MU_N, NDF_N, ORDER0, ORDERS, PEAK, SCALE_ALPHA_N, SCALE_FILE_BYTES, SCALE_LEN,
+    SCALE_MAGIC, SCALE_MU_N, albedo_index, alpha_coord, fresnel_index, grid_alpha, grid_mu,
+    hat_moment, lobe_index, mu_coord, project_exit, scale_grid_alpha, scale_grid_mu, scale_index,
+    split,
 };
 use msbsdf::ndf::{Ndf, NdfKind};
 use msbsdf::single::{G2Form, Single};
@@ -41,6 +43,7 @@ const NDFS: [NdfKind; NDF_N] = [NdfKind::Beckmann, NdfKind::Ggx];
 const SEED_LOBE: u64 = 20261124;
 const SEED_FRESNEL: u64 = 20261125;
 const SEED_GRAM: u64 = 20261126;
+const SEED_SCALE: u64 = 20261127;
 /// Ridge of the peaked weight `B`, relative to its Gram entry: keeps `B`
 /// near 0 where `f_ss1` is as smooth as the cosine series.
 const RIDGE: f64 = 0.05;
@@ -292,8 +295,181 @@ fn arg<T: std::str::FromStr>(args: &[String], name: &str, default: T) -> T {
         .unwrap_or(default)
 }
 
+/// `--scale`: the furnace scale table from the committed lobe table.
+fn scale_main(args: &[String]) {
+    let samples: u64 = arg(args, "--gram-samples", 100_000);
+    let threads: usize = arg(args, "--threads", 2);
+    let table: String = arg(args, "--table", "data/tabulated_conductor.bin".to_string());
+    let out: String = arg(args, "--out", "data/tabulated_scale.bin".to_string());
+    let t0 = std::time::Instant::now();
+    let raw = std::fs::read(&table).expect("read the lobe table");
+    assert_eq!(raw.len(), FILE_BYTES, "lobe table size");
+    let lobe: Vec<f64> = raw[HEADER_BYTES..HEADER_BYTES + 4 * LOBE_LEN]
+        .chunks_exact(4)
+        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64)
+        .collect();
+    let table_header = String::from_utf8_lossy(&raw[..HEADER_BYTES])
+        .trim_end_matches('\0')
+        .to_string();
+    let table_commit = table_header
+        .lines()
+        .find(|l| l.starts_with("commit:"))
+        .unwrap_or("commit: ?")
+        .to_string();
+    // Per (ndf, scale alpha >= 1, fine mu_i node): 1 - E_ss and
+    // Q_y = int hat_y f_ss1 mu dw of the peaked basis function on the fine
+    // mu_o hats y.
+    let fine = SCALE_MU_N;
+    let fine_x = |mu: f64| mu.clamp(0.0, 1.0).sqrt() * (fine - 1) as f64;
+    let jobs: Vec<(usize, usize, usize)> = (0..NDF_N)
+        .flat_map(|n| (1..SCALE_ALPHA_N).flat_map(move |a| (0..fine).map(move |i| (n, a, i))))
+        .filter(|&(n, a, _)| std::env::var("TAB_DEBUG").is_err() || (n == 0 && a == 10))
+        .collect();
+    let res = parallel(&jobs, "scale", threads, |idx, &(n, a, i)| {
+        let alpha = scale_grid_alpha(a);
+        let ndf = Ndf::new(NDFS[n], alpha, alpha);
+        let single = Single::new(ndf, CONDUCTOR_F1, G2Form::HeightCorrelated);
+        let wi = dir(scale_grid_mu(i).max(MU_GRAZING));
+        let ess = single_albedo(
+            |x, y| single.eval(x, y, &mut Rng::new(0, 0)).x,
+            alpha,
+            alpha,
+            wi,
+            None,
+            192,
+        );
+        let mut rng = Rng::new(SEED_SCALE, idx as u64);
+        let mut q = vec![0.0f64; fine];
+        for _ in 0..samples {
+            let smp = single.sample(wi, &mut rng);
+            if smp.wo.z <= 0.0 || smp.pdf <= 0.0 {
+                continue;
+            }
+            let ss1 = single.eval(wi, smp.wo, &mut Rng::new(0, 0)).x as f64;
+            let v = ss1 / smp.pdf as f64 / samples as f64;
+            let x = fine_x(smp.wo.z as f64);
+            let y0 = (x as usize).min(fine - 2);
+            let fr = x - y0 as f64;
+            q[y0] += v * (1.0 - fr);
+            q[y0 + 1] += v * fr;
+        }
+        ((1.0 - ess).max(0.0), q)
+    });
+    // int hat_y(mu) mu dmu on the fine grid (midpoint rule in sqrt(mu)).
+    let mut wf = vec![0.0f64; fine];
+    let nq = 200_000;
+    for t in 0..nq {
+        let s = (t as f64 + 0.5) / nq as f64;
+        let x = s * (fine - 1) as f64;
+        let y0 = (x as usize).min(fine - 2);
+        let fr = x - y0 as f64;
+        let m = s * s * 2.0 * s / nq as f64;
+        wf[y0] += (1.0 - fr) * m * 2.0 * PI;
+        wf[y0 + 1] += fr * m * 2.0 * PI;
+    }
+    let mut scale = vec![1.0f32; SCALE_LEN];
+    let (mut worst_before, mut worst_after, mut s_min, mut s_max) =
+        (0.0f64, 0.0f64, 1.0f64, 1.0f64);
+    for n in 0..NDF_N {
+        for a in 1..SCALE_ALPHA_N {
+            let (a0, a1, fa) = split(alpha_coord(scale_grid_alpha(a)), ALPHA_N);
+            let fa = fa as f64;
+            // The runtime interpolant of c0 and B at fine (mu_i, mu_o).
+            let interp = |mi: f32, mo: f32, k: usize| {
+                let (i0, i1, fi) = split(mu_coord(mi), MU_N);
+                let (j0, j1, fj) = split(mu_coord(mo), MU_N);
+                let (fi, fj) = (fi as f64, fj as f64);
+                let mut v = 0.0;
+                for (aa, wa) in [(a0, 1.0 - fa), (a1, fa)] {
+                    for (ii, wi) in [(i0, 1.0 - fi), (i1, fi)] {
+                        for (jj, wj) in [(j0, 1.0 - fj), (j1, fj)] {
+                            v += wa * wi * wj * lobe[lobe_index(n, aa, ii, jj) + k];
+                        }
+                    }
+                }
+                v
+            };
+            let Some(base) = jobs.iter().position(|&x| x == (n, a, 0)) else {
+                continue;
+            };
+            let kernel: Vec<Vec<f64>> = (0..fine)
+                .map(|i| {
+                    let mi = scale_grid_mu(i);
+                    (0..fine)
+                        .map(|y| {
+                            let mo = scale_grid_mu(y);
+                            wf[y] * interp(mi, mo, 0) + res[base + i].1[y] * interp(mi, mo, PEAK)
+                        })
+                        .collect()
+                })
+                .collect();
+            let target: Vec<f64> = (0..fine).map(|i| res[base + i].0).collect();
+            let mut sc = vec![1.0f64; fine];
+            for (i, t) in target.iter().enumerate() {
+                let r: f64 = kernel[i].iter().sum();
+                if *t > 1e-3 {
+                    worst_before = worst_before.max((r / t - 1.0).abs());
+                }
+            }
+            for _ in 0..300 {
+                for i in 0..fine {
+                    let cur: f64 = (0..fine).map(|y| kernel[i][y] * sc[i] * sc[y]).sum();
+                    if cur > 0.0 && target[i] > 0.0 {
+                        sc[i] *= (target[i] / cur).sqrt();
+                    }
+                }
+            }
+            for (i, t) in target.iter().enumerate() {
+                let r: f64 = (0..fine).map(|y| kernel[i][y] * sc[i] * sc[y]).sum();
+                if *t > 1e-3 {
+                    worst_after = worst_after.max((r / t - 1.0).abs());
+                    if (r / t - 1.0).abs() > 1e-3 && std::env::var("TAB_DEBUG").is_ok() {
+                        eprintln!(
+                            "n {n} a {a} i {i}: target {t:.4e} achieved {r:.4e} scale {:.3}",
+                            sc[i]
+                        );
+                    }
+                }
+                s_min = s_min.min(sc[i]);
+                s_max = s_max.max(sc[i]);
+                scale[scale_index(n, a, i)] = sc[i] as f32;
+            }
+        }
+    }
+    let header = format!(
+        "MSBSDF-TABULATED-SCALE-v1\n\
+         MSBSDF_MODEL_TABULATED furnace scale table (layout: src/multiple/tabulated.rs)\n\
+         command: cargo run --release --example gen_tabulated -- {}\n\
+         commit: {}\n\
+         lobe table: {table} ({table_commit})\n\
+         E_ss: SINGLE quadrature 192 x 192; albedo of the peaked part: {samples} SINGLE samples per node, seed Rng::new({SEED_SCALE}, stream = job index)\n\
+         albedo of the alpha-interpolated table vs 1 - E_ss: worst relative deviation {worst_before:.3e} (targets > 1e-3); after scaling {worst_after:.3e}; scales in [{s_min:.4}, {s_max:.4}]\n\
+         grid: ndf {NDF_N} x alpha {SCALE_ALPHA_N} x mu {SCALE_MU_N}\n\
+         wall time: {:.0} s on {threads} threads\n",
+        args[1..].join(" "),
+        git_commit(),
+        t0.elapsed().as_secs_f64(),
+    );
+    eprint!("{header}");
+    let mut bytes = Vec::with_capacity(SCALE_FILE_BYTES);
+    bytes.extend_from_slice(header.as_bytes());
+    assert!(bytes.len() <= HEADER_BYTES, "header too long");
+    assert!(bytes.starts_with(SCALE_MAGIC));
+    bytes.resize(HEADER_BYTES, 0);
+    for v in &scale {
+        bytes.extend_from_slice(&v.to_le_bytes());
+    }
+    assert_eq!(bytes.len(), SCALE_FILE_BYTES);
+    std::fs::write(&out, &bytes).expect("write output");
+    eprintln!("wrote {out} ({} bytes)", bytes.len());
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
+    if args.iter().any(|a| a == "--scale") {
+        scale_main(&args);
+        return;
+    }
     let walks: u64 = arg(&args, "--walks", 2_000_000);
     let fresnel_walks: u64 = arg(&args, "--fresnel-walks", 200_000);
     let gram: u64 = arg(&args, "--gram-samples", 400_000);
@@ -305,6 +481,30 @@ fn main() {
     let jobs: Vec<(usize, usize, usize)> = (0..NDF_N)
         .flat_map(|n| (1..ALPHA_N).flat_map(move |a| (0..MU_N).map(move |i| (n, a, i))))
         .collect();
+    let from_dump: Option<String> = args
+        .iter()
+        .position(|a| a == "--from-dump")
+        .and_then(|p| args.get(p + 1).cloned());
+    let dump: Option<String> = args
+        .iter()
+        .position(|a| a == "--dump")
+        .and_then(|p| args.get(p + 1).cloned());
+    if let Some(path) = &from_dump {
+        let (sums, fq, ess) = load_dump(path, jobs.len());
+        return finish(
+            &args,
+            &jobs,
+            &sums,
+            &fq,
+            &ess,
+            walks,
+            fresnel_walks,
+            gram,
+            threads,
+            &out,
+            t0,
+        );
+    }
     let sums = parallel(&jobs, "walks", threads, |idx, &(n, a, i)| {
         lobe_job(NDFS[n], grid_alpha(a), node_mu(i), walks, gram, idx as u64)
     });
@@ -331,6 +531,109 @@ fn main() {
         )
     });
 
+    if let Some(path) = &dump {
+        save_dump(path, &sums, &fq, &ess);
+    }
+    finish(
+        &args,
+        &jobs,
+        &sums,
+        &fq,
+        &ess,
+        walks,
+        fresnel_walks,
+        gram,
+        threads,
+        &out,
+        t0,
+    );
+}
+
+/// Raw sums as little-endian f64 (`--dump`), so the post-processing can be
+/// redone without the walks (`--from-dump`).
+fn save_dump(path: &str, sums: &[Sums], fq: &[[f32; FRESNEL_Q]], ess: &[f64]) {
+    let mut v: Vec<f64> = Vec::new();
+    for s in sums {
+        v.push(s.walks as f64);
+        v.push(s.ms as f64);
+        v.extend(s.moments.iter().flatten());
+        v.extend(s.orders.iter().flatten());
+        v.extend(&s.peak);
+        v.extend(s.gram_kb.iter().flatten());
+        v.extend(&s.gram_bb);
+    }
+    v.extend(fq.iter().flatten().map(|&x| x as f64));
+    v.extend(ess);
+    let bytes: Vec<u8> = v.iter().flat_map(|x| x.to_le_bytes()).collect();
+    std::fs::write(path, bytes).expect("write dump");
+}
+
+/// Reads [`save_dump`]'s file.
+fn load_dump(path: &str, jobs: usize) -> (Vec<Sums>, Vec<[f32; FRESNEL_Q]>, Vec<f64>) {
+    let raw = std::fs::read(path).expect("read dump");
+    let v: Vec<f64> = raw
+        .chunks_exact(8)
+        .map(|b| f64::from_le_bytes([b[0], b[1], b[2], b[3], b[4], b[5], b[6], b[7]]))
+        .collect();
+    let mut it = v.into_iter();
+    let mut take = |n: usize| -> Vec<f64> { it.by_ref().take(n).collect() };
+    let rows = |flat: Vec<f64>, w: usize| -> Vec<Vec<f64>> {
+        flat.chunks(w).map(|c| c.to_vec()).collect()
+    };
+    let mut sums = Vec::with_capacity(jobs);
+    for _ in 0..jobs {
+        let head = take(2);
+        let moments = rows(take(MU_N * K_STORED), K_STORED)
+            .into_iter()
+            .map(|r| std::array::from_fn(|k| r[k]))
+            .collect();
+        let orders = rows(take(MU_N * ORDERS), ORDERS)
+            .into_iter()
+            .map(|r| std::array::from_fn(|k| r[k]))
+            .collect();
+        let peak = take(MU_N);
+        let gram_kb = rows(take(MU_N * K_STORED), K_STORED)
+            .into_iter()
+            .map(|r| std::array::from_fn(|k| r[k]))
+            .collect();
+        let gram_bb = take(MU_N);
+        sums.push(Sums {
+            walks: head[0] as u64,
+            ms: head[1] as u64,
+            moments,
+            orders,
+            peak,
+            gram_kb,
+            gram_bb,
+        });
+    }
+    let fjobs = NDF_N * (ALPHA_N - 1);
+    let fq = rows(take(fjobs * FRESNEL_Q), FRESNEL_Q)
+        .into_iter()
+        .map(|r| std::array::from_fn(|k| r[k] as f32))
+        .collect();
+    let ess = take(jobs);
+    (sums, fq, ess)
+}
+
+/// Post-processing: coefficients, symmetrisation, normalisation, file.
+#[allow(clippy::too_many_arguments)]
+fn finish(
+    args: &[String],
+    jobs: &[(usize, usize, usize)],
+    sums: &[Sums],
+    fq: &[[f32; FRESNEL_Q]],
+    ess: &[f64],
+    walks: u64,
+    fresnel_walks: u64,
+    gram: u64,
+    threads: usize,
+    out: &str,
+    t0: std::time::Instant,
+) {
+    let fjobs: Vec<(usize, usize)> = (0..NDF_N)
+        .flat_map(|n| (1..ALPHA_N).map(move |a| (n, a)))
+        .collect();
     let h: Vec<f64> = (0..MU_N).map(hat_moment).collect();
     let mut lobe = vec![0.0f64; LOBE_LEN];
     let mut albedo = vec![0.0f64; ALBEDO_LEN];
@@ -357,8 +660,16 @@ fn main() {
                 num -= s.gram_kb[j][k] * (s.moments[j][k] / nw) / gkk(k);
                 den -= s.gram_kb[j][k] * s.gram_kb[j][k] / gkk(k);
             }
+            // Capped so that the azimuth-averaged smooth part stays >= 0:
+            // eval clamps the sum at 0, and a negative smooth part far from
+            // the peak would be clamped away and break the normalisation.
+            let cap = if s.gram_kb[j][0] > 0.0 {
+                (s.moments[j][0] / nw / s.gram_kb[j][0]).max(0.0)
+            } else {
+                0.0
+            };
             let bpk = if s.gram_bb[j] > 0.0 {
-                (num / (den.max(0.0) + RIDGE * s.gram_bb[j])).max(0.0)
+                (num / (den.max(0.0) + RIDGE * s.gram_bb[j])).clamp(0.0, cap)
             } else {
                 0.0
             };

@@ -105,6 +105,36 @@ pub const FRESNEL_LEN: usize = NDF_N * ALPHA_N * FRESNEL_Q;
 /// Total size of the table file in bytes.
 pub const FILE_BYTES: usize = HEADER_BYTES + 4 * (LOBE_LEN + ALBEDO_LEN + FRESNEL_LEN);
 
+/// Roughness nodes of the furnace scale table (uniform in
+/// `sqrt(alpha / MAX_ALPHA)`, the first is 0).
+pub const SCALE_ALPHA_N: usize = 64;
+/// Cosine nodes of the furnace scale table (uniform in `sqrt(mu)`).
+pub const SCALE_MU_N: usize = 64;
+/// Floats of the furnace scale table `[ndf][scale alpha][scale mu]`.
+pub const SCALE_LEN: usize = NDF_N * SCALE_ALPHA_N * SCALE_MU_N;
+/// Total size of the scale table file in bytes.
+pub const SCALE_FILE_BYTES: usize = HEADER_BYTES + 4 * SCALE_LEN;
+/// First bytes of the scale table file.
+pub const SCALE_MAGIC: &[u8; 26] = b"MSBSDF-TABULATED-SCALE-v1\n";
+
+/// Roughness of node `a` of the scale table.
+pub fn scale_grid_alpha(a: usize) -> f32 {
+    let s = a as f32 / (SCALE_ALPHA_N - 1) as f32;
+    MAX_ALPHA * s * s
+}
+
+/// Cosine of node `i` of the scale table.
+pub fn scale_grid_mu(i: usize) -> f32 {
+    let s = i as f32 / (SCALE_MU_N - 1) as f32;
+    s * s
+}
+
+/// Continuous node coordinate of a roughness in the scale table.
+#[inline]
+pub fn scale_alpha_coord(alpha: f32) -> f32 {
+    (alpha / MAX_ALPHA).clamp(0.0, 1.0).sqrt() * (SCALE_ALPHA_N - 1) as f32
+}
+
 /// Roughness of node `a`.
 pub fn grid_alpha(a: usize) -> f32 {
     let s = a as f32 / (ALPHA_N - 1) as f32;
@@ -129,9 +159,10 @@ pub fn alpha_coord(alpha: f32) -> f32 {
     (alpha / MAX_ALPHA).clamp(0.0, 1.0).sqrt() * (ALPHA_N - 1) as f32
 }
 
-/// Lower node, upper node and weight of the upper one for a coordinate.
+/// Lower node, upper node and weight of the upper one for a continuous
+/// node coordinate on a grid of `n` nodes (clamped to the grid).
 #[inline]
-fn split(x: f32, n: usize) -> (usize, usize, f32) {
+pub fn split(x: f32, n: usize) -> (usize, usize, f32) {
     let x = x.clamp(0.0, (n - 1) as f32);
     let i = (x as usize).min(n - 2);
     (i, i + 1, x - i as f32)
@@ -170,6 +201,21 @@ const _: () = {
     }
 };
 
+/// The committed furnace scale table file.
+const RAW_SCALE: &[u8] = include_bytes!("../../data/tabulated_scale.bin");
+
+const _: () = {
+    assert!(
+        RAW_SCALE.len() == SCALE_FILE_BYTES,
+        "scale file size does not match the grid"
+    );
+    let mut i = 0;
+    while i < SCALE_MAGIC.len() {
+        assert!(RAW_SCALE[i] == SCALE_MAGIC[i], "scale file magic");
+        i += 1;
+    }
+};
+
 /// Little-endian f32 values from `offset` (compile time).
 const fn decode<const N: usize>(raw: &[u8], offset: usize) -> [f32; N] {
     let mut out = [0.0f32; N];
@@ -190,11 +236,44 @@ pub static ALBEDO: [f32; ALBEDO_LEN] = decode(RAW, HEADER_BYTES + 4 * LOBE_LEN);
 pub static FRESNEL_COS: [f32; FRESNEL_LEN] =
     decode(RAW, HEADER_BYTES + 4 * (LOBE_LEN + ALBEDO_LEN));
 
-/// The text header of the table file (command, seeds, samples, commit).
-pub fn header() -> &'static str {
-    let h = &RAW[..HEADER_BYTES];
+/// The furnace scale table (see [`SCALE_LEN`]): `s(alpha, mu)` with
+/// `f_ms(wi, wo) s(mu_i) s(mu_o)` normalised to `1 - E_ss(alpha, mu_i)` at
+/// the 64 mu nodes of this table, for 64 roughness values.
+pub static SCALE: [f32; SCALE_LEN] = decode(RAW_SCALE, HEADER_BYTES);
+
+fn text_header(raw: &'static [u8]) -> &'static str {
+    let h = &raw[..HEADER_BYTES];
     let end = h.iter().position(|&b| b == 0).unwrap_or(HEADER_BYTES);
     std::str::from_utf8(&h[..end]).unwrap_or("")
+}
+
+/// The text header of the table file (command, seeds, samples, commit).
+pub fn header() -> &'static str {
+    text_header(RAW)
+}
+
+/// The text header of the scale table file.
+pub fn scale_header() -> &'static str {
+    text_header(RAW_SCALE)
+}
+
+/// Index of a scale table entry.
+#[inline]
+pub const fn scale_index(ndf: usize, a: usize, i: usize) -> usize {
+    (ndf * SCALE_ALPHA_N + a) * SCALE_MU_N + i
+}
+
+/// The furnace scale `s(alpha, mu)` (linear in the scale table's alpha
+/// coordinate and in `sqrt(mu)`).
+#[inline]
+pub fn scale(ndf: usize, alpha_sc: f32, mu: f32) -> f32 {
+    let (a0, a1, fa) = split(alpha_sc, SCALE_ALPHA_N);
+    let (i0, i1, fi) = split(
+        mu.clamp(0.0, 1.0).sqrt() * (SCALE_MU_N - 1) as f32,
+        SCALE_MU_N,
+    );
+    let v = |a| SCALE[scale_index(ndf, a, i0)] * (1.0 - fi) + SCALE[scale_index(ndf, a, i1)] * fi;
+    v(a0) * (1.0 - fa) + v(a1) * fa
 }
 
 /// Table index of an NDF (`None`: not tabulated).
@@ -326,6 +405,8 @@ pub struct Tabulated {
     ndf_index: usize,
     /// Table coordinate of the roughness (isotropic materials).
     alpha_c: f32,
+    /// Scale-table coordinate of the roughness (isotropic materials).
+    alpha_sc: f32,
     anisotropic: bool,
     /// Effective Fresnel reflectance of inter-reflections per channel.
     fbar: Vec3,
@@ -356,6 +437,7 @@ impl Tabulated {
             facet,
             ndf_index,
             alpha_c,
+            alpha_sc: scale_alpha_coord(alpha_rms),
             anisotropic: ndf.alpha_x != ndf.alpha_y,
             fbar,
         }
@@ -366,35 +448,32 @@ impl Tabulated {
         self.fbar
     }
 
-    /// Table coordinate of the roughness for a pair of directions.
+    /// Table and scale-table coordinates of the roughness for a pair of
+    /// directions.
     #[inline]
-    fn alpha_c_pair(&self, wi: Vec3, wo: Vec3) -> f32 {
+    fn alpha_c_pair(&self, wi: Vec3, wo: Vec3) -> (f32, f32) {
         if !self.anisotropic {
-            return self.alpha_c;
+            return (self.alpha_c, self.alpha_sc);
         }
         let (ax2, ay2) = (
             self.ndf.alpha_x * self.ndf.alpha_x,
             self.ndf.alpha_y * self.ndf.alpha_y,
         );
-        let a2 = 0.5 * (alpha_proj2(ax2, ay2, wi) + alpha_proj2(ax2, ay2, wo));
-        alpha_coord(a2.sqrt())
+        let a = (0.5 * (alpha_proj2(ax2, ay2, wi) + alpha_proj2(ax2, ay2, wo))).sqrt();
+        (alpha_coord(a), scale_alpha_coord(a))
     }
 
     /// The multiply scattered `f |wo.z|` for `wi.z > 0`, `wo.z > 0`, given
     /// the single-scattering `f_ss1 |wo.z|` with F = 1 of the same pair.
     #[inline]
     fn multiple(&self, wi: Vec3, wo: Vec3, ss1: f32) -> Vec3 {
-        let (f, peak, r) = lookup(
-            self.ndf_index,
-            self.alpha_c_pair(wi, wo),
-            wi.z,
-            wo.z,
-            cos_phi(wi, wo),
-        );
+        let (ac, asc) = self.alpha_c_pair(wi, wo);
+        let (f, peak, r) = lookup(self.ndf_index, ac, wi.z, wo.z, cos_phi(wi, wo));
+        let s = scale(self.ndf_index, asc, wi.z) * scale(self.ndf_index, asc, wo.z);
         let b = self.fbar;
         let r5 = (1.0 - r[0] - r[1] - r[2]).max(0.0);
         let tint = b * b * (Vec3::splat(r[0]) + b * (Vec3::splat(r[1]) + b * (r[2] + b * r5)));
-        tint * (f * wo.z + peak * ss1).max(0.0)
+        tint * ((f * wo.z + peak * ss1) * s)
     }
 
     /// Weight of the cosine lobe in the sampling mixture for `mu_i`.
@@ -434,7 +513,8 @@ impl Tabulated {
         let (ss1, fresnel, ps) = self.single_terms(wi, wo);
         let q = self.cosine_weight(wi.z);
         let pdf = (1.0 - q) * ps + q * wo.z / PI;
-        (fresnel * ss1 + self.multiple(wi, wo, ss1), pdf)
+        let f = (fresnel * ss1 + self.multiple(wi, wo, ss1)).max(Vec3::ZERO);
+        (f, pdf)
     }
 }
 
@@ -463,7 +543,9 @@ impl ScatterModel for Tabulated {
             return Vec3::ZERO;
         }
         let (ss1, fresnel, _) = self.single_terms(wi, wo);
-        fresnel * ss1 + self.multiple(wi, wo, ss1)
+        // The smooth part may dip below 0 under a strong peaked part: the
+        // sum is clamped, not the parts, so the furnace normalisation holds.
+        (fresnel * ss1 + self.multiple(wi, wo, ss1)).max(Vec3::ZERO)
     }
 
     fn sample(&self, wi: Vec3, rng: &mut Rng) -> Sample {
