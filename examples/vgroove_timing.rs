@@ -44,6 +44,7 @@ fn ir_mode(args: &[String]) {
     let model = match get(2) {
         "single" => Model::Single,
         "vgroove_ns" => Model::VGrooveNonsymmetric,
+        "tabulated" => Model::Tabulated,
         _ => Model::VGroove,
     };
     let ndf = match get(3) {

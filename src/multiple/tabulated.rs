@@ -11,26 +11,43 @@
 //! ([`Heitz::sample_with_bounces`](crate::multiple::heitz::Heitz::sample_with_bounces),
 //! perfectly reflecting facets). Per NDF (Beckmann, GGX), roughness node
 //! [`grid_alpha`] and pair of cosines `(mu_i, mu_o)` on the grid [`grid_mu`],
-//! it stores the multiply scattered BSDF with F = 1 as a cosine series in the
-//! azimuth difference `phi` between `wi` and `wo`:
+//! it stores the multiply scattered BSDF with F = 1 as a smooth cosine
+//! series in the azimuth difference `phi` between `wi` and `wo` plus a
+//! peaked part proportional to the single-scattering BSDF with F = 1,
+//! `f_ss1 = D G2 / (4 mu_i mu_o)`:
 //!
-//! `f_ms(mu_i, mu_o, phi) = sum_{k < K} c_k(mu_i, mu_o) cos(k phi)`,
+//! `f_ms = sum_{k < K_STORED} c_k(mu_i, mu_o) cos(k phi) + B(mu_i, mu_o) f_ss1(wi, wo)`.
 //!
-//! estimated by projecting the exit directions of the walks from `wi` that
-//! scattered twice or more onto hat functions in `sqrt(mu_o)` times
-//! `cos(k phi)` (one walk feeds every coefficient). The table was then made
-//! reciprocal by averaging `c_k(mu_i, mu_o)` with `c_k(mu_o, mu_i)` and
-//! rescaled symmetrically (`c_k(i, j) s_i s_j`) so that the multiply
-//! scattered albedo of the interpolant equals `1 - E_ss(mu_i)` at every node
-//! (`E_ss` = SINGLE's albedo with F = 1 by deterministic quadrature): the
-//! white furnace then holds at the nodes by construction. Each cell also
-//! stores, of the azimuth-averaged value, the fractions carried by orders 2,
-//! 3 and 4 (orders >= 5 take the rest).
+//! The peaked part carries the near-specular second bounces at low
+//! roughness and grazing angles (e.g. 5% of the single-scattering peak for
+//! Beckmann alpha 0.05 at 85 degrees), which no short cosine series on a
+//! coarse `mu` grid can hold; `f_ss1` is computed by eval anyway, so it
+//! costs one stored value per cell. The coefficients are a local least
+//! squares fit per `(mu_i, mu_o)` node (inner product weighted by the hat
+//! function of the node and `mu_o`): the right-hand sides are projections
+//! of the exit directions of the walks from `wi` that scattered twice or
+//! more (one walk feeds every coefficient), the Gram entries of `f_ss1` come
+//! from SINGLE's visible-normal samples; `B` has a small ridge and is capped
+//! so that the azimuth-averaged smooth part stays non-negative. The table
+//! was then made reciprocal by averaging `(mu_i, mu_o)` with `(mu_o, mu_i)`
+//! (`f_ss1` is symmetric). Each cell also stores, of the azimuth-averaged
+//! value, the fractions carried by orders 2, 3 and 4 (orders >= 5 take the
+//! rest).
+//!
+//! The white furnace is enforced by a second, small table
+//! (`data/tabulated_scale.bin`, `gen_tabulated -- --scale`): factors
+//! `s(alpha, mu)` on a finer grid (64 roughness values and 64 cosines) such
+//! that `f_ms(wi, wo) s(mu_i) s(mu_o)` has the multiply scattered albedo
+//! `1 - E_ss(alpha, mu_i)` (`E_ss` = SINGLE's albedo with F = 1 by
+//! deterministic quadrature) at every node of that grid: a symmetric
+//! (Sinkhorn) scaling of the alpha-interpolated table, which keeps the lobe
+//! reciprocal. It corrects both the Monte Carlo noise of the albedo and the
+//! interpolation in alpha and `mu_i` where `1 - E_ss` is strongly curved
+//! (low roughness at grazing incidence).
 //!
 //! Lookups are linear in `alpha` (fixed per material), and in `sqrt(mu_i)`
-//! and `sqrt(mu_o)`; the table is symmetric in `(mu_i, mu_o)` and the
-//! interpolation is the same in both, so the tabulated lobe is exactly
-//! reciprocal.
+//! and `sqrt(mu_o)`; the tables are symmetric in `(mu_i, mu_o)` and read the
+//! same way in both, so the lobe is reciprocal to f32 rounding.
 //!
 //! ## Coloured conductors
 //!
@@ -65,7 +82,7 @@ use crate::frame::{flip_z, reflect};
 use crate::fresnel;
 use crate::ndf::{Ndf, NdfKind};
 use crate::rng::Rng;
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 use std::f32::consts::PI;
 
 /// Number of NDFs in the table (Beckmann, GGX).
@@ -74,10 +91,9 @@ pub const NDF_N: usize = 2;
 pub const ALPHA_N: usize = 17;
 /// Cosine nodes (uniform in `sqrt(mu)`, from 0 to 1).
 pub const MU_N: usize = 20;
-/// Cosine-series terms stored per cell.
-pub const K_STORED: usize = 8;
-/// Cosine-series terms used at eval.
-pub const K: usize = 8;
+/// Cosine-series terms stored per cell (the generator fits 8 and keeps
+/// these: on the suite, 4 terms give the same error as 8, 3 terms +1%).
+pub const K_STORED: usize = 4;
 /// Offset in a cell of the weight `B` of the peaked part.
 pub const PEAK: usize = K_STORED;
 /// Order fractions stored per cell (orders 2, 3 and 4).
@@ -285,44 +301,42 @@ pub fn ndf_index(kind: NdfKind) -> Option<usize> {
     }
 }
 
-/// The multiply scattered lobe with F = 1 at a table point:
+/// The multiply scattered lobe with F = 1 at a table point given
+/// `sqrt(mu_i)` and `sqrt(mu_o)` (in `[0, 1]`):
 /// `(smooth part, B, [r2, r3, r4])`; the lobe is
 /// `smooth + B f_ss1` with `f_ss1` the single-scattering BSDF with F = 1
 /// (all without the cosine).
 #[inline]
 pub fn lookup(
     ndf: usize,
-    alpha_c: f32,
-    mu_i: f32,
-    mu_o: f32,
+    alpha: (usize, usize, f32),
+    root_mu_i: f32,
+    root_mu_o: f32,
     cos_phi: f32,
 ) -> (f32, f32, [f32; 3]) {
-    let (a0, a1, fa) = split(alpha_c, ALPHA_N);
-    let (i0, i1, fi) = split(mu_coord(mu_i), MU_N);
-    let (j0, j1, fj) = split(mu_coord(mu_o), MU_N);
-    let mut acc = [0.0f32; K + 1 + ORDERS];
+    const _: () = assert!(
+        CELL == 8 && K_STORED == 4,
+        "lookup reads a cell as two Vec4"
+    );
+    let (a0, a1, fa) = alpha;
+    let (i0, i1, fi) = split(root_mu_i * (MU_N - 1) as f32, MU_N);
+    let (j0, j1, fj) = split(root_mu_o * (MU_N - 1) as f32, MU_N);
+    let (mut lo, mut hi) = (Vec4::ZERO, Vec4::ZERO);
     for (a, wa) in [(a0, 1.0 - fa), (a1, fa)] {
         for (i, wi) in [(i0, 1.0 - fi), (i1, fi)] {
             let (b0, b1) = (lobe_index(ndf, a, i, j0), lobe_index(ndf, a, i, j1));
             let (w0, w1) = (wa * wi * (1.0 - fj), wa * wi * fj);
-            let (c0, c1) = (&LOBE[b0..b0 + CELL], &LOBE[b1..b1 + CELL]);
-            for k in 0..K {
-                acc[k] += w0 * c0[k] + w1 * c1[k];
-            }
-            for k in 0..=ORDERS {
-                acc[K + k] += w0 * c0[PEAK + k] + w1 * c1[PEAK + k];
-            }
+            lo +=
+                Vec4::from_slice(&LOBE[b0..b0 + 4]) * w0 + Vec4::from_slice(&LOBE[b1..b1 + 4]) * w1;
+            hi += Vec4::from_slice(&LOBE[b0 + 4..b0 + 8]) * w0
+                + Vec4::from_slice(&LOBE[b1 + 4..b1 + 8]) * w1;
         }
     }
-    // sum_k c_k cos(k phi) by the Chebyshev recurrence.
-    let (mut t0, mut t1) = (1.0f32, cos_phi);
-    let mut f = acc[0] + acc[1] * cos_phi;
-    for c in &acc[2..K] {
-        let t2 = 2.0 * cos_phi * t1 - t0;
-        f += c * t2;
-        (t0, t1) = (t1, t2);
-    }
-    (f, acc[K], [acc[K + 1], acc[K + 2], acc[K + 3]])
+    // sum_k c_k cos(k phi): cos 2 phi = 2 c^2 - 1, cos 3 phi = (4 c^2 - 3) c.
+    let c = cos_phi;
+    let c2 = c * c;
+    let f = lo.x + c * lo.y + (2.0 * c2 - 1.0) * lo.z + (4.0 * c2 - 3.0) * c * lo.w;
+    (f, hi.x, [hi.y, hi.z, hi.w])
 }
 
 /// `H_j = int hat_j(mu) mu dmu` of the hat function of node `j` in the
@@ -345,30 +359,34 @@ pub fn hat_moment(j: usize) -> f64 {
 /// Projects one exit direction `wo` (with `wi` in the x-z plane, `wi.x >= 0`)
 /// of weight `w` onto the hat functions in `sqrt(mu_o)` times `cos(k phi)`:
 /// adds to `moments[j][k]` (generator and tests).
-pub fn project_exit(wo: Vec3, w: f64, moments: &mut [[f64; K_STORED]; MU_N]) {
+pub fn project_exit<const N: usize>(wo: Vec3, w: f64, moments: &mut [[f64; N]; MU_N]) {
     let sxy = ((wo.x * wo.x + wo.y * wo.y) as f64).sqrt();
     let c = if sxy > 0.0 { wo.x as f64 / sxy } else { 1.0 };
     let x = mu_coord(wo.z) as f64;
     let j0 = (x as usize).min(MU_N - 2);
     let fr = x - j0 as f64;
     for (j, hw) in [(j0, 1.0 - fr), (j0 + 1, fr)] {
-        let ww = w * hw;
-        let m = &mut moments[j];
+        // cos(k phi) = T_k(c) by the Chebyshev recurrence.
         let (mut t0, mut t1) = (1.0, c);
-        m[0] += ww;
-        m[1] += ww * c;
-        for mk in m.iter_mut().skip(2) {
-            let t2 = 2.0 * c * t1 - t0;
-            *mk += ww * t2;
-            (t0, t1) = (t1, t2);
+        for (k, mk) in moments[j].iter_mut().enumerate() {
+            let t = match k {
+                0 => 1.0,
+                1 => c,
+                _ => {
+                    let t2 = 2.0 * c * t1 - t0;
+                    (t0, t1) = (t1, t2);
+                    t2
+                }
+            };
+            *mk += w * hw * t;
         }
     }
 }
 
 /// The multiply scattered albedo with F = 1 from `mu_i`.
 #[inline]
-pub fn ms_albedo(ndf: usize, alpha_c: f32, mu_i: f32) -> f32 {
-    let (a0, a1, fa) = split(alpha_c, ALPHA_N);
+pub fn ms_albedo(ndf: usize, alpha: (usize, usize, f32), mu_i: f32) -> f32 {
+    let (a0, a1, fa) = alpha;
     let (i0, i1, fi) = split(mu_coord(mu_i), MU_N);
     let v =
         |a| ALBEDO[albedo_index(ndf, a, i0)] * (1.0 - fi) + ALBEDO[albedo_index(ndf, a, i1)] * fi;
@@ -403,10 +421,12 @@ pub struct Tabulated {
     ndf: Ndf,
     facet: Facet,
     ndf_index: usize,
-    /// Table coordinate of the roughness (isotropic materials).
-    alpha_c: f32,
-    /// Scale-table coordinate of the roughness (isotropic materials).
-    alpha_sc: f32,
+    /// Lower and upper roughness nodes of the table and the weight of the
+    /// upper one (isotropic materials; the RMS roughness otherwise).
+    alpha: (usize, usize, f32),
+    /// The furnace scale at this roughness on the scale table's mu grid
+    /// (isotropic materials).
+    scale_row: [f32; SCALE_MU_N],
     anisotropic: bool,
     /// Effective Fresnel reflectance of inter-reflections per channel.
     fbar: Vec3,
@@ -432,13 +452,22 @@ impl Tabulated {
             }
             _ => Vec3::ONE,
         };
+        let anisotropic = ndf.alpha_x != ndf.alpha_y;
+        let mut scale_row = [1.0f32; SCALE_MU_N];
+        if !anisotropic {
+            let (s0, s1, fs) = split(scale_alpha_coord(alpha_rms), SCALE_ALPHA_N);
+            let (r0, r1) = (scale_index(ndf_index, s0, 0), scale_index(ndf_index, s1, 0));
+            for (i, v) in scale_row.iter_mut().enumerate() {
+                *v = SCALE[r0 + i] * (1.0 - fs) + SCALE[r1 + i] * fs;
+            }
+        }
         Tabulated {
             ndf,
             facet,
             ndf_index,
-            alpha_c,
-            alpha_sc: scale_alpha_coord(alpha_rms),
-            anisotropic: ndf.alpha_x != ndf.alpha_y,
+            alpha: split(alpha_c, ALPHA_N),
+            scale_row,
+            anisotropic,
             fbar,
         }
     }
@@ -448,38 +477,49 @@ impl Tabulated {
         self.fbar
     }
 
-    /// Table and scale-table coordinates of the roughness for a pair of
-    /// directions.
+    /// Table roughness nodes and furnace scales `s(mu_i) s(mu_o)` for a
+    /// pair of directions.
     #[inline]
-    fn alpha_c_pair(&self, wi: Vec3, wo: Vec3) -> (f32, f32) {
+    fn alpha_and_scale(&self, wi: Vec3, wo: Vec3, ri: f32, ro: f32) -> ((usize, usize, f32), f32) {
         if !self.anisotropic {
-            return (self.alpha_c, self.alpha_sc);
+            let row = |r: f32| {
+                let (i0, i1, f) = split(r * (SCALE_MU_N - 1) as f32, SCALE_MU_N);
+                self.scale_row[i0] * (1.0 - f) + self.scale_row[i1] * f
+            };
+            return (self.alpha, row(ri) * row(ro));
         }
         let (ax2, ay2) = (
             self.ndf.alpha_x * self.ndf.alpha_x,
             self.ndf.alpha_y * self.ndf.alpha_y,
         );
         let a = (0.5 * (alpha_proj2(ax2, ay2, wi) + alpha_proj2(ax2, ay2, wo))).sqrt();
-        (alpha_coord(a), scale_alpha_coord(a))
+        let asc = scale_alpha_coord(a);
+        (
+            split(alpha_coord(a), ALPHA_N),
+            scale(self.ndf_index, asc, wi.z) * scale(self.ndf_index, asc, wo.z),
+        )
     }
 
     /// The multiply scattered `f |wo.z|` for `wi.z > 0`, `wo.z > 0`, given
     /// the single-scattering `f_ss1 |wo.z|` with F = 1 of the same pair.
     #[inline]
     fn multiple(&self, wi: Vec3, wo: Vec3, ss1: f32) -> Vec3 {
-        let (ac, asc) = self.alpha_c_pair(wi, wo);
-        let (f, peak, r) = lookup(self.ndf_index, ac, wi.z, wo.z, cos_phi(wi, wo));
-        let s = scale(self.ndf_index, asc, wi.z) * scale(self.ndf_index, asc, wo.z);
+        let (ri, ro) = (wi.z.min(1.0).sqrt(), wo.z.min(1.0).sqrt());
+        let (alpha, s) = self.alpha_and_scale(wi, wo, ri, ro);
+        let (f, peak, r) = lookup(self.ndf_index, alpha, ri, ro, cos_phi(wi, wo));
         let b = self.fbar;
         let r5 = (1.0 - r[0] - r[1] - r[2]).max(0.0);
         let tint = b * b * (Vec3::splat(r[0]) + b * (Vec3::splat(r[1]) + b * (r[2] + b * r5)));
-        tint * ((f * wo.z + peak * ss1) * s)
+        // The smooth part is clamped at 0 (its cosine series can dip below 0
+        // next to a strong peaked part); the scale table integrates the
+        // clamped series, so the furnace holds with the clamp.
+        tint * ((f.max(0.0) * wo.z + peak * ss1) * s)
     }
 
     /// Weight of the cosine lobe in the sampling mixture for `mu_i`.
     #[inline]
     fn cosine_weight(&self, mu_i: f32) -> f32 {
-        ms_albedo(self.ndf_index, self.alpha_c, mu_i).clamp(0.02, 0.95)
+        ms_albedo(self.ndf_index, self.alpha, mu_i).clamp(0.02, 0.95)
     }
 
     /// Single scattering for `wi.z > 0`, `wo.z > 0`: `f_ss1 |wo.z|` with
@@ -504,17 +544,27 @@ impl Tabulated {
         )
     }
 
-    /// `f |wo.z|` and pdf of a pair in the frame where `wi.z > 0`.
+    /// The visible-normal pdf of `wo` alone (what [`Self::single_terms`]
+    /// returns last, without `Lambda(wo)` and the Fresnel factor).
     #[inline]
-    fn eval_pdf_upper(&self, wi: Vec3, wo: Vec3) -> (Vec3, f32) {
+    fn vndf_pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
+        let h = (wi + wo).normalize_or_zero();
+        if wi.dot(h) <= 0.0 || h.z <= 0.0 {
+            return 0.0;
+        }
+        self.ndf.d(h) / (4.0 * wi.z * (1.0 + self.ndf.lambda(wi)))
+    }
+
+    /// `f |wo.z|` and pdf of a pair in the frame where `wi.z > 0`, with the
+    /// mixture weight `q` of `wi`.
+    #[inline]
+    fn eval_pdf_upper(&self, wi: Vec3, wo: Vec3, q: f32) -> (Vec3, f32) {
         if wo.z <= 0.0 {
             return (Vec3::ZERO, 0.0);
         }
         let (ss1, fresnel, ps) = self.single_terms(wi, wo);
-        let q = self.cosine_weight(wi.z);
         let pdf = (1.0 - q) * ps + q * wo.z / PI;
-        let f = (fresnel * ss1 + self.multiple(wi, wo, ss1)).max(Vec3::ZERO);
-        (f, pdf)
+        (fresnel * ss1 + self.multiple(wi, wo, ss1), pdf)
     }
 }
 
@@ -543,9 +593,7 @@ impl ScatterModel for Tabulated {
             return Vec3::ZERO;
         }
         let (ss1, fresnel, _) = self.single_terms(wi, wo);
-        // The smooth part may dip below 0 under a strong peaked part: the
-        // sum is clamped, not the parts, so the furnace normalisation holds.
-        (fresnel * ss1 + self.multiple(wi, wo, ss1)).max(Vec3::ZERO)
+        fresnel * ss1 + self.multiple(wi, wo, ss1)
     }
 
     fn sample(&self, wi: Vec3, rng: &mut Rng) -> Sample {
@@ -564,7 +612,7 @@ impl ScatterModel for Tabulated {
         if wo.z <= 0.0 {
             return Sample::ABSORBED;
         }
-        let (f, pdf) = self.eval_pdf_upper(wi_l, wo);
+        let (f, pdf) = self.eval_pdf_upper(wi_l, wo, q);
         if !(pdf > 0.0) {
             return Sample::ABSORBED;
         }
@@ -577,8 +625,7 @@ impl ScatterModel for Tabulated {
         if wo.z <= 0.0 {
             return 0.0;
         }
-        let (_, _, ps) = self.single_terms(wi, wo);
         let q = self.cosine_weight(wi.z);
-        (1.0 - q) * ps + q * wo.z / PI
+        (1.0 - q) * self.vndf_pdf(wi, wo) + q * wo.z / PI
     }
 }
