@@ -23,7 +23,7 @@
 /** Library version this header describes; msbsdf_version() returns
     (MSBSDF_VERSION_MAJOR << 16) | (MSBSDF_VERSION_MINOR << 8) | MSBSDF_VERSION_PATCH. */
 #define MSBSDF_VERSION_MAJOR 0
-#define MSBSDF_VERSION_MINOR 2
+#define MSBSDF_VERSION_MINOR 3
 #define MSBSDF_VERSION_PATCH 0
 #define MSBSDF_VERSION ((MSBSDF_VERSION_MAJOR << 16) | (MSBSDF_VERSION_MINOR << 8) | MSBSDF_VERSION_PATCH)
 
@@ -77,6 +77,12 @@
  * Picks the cheapest model meeting `tolerance`.
  */
 #define MSBSDF_MODEL_AUTO 9
+
+/**
+ * Exact single scattering plus the HEITZ walk's orders >= 2 from compact
+ * precomputed tables: the accurate production tier (conductors; Beckmann, GGX).
+ */
+#define MSBSDF_MODEL_TABULATED 10
 
 /**
  * Unidirectional path tracing with next-event estimation (default).

@@ -220,9 +220,9 @@ fn coloured_conductors_against_walks_with_exact_fresnel() {
                             sums[c][1] += (w[c] as f64).powi(2);
                         }
                     }
-                    for c in 0..3 {
-                        let mean = sums[c][0] / n as f64;
-                        let se = ((sums[c][1] / n as f64 - mean * mean) / n as f64).sqrt();
+                    for (c, sc) in sums.iter().enumerate() {
+                        let mean = sc[0] / n as f64;
+                        let se = ((sc[1] / n as f64 - mean * mean) / n as f64).sqrt();
                         assert!(se < 1e-3);
                         let a_tab = albedo_quadrature(&tab, wi, alpha, alpha, c);
                         let a_ec = albedo_quadrature(&ec, wi, alpha, alpha, c);

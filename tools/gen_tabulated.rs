@@ -110,11 +110,11 @@ fn lobe_job(kind: NdfKind, alpha: f32, mu_i: f32, walks: u64, gram: u64, stream:
         let mut mom = [[0.0f64; K_FIT]; MU_N];
         project_exit(smp.wo, ss1 / smp.pdf as f64 / gram as f64, &mut mom);
         let f1 = ss1 / smp.wo.z as f64;
-        for j in 0..MU_N {
-            for k in 0..K_FIT {
-                s.gram_kb[j][k] += mom[j][k];
+        for ((g, bb), m) in s.gram_kb.iter_mut().zip(s.gram_bb.iter_mut()).zip(&mom) {
+            for (gk, mk) in g.iter_mut().zip(m) {
+                *gk += mk;
             }
-            s.gram_bb[j] += mom[j][0] * f1;
+            *bb += m[0] * f1;
         }
     }
     for _ in 0..walks {
@@ -758,7 +758,7 @@ fn finish(
                     mc_worst = mc_worst.max((r / t - 1.0).abs());
                 }
             }
-            let mut sc = vec![1.0f64; MU_N];
+            let mut sc = [1.0f64; MU_N];
             for _ in 0..200 {
                 for i in 0..MU_N {
                     let cur: f64 = (0..MU_N)
@@ -821,7 +821,7 @@ fn finish(
         bytes.extend_from_slice(&v.to_le_bytes());
     }
     assert_eq!(bytes.len(), FILE_BYTES);
-    let mut f = std::fs::File::create(&out).expect("create output");
+    let mut f = std::fs::File::create(out).expect("create output");
     f.write_all(&bytes).expect("write output");
     eprintln!("wrote {out} ({} bytes)", bytes.len());
 }

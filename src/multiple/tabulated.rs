@@ -613,7 +613,7 @@ impl ScatterModel for Tabulated {
             return Sample::ABSORBED;
         }
         let (f, pdf) = self.eval_pdf_upper(wi_l, wo, q);
-        if !(pdf > 0.0) {
+        if pdf.is_nan() || pdf <= 0.0 {
             return Sample::ABSORBED;
         }
         let wo = if flipped { flip_z(wo) } else { wo };
