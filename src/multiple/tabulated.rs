@@ -424,9 +424,8 @@ pub struct Tabulated {
     /// Lower and upper roughness nodes of the table and the weight of the
     /// upper one (isotropic materials; the RMS roughness otherwise).
     alpha: (usize, usize, f32),
-    /// The furnace scale at this roughness on the scale table's mu grid
-    /// (isotropic materials).
-    scale_row: [f32; SCALE_MU_N],
+    /// Scale-table roughness nodes and weight (isotropic materials).
+    scale_alpha: (usize, usize, f32),
     anisotropic: bool,
     /// Effective Fresnel reflectance of inter-reflections per channel.
     fbar: Vec3,
@@ -453,20 +452,12 @@ impl Tabulated {
             _ => Vec3::ONE,
         };
         let anisotropic = ndf.alpha_x != ndf.alpha_y;
-        let mut scale_row = [1.0f32; SCALE_MU_N];
-        if !anisotropic {
-            let (s0, s1, fs) = split(scale_alpha_coord(alpha_rms), SCALE_ALPHA_N);
-            let (r0, r1) = (scale_index(ndf_index, s0, 0), scale_index(ndf_index, s1, 0));
-            for (i, v) in scale_row.iter_mut().enumerate() {
-                *v = SCALE[r0 + i] * (1.0 - fs) + SCALE[r1 + i] * fs;
-            }
-        }
         Tabulated {
             ndf,
             facet,
             ndf_index,
             alpha: split(alpha_c, ALPHA_N),
-            scale_row,
+            scale_alpha: split(scale_alpha_coord(alpha_rms), SCALE_ALPHA_N),
             anisotropic,
             fbar,
         }
@@ -482,9 +473,16 @@ impl Tabulated {
     #[inline]
     fn alpha_and_scale(&self, wi: Vec3, wo: Vec3, ri: f32, ro: f32) -> ((usize, usize, f32), f32) {
         if !self.anisotropic {
+            let (s0, s1, fs) = self.scale_alpha;
+            let (r0, r1) = (
+                scale_index(self.ndf_index, s0, 0),
+                scale_index(self.ndf_index, s1, 0),
+            );
             let row = |r: f32| {
                 let (i0, i1, f) = split(r * (SCALE_MU_N - 1) as f32, SCALE_MU_N);
-                self.scale_row[i0] * (1.0 - f) + self.scale_row[i1] * f
+                let v0 = SCALE[r0 + i0] * (1.0 - f) + SCALE[r0 + i1] * f;
+                let v1 = SCALE[r1 + i0] * (1.0 - f) + SCALE[r1 + i1] * f;
+                v0 * (1.0 - fs) + v1 * fs
             };
             return (self.alpha, row(ri) * row(ro));
         }
