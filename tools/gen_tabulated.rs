@@ -27,11 +27,11 @@ use msbsdf::frame::reflect;
 use msbsdf::multiple::compensation::single_albedo;
 use msbsdf::multiple::heitz::{Heitz, default_max_bounces};
 use msbsdf::multiple::tabulated::{
-    ALBEDO_LEN, ALPHA_N, CELL, FILE_BYTES, FRESNEL_LEN, FRESNEL_Q, HEADER_BYTES, K_STORED,
-    LOBE_LEN, MAGIC, MU_N, NDF_N, ORDER0, ORDERS, PEAK, SCALE_ALPHA_N, SCALE_FILE_BYTES, SCALE_LEN,
-    SCALE_MAGIC, SCALE_MU_N, albedo_index, alpha_coord, fresnel_index, grid_alpha, grid_mu,
-    hat_moment, lobe_index, mu_coord, project_exit, scale_grid_alpha, scale_grid_mu, scale_index,
-    split,
+    ALBEDO_LEN, ALPHA_N, CELL, FILE_BYTES, FIRST_LEN, FRESNEL_LEN, FRESNEL_Q, HEADER_BYTES,
+    K_STORED, LOBE_LEN, MAGIC, MU_N, NDF_N, ORDER0, ORDERS, PEAK, SBAR_LEN, SCALE_ALPHA_N,
+    SCALE_FILE_BYTES, SCALE_LEN, SCALE_MAGIC, SCALE_MU_N, albedo_index, alpha_coord, fresnel_index,
+    grid_alpha, grid_mu, hat_moment, lobe_index, mu_coord, project_exit, scale_grid_alpha,
+    scale_grid_mu, scale_index, split,
 };
 use msbsdf::ndf::{Ndf, NdfKind};
 use msbsdf::single::{G2Form, Single};
@@ -44,6 +44,7 @@ const SEED_LOBE: u64 = 20261124;
 const SEED_FRESNEL: u64 = 20261125;
 const SEED_GRAM: u64 = 20261126;
 const SEED_SCALE: u64 = 20261127;
+const SEED_SCHLICK: u64 = 20261128;
 /// Cosine terms of the least-squares fit (the file keeps the first K_STORED).
 const K_FIT: usize = 8;
 /// Ridge of the peaked weight `B`, relative to its Gram entry: keeps `B`
@@ -154,10 +155,58 @@ fn lobe_job(kind: NdfKind, alpha: f32, mu_i: f32, walks: u64, gram: u64, stream:
     s
 }
 
+/// One walk of the F = 1 microsurface from `wi` (same steps as the
+/// library's walk: log-height `ln C1`, full-sphere Lambda, visible-normal
+/// sampling, mirror reflection), recording in `cos` the cosines `|w.m|` at
+/// its facets; true when it escaped after two or more of them.
+fn ms_path_cosines(
+    ndf: &Ndf,
+    max_bounces: u32,
+    wi: Vec3,
+    rng: &mut Rng,
+    cos: &mut Vec<f32>,
+) -> bool {
+    let mut w = -wi;
+    let mut lc = 0.0f64;
+    cos.clear();
+    for _ in 0..=max_bounces {
+        let lam = ndf.lambda(w) as f64;
+        let u = ((rng.next_u32() >> 8) as f64 + 0.5) / 16_777_216.0;
+        if w.z > 0.0 {
+            if lam.is_finite() {
+                let esc = (lam * lc).exp();
+                if u < esc {
+                    return cos.len() >= 2;
+                }
+                lc = (lc - (1.0 - u + esc).ln() / lam).min(0.0);
+            }
+        } else if lam.is_finite() && lam < 0.0 {
+            lc += u.ln() / (-lam);
+        }
+        let i = -w;
+        let m = ndf.sample_visible(i, rng.next_f32(), rng.next_f32());
+        let ci = i.dot(m);
+        if ci <= 0.0 || !m.is_finite() {
+            return false;
+        }
+        cos.push(ci);
+        w = reflect(i, m);
+    }
+    false
+}
+
+/// A cosine-distributed direction (the azimuth is irrelevant for isotropic
+/// roughness but drawn anyway).
+fn cosine_dir(rng: &mut Rng) -> Vec3 {
+    let mu = rng.next_f32().sqrt().max(MU_GRAZING);
+    let phi = 2.0 * std::f32::consts::PI * rng.next_f32();
+    let st = (1.0 - mu * mu).max(0.0).sqrt();
+    Vec3::new(st * phi.cos(), st * phi.sin(), mu)
+}
+
 /// Cosines `|w.m|` at which multiply scattered paths (F = 1) meet facets,
 /// from `wi` with cosine-distributed `mu_i`; returns the 1/6, 1/2, 5/6
-/// quantiles. Same steps as the library's walk (log-height `ln C1`,
-/// full-sphere Lambda, visible-normal sampling, mirror reflection).
+/// quantiles.
 fn fresnel_job(kind: NdfKind, alpha: f32, walks: u64, stream: u64) -> [f32; FRESNEL_Q] {
     let ndf = Ndf::new(kind, alpha, alpha);
     let max_bounces = default_max_bounces(alpha, alpha, &CONDUCTOR_F1);
@@ -166,39 +215,8 @@ fn fresnel_job(kind: NdfKind, alpha: f32, walks: u64, stream: u64) -> [f32; FRES
     let mut hist = vec![0.0f64; BINS];
     let mut cos = Vec::with_capacity(64);
     for _ in 0..walks {
-        let mu = rng.next_f32().sqrt().max(MU_GRAZING);
-        let phi = 2.0 * std::f32::consts::PI * rng.next_f32();
-        let st = (1.0 - mu * mu).max(0.0).sqrt();
-        let wi = Vec3::new(st * phi.cos(), st * phi.sin(), mu);
-        let mut w = -wi;
-        let mut lc = 0.0f64;
-        cos.clear();
-        let mut escaped = false;
-        for _ in 0..=max_bounces {
-            let lam = ndf.lambda(w) as f64;
-            let u = ((rng.next_u32() >> 8) as f64 + 0.5) / 16_777_216.0;
-            if w.z > 0.0 {
-                if lam.is_finite() {
-                    let esc = (lam * lc).exp();
-                    if u < esc {
-                        escaped = true;
-                        break;
-                    }
-                    lc = (lc - (1.0 - u + esc).ln() / lam).min(0.0);
-                }
-            } else if lam.is_finite() && lam < 0.0 {
-                lc += u.ln() / (-lam);
-            }
-            let i = -w;
-            let m = ndf.sample_visible(i, rng.next_f32(), rng.next_f32());
-            let ci = i.dot(m);
-            if ci <= 0.0 || !m.is_finite() {
-                break;
-            }
-            cos.push(ci);
-            w = reflect(i, m);
-        }
-        if escaped && cos.len() >= 2 {
+        let wi = cosine_dir(&mut rng);
+        if ms_path_cosines(&ndf, max_bounces, wi, &mut rng, &mut cos) {
             for &c in &cos {
                 hist[((c * BINS as f32) as usize).min(BINS - 1)] += 1.0;
             }
@@ -222,6 +240,34 @@ fn fresnel_job(kind: NdfKind, alpha: f32, walks: u64, stream: u64) -> [f32; FRES
         }
     }
     out
+}
+
+/// Schlick weights `(1 - c)^5` of multiply scattered paths (F = 1): the mean
+/// over their first facets from `wi = mu` (or, with `mu = None`, the mean
+/// over all their facets from cosine-distributed directions).
+fn schlick_job(kind: NdfKind, alpha: f32, mu: Option<f32>, walks: u64, stream: u64) -> f64 {
+    let ndf = Ndf::new(kind, alpha, alpha);
+    let max_bounces = default_max_bounces(alpha, alpha, &CONDUCTOR_F1);
+    let mut rng = Rng::new(SEED_SCHLICK, stream);
+    let mut cos = Vec::with_capacity(64);
+    let (mut sum, mut count) = (0.0f64, 0.0f64);
+    for _ in 0..walks {
+        let wi = match mu {
+            Some(m) => dir(m),
+            None => cosine_dir(&mut rng),
+        };
+        if ms_path_cosines(&ndf, max_bounces, wi, &mut rng, &mut cos) {
+            let w5 = |c: f32| ((1.0 - c as f64).max(0.0)).powi(5);
+            if mu.is_some() {
+                sum += w5(cos[0]);
+                count += 1.0;
+            } else {
+                sum += cos.iter().map(|&c| w5(c)).sum::<f64>();
+                count += cos.len() as f64;
+            }
+        }
+    }
+    if count > 0.0 { sum / count } else { 0.0 }
 }
 
 /// Runs jobs on `threads` threads with a progress bar on stderr.
@@ -300,6 +346,7 @@ fn arg<T: std::str::FromStr>(args: &[String], name: &str, default: T) -> T {
 /// `--scale`: the furnace scale table from the committed lobe table.
 fn scale_main(args: &[String]) {
     let samples: u64 = arg(args, "--gram-samples", 100_000);
+    let schlick_walks: u64 = arg(args, "--schlick-walks", 100_000);
     let threads: usize = arg(args, "--threads", 2);
     let table: String = arg(args, "--table", "data/tabulated_conductor.bin".to_string());
     let out: String = arg(args, "--out", "data/tabulated_scale.bin".to_string());
@@ -367,6 +414,33 @@ fn scale_main(args: &[String]) {
         let m = s * s * 2.0 * s / nq as f64;
         wf[y0] += (1.0 - fr) * m * 2.0 * PI;
         wf[y0 + 1] += fr * m * 2.0 * PI;
+    }
+    // Schlick weights of the first facets (per mu node) and of all facets.
+    let sjobs: Vec<(usize, usize, Option<usize>)> = (0..NDF_N)
+        .flat_map(|n| {
+            (1..ALPHA_N).flat_map(move |a| {
+                (0..MU_N)
+                    .map(move |i| (n, a, Some(i)))
+                    .chain(std::iter::once((n, a, None)))
+            })
+        })
+        .collect();
+    let schlick = parallel(&sjobs, "schlick", threads, |idx, &(n, a, i)| {
+        schlick_job(
+            NDFS[n],
+            grid_alpha(a),
+            i.map(node_mu),
+            schlick_walks,
+            idx as u64,
+        )
+    });
+    let mut first = vec![0.0f32; FIRST_LEN];
+    let mut sbar = vec![0.0f32; SBAR_LEN];
+    for (&(n, a, i), v) in sjobs.iter().zip(&schlick) {
+        match i {
+            Some(i) => first[albedo_index(n, a, i)] = *v as f32,
+            None => sbar[n * ALPHA_N + a] = *v as f32,
+        }
     }
     let mut scale = vec![1.0f32; SCALE_LEN];
     let (mut worst_before, mut worst_after, mut s_min, mut s_max) =
@@ -454,7 +528,7 @@ fn scale_main(args: &[String]) {
          lobe table: {table} ({table_commit})\n\
          E_ss: SINGLE quadrature 192 x 192; albedo of the peaked part: {samples} SINGLE samples per node, seed Rng::new({SEED_SCALE}, stream = job index)\n\
          albedo of the alpha-interpolated table vs 1 - E_ss: worst relative deviation {worst_before:.3e} (targets > 1e-3); after scaling {worst_after:.3e}; scales in [{s_min:.4}, {s_max:.4}]\n\
-         grid: ndf {NDF_N} x alpha {SCALE_ALPHA_N} x mu {SCALE_MU_N}\n\
+         grid: ndf {NDF_N} x alpha {SCALE_ALPHA_N} x mu {SCALE_MU_N}; then the Schlick weights (1 - c)^5 of multiply scattered paths: first facets per (ndf, alpha node, mu node), all facets per (ndf, alpha node); instrumented walk, {schlick_walks} walks per entry, seed Rng::new({SEED_SCHLICK}, stream = job index)\n\
          wall time: {:.0} s on {threads} threads\n",
         args[1..].join(" "),
         git_commit(),
@@ -466,7 +540,7 @@ fn scale_main(args: &[String]) {
     assert!(bytes.len() <= HEADER_BYTES, "header too long");
     assert!(bytes.starts_with(SCALE_MAGIC));
     bytes.resize(HEADER_BYTES, 0);
-    for v in &scale {
+    for v in scale.iter().chain(&first).chain(&sbar) {
         bytes.extend_from_slice(&v.to_le_bytes());
     }
     assert_eq!(bytes.len(), SCALE_FILE_BYTES);
