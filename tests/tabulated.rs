@@ -190,10 +190,12 @@ fn reciprocity() {
 /// Coloured conductors: the directional albedo per channel against the
 /// library's HEITZ walk with the exact complex Fresnel (mean of 200,000
 /// sample weights, standard error below 1e-3). The tint is an
-/// approximation (one effective reflectance per channel, exact order
-/// fractions): asserted within 3% of the albedo plus 4 standard errors
-/// (measured worst 2.4%, gold's blue channel, Beckmann alpha 1; RMS over
-/// the cases 0.57%, against ENERGY_COMPENSATED's 1.2% and 0.21%, printed).
+/// approximation (one effective reflectance per channel, tabulated order
+/// fractions, first and last facets from the tabulated Schlick weights):
+/// asserted within 1.5% of the albedo plus 4 standard errors (measured
+/// worst 1.04%, gold's blue channel, GGX alpha 1 at 70 degrees; RMS over the
+/// 120 cases 0.37%, against ENERGY_COMPENSATED's worst 1.22% and RMS 0.21%,
+/// printed).
 #[test]
 fn coloured_conductors_against_walks_with_exact_fresnel() {
     let mut report = String::new();
@@ -232,7 +234,7 @@ fn coloured_conductors_against_walks_with_exact_fresnel() {
                         report += &format!(
                             "{ndf:?} {alpha} {name} {theta} ch{c}: walk {mean:.4} +- {se:.1e}, TABULATED {a_tab:.4}, ENERGY_COMPENSATED {a_ec:.4}\n"
                         );
-                        worst_abs = worst_abs.max(e_tab - 4.0 * se - 0.03 * mean);
+                        worst_abs = worst_abs.max(e_tab - 4.0 * se - 0.015 * mean);
                     }
                 }
             }

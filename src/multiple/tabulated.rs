@@ -90,7 +90,7 @@ use crate::frame::{flip_z, reflect};
 use crate::fresnel;
 use crate::ndf::{Ndf, NdfKind};
 use crate::rng::Rng;
-use glam::{Vec3, Vec4};
+use glam::{Vec3, Vec3A, Vec4};
 use std::f32::consts::PI;
 
 /// Number of NDFs in the table (Beckmann, GGX).
@@ -450,11 +450,54 @@ pub struct Tabulated {
     anisotropic: bool,
     /// Effective Fresnel reflectance of inter-reflections per channel.
     fbar: Vec3,
-    /// `1 - F0` of the Schlick curve with the same mean as `fbar` over the
-    /// facets of multiply scattered paths.
-    one_minus_f0: Vec3,
-    /// Mean Schlick weight `(1 - c)^5` over those facets at this roughness.
-    sbar: f32,
+    /// The reflectance against the Schlick weight, for the first and last
+    /// facets.
+    fresnel_curve: FresnelCurve,
+}
+
+/// The exact Fresnel reflectance of a conductor as a piecewise linear
+/// function of the Schlick weight `w = (1 - c)^5` through three points,
+/// offset so that it gives `fbar` at the mean weight `sbar`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct FresnelCurve {
+    /// Weights, decreasing (cosines increasing).
+    w: [f32; 3],
+    /// Slopes of the two segments `[w1, w0]` and `[w2, w1]`.
+    slope: [Vec3A; 2],
+    /// Value at `w[1]` plus the offset.
+    mid: Vec3A,
+}
+
+impl FresnelCurve {
+    fn new(p: [(f32, Vec3); 3], fbar: Vec3, sbar: f32) -> Self {
+        let seg = |a: (f32, Vec3), b: (f32, Vec3)| {
+            let dw = a.0 - b.0;
+            if dw.abs() > 1e-6 {
+                Vec3A::from((a.1 - b.1) / dw)
+            } else {
+                Vec3A::ZERO
+            }
+        };
+        let mut c = FresnelCurve {
+            w: [p[0].0, p[1].0, p[2].0],
+            slope: [seg(p[0], p[1]), seg(p[1], p[2])],
+            mid: Vec3A::from(p[1].1),
+        };
+        c.mid += Vec3A::from(fbar) - c.at(sbar);
+        c
+    }
+
+    /// The curve at weight `x` (linear extrapolation beyond the ends).
+    #[inline]
+    fn at(&self, x: f32) -> Vec3A {
+        let d = x - self.w[1];
+        let slope = if d >= 0.0 {
+            self.slope[0]
+        } else {
+            self.slope[1]
+        };
+        self.mid + slope * d
+    }
 }
 
 impl Tabulated {
@@ -464,32 +507,32 @@ impl Tabulated {
         let ndf_index = ndf_index(ndf.kind).unwrap_or(1);
         let alpha_rms = (0.5 * (ndf.alpha_x * ndf.alpha_x + ndf.alpha_y * ndf.alpha_y)).sqrt();
         let alpha_c = alpha_coord(alpha_rms);
-        let fbar = match facet {
-            Facet::Conductor { eta, k } => {
-                let (a0, a1, fa) = split(alpha_c, ALPHA_N);
-                let (q0, q1) = (fresnel_index(ndf_index, a0), fresnel_index(ndf_index, a1));
-                let mut s = Vec3::ZERO;
-                for q in 0..FRESNEL_Q {
-                    let c = FRESNEL_COS[q0 + q] * (1.0 - fa) + FRESNEL_COS[q1 + q] * fa;
-                    s += fresnel::conductor_rgb(c, eta, k);
-                }
-                s * (1.0 / FRESNEL_Q as f32)
-            }
-            _ => Vec3::ONE,
-        };
-        let anisotropic = ndf.alpha_x != ndf.alpha_y;
         let alpha = split(alpha_c, ALPHA_N);
+        // The exact Fresnel at the three quantile cosines of the facets of
+        // multiply scattered paths, against the Schlick weight w = (1 - c)^5.
+        let mut curve = [(0.0f32, Vec3::ONE); FRESNEL_Q];
+        if let Facet::Conductor { eta, k } = facet {
+            let (a0, a1, fa) = alpha;
+            let (q0, q1) = (fresnel_index(ndf_index, a0), fresnel_index(ndf_index, a1));
+            for (q, point) in curve.iter_mut().enumerate() {
+                let c = FRESNEL_COS[q0 + q] * (1.0 - fa) + FRESNEL_COS[q1 + q] * fa;
+                *point = (
+                    (1.0 - c).max(0.0).powi(5),
+                    fresnel::conductor_rgb(c, eta, k),
+                );
+            }
+        }
+        let fbar = (curve[0].1 + curve[1].1 + curve[2].1) * (1.0 / FRESNEL_Q as f32);
+        let anisotropic = ndf.alpha_x != ndf.alpha_y;
         let sbar = SBAR[ndf_index * ALPHA_N + alpha.0] * (1.0 - alpha.2)
             + SBAR[ndf_index * ALPHA_N + alpha.1] * alpha.2;
-        // Schlick with the same mean: F0 (1 - sbar) + sbar = fbar.
-        let f0 = ((fbar - Vec3::splat(sbar)) / (1.0 - sbar).max(1e-6)).clamp(Vec3::ZERO, Vec3::ONE);
+        let fresnel_curve = FresnelCurve::new(curve, fbar, sbar);
         Tabulated {
             ndf,
             facet,
             ndf_index,
             alpha,
-            one_minus_f0: Vec3::ONE - f0,
-            sbar,
+            fresnel_curve,
             scale_alpha: split(scale_alpha_coord(alpha_rms), SCALE_ALPHA_N),
             anisotropic,
             fbar,
@@ -538,7 +581,7 @@ impl Tabulated {
         let (ri, ro) = (wi.z.min(1.0).sqrt(), wo.z.min(1.0).sqrt());
         let (alpha, s) = self.alpha_and_scale(wi, wo, ri, ro);
         let (f, peak, r) = lookup(self.ndf_index, alpha, ri, ro, cos_phi(wi, wo));
-        let b = self.fbar;
+        let b = Vec3A::from(self.fbar);
         // First and last facets: the reflectance at the cosines seen from
         // mu_i and mu_o (Schlick-shaped deviation from fbar).
         let fe = |r: f32| {
@@ -549,15 +592,14 @@ impl Tabulated {
                 FIRST[base + i0] * (1.0 - fi) + FIRST[base + i1] * fi
             };
             let sf = at(a0) * (1.0 - fa) + at(a1) * fa;
-            (b + self.one_minus_f0 * (sf - self.sbar)).clamp(Vec3::ZERO, Vec3::ONE)
+            self.fresnel_curve.at(sf).clamp(Vec3A::ZERO, Vec3A::ONE)
         };
         let r5 = (1.0 - r[0] - r[1] - r[2]).max(0.0);
-        let tint =
-            fe(ri) * fe(ro) * (Vec3::splat(r[0]) + b * (Vec3::splat(r[1]) + b * (r[2] + b * r5)));
+        let tint = fe(ri) * fe(ro) * (b * (b * (b * r5 + r[2]) + r[1]) + r[0]);
         // The smooth part is clamped at 0 (its cosine series can dip below 0
         // next to a strong peaked part); the scale table integrates the
         // clamped series, so the furnace holds with the clamp.
-        tint * ((f.max(0.0) * wo.z + peak * ss1) * s)
+        Vec3::from(tint * ((f.max(0.0) * wo.z + peak * ss1) * s))
     }
 
     /// Weight of the cosine lobe in the sampling mixture for `mu_i`.
