@@ -872,7 +872,7 @@ fn finish(
          albedo before rescaling vs 1 - E_ss: worst relative deviation {:.3e} (targets > 1e-3); after: {:.3e}\n\
          peaked part: Gram entries by {gram} SINGLE samples per node (seed Rng::new({SEED_GRAM}, stream = job index)), ridge {RIDGE} x G_BB\n\
          grid: ndf {NDF_N} x alpha {ALPHA_N} x mu_i {MU_N} x mu_o {MU_N} x {CELL} floats (K = {K_STORED} cosine terms of a {K_FIT}-term fit, peaked weight B, order fractions 2, 3, 4)\n\
-         wall time: {:.0} s on {threads} threads\n",
+         {}wall time: {:.0} s on {threads} threads\n",
         args[1..].join(" "),
         git_commit(),
         (sym_num / sym_den.max(1e-300)).sqrt(),
@@ -880,6 +880,13 @@ fn finish(
         (sym_num3 / sym_den3.max(1e-300)).sqrt(),
         mc_worst,
         norm_worst,
+        match args.iter().position(|a| a == "--from-dump") {
+            Some(p) => format!(
+                "walk sums: loaded from {} (written with --dump by a run with the same walk arguments)\n",
+                args.get(p + 1).map(String::as_str).unwrap_or("?")
+            ),
+            None => String::new(),
+        },
         t0.elapsed().as_secs_f64(),
     );
     eprint!("{header}");
