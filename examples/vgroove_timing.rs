@@ -44,6 +44,7 @@ fn ir_mode(args: &[String]) {
     let model = match get(2) {
         "single" => Model::Single,
         "vgroove_ns" => Model::VGrooveNonsymmetric,
+        "tabulated" => Model::Tabulated,
         _ => Model::VGroove,
     };
     let ndf = match get(3) {
@@ -80,6 +81,16 @@ fn ir_mode(args: &[String]) {
         match op {
             "sample" => acc += m.sample(a, &mut rng).weight,
             "pdf" => acc.x += m.pdf(a, b),
+            "init" => {
+                // Material::new with the roughness changing on every call.
+                let alpha = 0.2 + (j & 63) as f32 * 0.01;
+                let dd = MaterialDesc {
+                    alpha_x: alpha,
+                    alpha_y: alpha,
+                    ..d
+                };
+                black_box(Material::new(&dd).ok());
+            }
             _ => acc += m.eval(a, b, &mut rng),
         }
     }

@@ -92,6 +92,12 @@
 #define MSBSDF_MODEL_AUTO 9
 
 /**
+ * Exact single scattering plus the HEITZ walk's orders >= 2 from compact
+ * precomputed tables: the accurate production tier (conductors; Beckmann, GGX).
+ */
+#define MSBSDF_MODEL_TABULATED 10
+
+/**
  * Unidirectional path tracing with next-event estimation (default).
  */
 #define MSBSDF_ESTIMATOR_PT 0

@@ -65,6 +65,9 @@ pub const MSBSDF_MODEL_VGROOVE_NONSYMMETRIC: u32 = 7;
 pub const MSBSDF_MODEL_NULL_SCATTERING: u32 = 8;
 /// Picks the cheapest model meeting `tolerance`.
 pub const MSBSDF_MODEL_AUTO: u32 = 9;
+/// Exact single scattering plus the HEITZ walk's orders >= 2 from compact
+/// precomputed tables: the accurate production tier (conductors; Beckmann, GGX).
+pub const MSBSDF_MODEL_TABULATED: u32 = 10;
 
 /// Unidirectional path tracing with next-event estimation (default).
 pub const MSBSDF_ESTIMATOR_PT: u32 = 0;
@@ -431,6 +434,7 @@ fn model_from_c(v: u32) -> Result<Model, Error> {
         MSBSDF_MODEL_VGROOVE_NONSYMMETRIC => Model::VGrooveNonsymmetric,
         MSBSDF_MODEL_NULL_SCATTERING => Model::NullScattering,
         MSBSDF_MODEL_AUTO => Model::Auto,
+        MSBSDF_MODEL_TABULATED => Model::Tabulated,
         _ => return Err(Error::UnknownConstant),
     })
 }
@@ -1247,6 +1251,7 @@ fn model_to_c(m: Model) -> u32 {
         Model::VGrooveNonsymmetric => MSBSDF_MODEL_VGROOVE_NONSYMMETRIC,
         Model::NullScattering => MSBSDF_MODEL_NULL_SCATTERING,
         Model::Auto => MSBSDF_MODEL_AUTO,
+        Model::Tabulated => MSBSDF_MODEL_TABULATED,
     }
 }
 

@@ -51,6 +51,8 @@ pub enum Model {
     NullScattering,
     /// Picks the cheapest model meeting a tolerance.
     Auto,
+    /// Exact single scattering plus the HEITZ walk's orders >= 2 from tables.
+    Tabulated,
 }
 
 /// Estimator of the position-free models (`MSBSDF_ESTIMATOR_*`).

@@ -13,6 +13,7 @@ use crate::multiple::compensation::Compensated;
 use crate::multiple::heitz::Heitz;
 use crate::multiple::invariance::Invariance;
 use crate::multiple::position_free::PositionFree;
+use crate::multiple::tabulated::Tabulated;
 use crate::multiple::vgroove::VGroove;
 use crate::rng::Rng;
 use crate::single::Single;
@@ -43,6 +44,8 @@ pub enum BaseModel {
     BitterliDeon(BitterliDeon),
     /// `MSBSDF_MODEL_VGROOVE` and `_NONSYMMETRIC`.
     VGroove(VGroove),
+    /// `MSBSDF_MODEL_TABULATED`.
+    Tabulated(Tabulated),
 }
 
 macro_rules! base_dispatch {
@@ -56,6 +59,7 @@ macro_rules! base_dispatch {
             BaseModel::Invariance($m) => $body,
             BaseModel::BitterliDeon($m) => $body,
             BaseModel::VGroove($m) => $body,
+            BaseModel::Tabulated($m) => $body,
         }
     };
 }

@@ -18,6 +18,7 @@ use crate::multiple::heitz::Heitz;
 use crate::multiple::invariance::{self, Invariance};
 use crate::multiple::null_scattering::{self, NullNdf, NullNdfKind, NullScattering};
 use crate::multiple::position_free::PositionFree;
+use crate::multiple::tabulated::{self, Tabulated};
 use crate::multiple::vgroove::{VGroove, dist::Family};
 use crate::ndf::{Ndf, NdfKind};
 use crate::rng::Rng;
@@ -302,6 +303,18 @@ impl Material {
                 }
                 let ndf = smith_ndf(kind);
                 ModelImpl::Base(BaseModel::Compensated(Compensated::new(ndf, facet)))
+            }
+            Model::Tabulated => {
+                // Tables for Beckmann and GGX conductors up to tabulated::MAX_ALPHA.
+                let kind = ndf_kind.ok_or(Error::Unsupported)?;
+                if tabulated::ndf_index(kind).is_none() || !matches!(facet, Facet::Conductor { .. })
+                {
+                    return Err(Error::Unsupported);
+                }
+                if d.alpha_x > tabulated::MAX_ALPHA || d.alpha_y > tabulated::MAX_ALPHA {
+                    return Err(Error::InvalidArgument);
+                }
+                ModelImpl::Base(BaseModel::Tabulated(Tabulated::new(smith_ndf(kind), facet)))
             }
             Model::HeitzRandomWalk => {
                 let kind = ndf_kind.ok_or(Error::Unsupported)?;

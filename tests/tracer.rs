@@ -255,7 +255,7 @@ fn tracer_runs_clean_under_asan_and_ubsan() {
     }
 }
 
-const ENERGY_CONSERVING: [(Model, &str); 8] = [
+const ENERGY_CONSERVING: [(Model, &str); 9] = [
     (Model::HeitzRandomWalk, "heitz_random_walk"),
     (Model::PositionFree, "position_free"),
     (Model::Invariance, "invariance"),
@@ -264,6 +264,7 @@ const ENERGY_CONSERVING: [(Model, &str); 8] = [
     (Model::VGrooveNonsymmetric, "vgroove_nonsymmetric"),
     (Model::NullScattering, "null_scattering"),
     (Model::EnergyCompensated, "energy_compensated"),
+    (Model::Tabulated, "tabulated"),
 ];
 
 /// A furnace render (background radiance 1) of one model at 64x64.

@@ -17,7 +17,7 @@
 static const char *const MODEL_NAMES[] = {
     "single",        "energy_compensated", "heitz_random_walk",    "position_free",
     "invariance",    "bitterli_deon",      "vgroove",              "vgroove_nonsymmetric",
-    "null_scattering", "auto",
+    "null_scattering", "auto",              "tabulated",
 };
 #define NMODELS ((int)(sizeof MODEL_NAMES / sizeof MODEL_NAMES[0]))
 

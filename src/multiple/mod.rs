@@ -16,4 +16,5 @@ pub mod invariance;
 pub mod microsurface;
 pub mod null_scattering;
 pub mod position_free;
+pub mod tabulated;
 pub mod vgroove;

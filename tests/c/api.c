@@ -456,7 +456,7 @@ static void test_unnormalised(const msbsdf_material *mat, const char *name)
 
 static void test_unknown_constants(void)
 {
-    const uint32_t bad_model[] = {10, 11, 0x7fffffffu, 0xffffffffu};
+    const uint32_t bad_model[] = {11, 12, 0x7fffffffu, 0xffffffffu};
     const uint32_t bad_ndf[] = {7, 8, 0xffffffffu};
     const uint32_t bad_facet[] = {4, 5, 0xffffffffu};
     const uint32_t bad_estimator[] = {2, 3, 0xffffffffu};

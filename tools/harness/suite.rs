@@ -105,8 +105,9 @@ pub fn c_desc(d: &MaterialDesc) -> msbsdf_material_desc {
 }
 
 /// Every model with its C constant and name (AUTO excluded).
-pub const MODELS: [(Model, u32, &str); 9] = [
+pub const MODELS: [(Model, u32, &str); 10] = [
     (Model::Single, MSBSDF_MODEL_SINGLE, "SINGLE"),
+    (Model::Tabulated, MSBSDF_MODEL_TABULATED, "TABULATED"),
     (
         Model::EnergyCompensated,
         MSBSDF_MODEL_ENERGY_COMPENSATED,

@@ -1,0 +1,455 @@
+//! MSBSDF_MODEL_TABULATED: white furnace (eval quadrature and sample
+//! weights), sample against pdf (chi-square), reciprocity, coloured
+//! conductors against walks with the exact complex Fresnel, accuracy on the
+//! project suite against the committed reference values, re-estimation of
+//! random table cells with the library's walk, and a stability sweep.
+
+mod common;
+use common::*;
+use glam::Vec3;
+use msbsdf::bsdf::ScatterModel;
+use msbsdf::facet::Facet;
+use msbsdf::multiple::compensation::single_albedo;
+use msbsdf::multiple::heitz::Heitz;
+use msbsdf::multiple::tabulated::{
+    self, LOBE, MU_N, PEAK, grid_alpha, grid_mu, hat_moment, lobe_index, project_exit,
+};
+use msbsdf::ndf::{Ndf, NdfKind};
+use msbsdf::single::{G2Form, Single};
+use msbsdf::{FacetKind, Material, MaterialDesc, Model, NdfId, Rng};
+
+const NDFS: [NdfId; 2] = [NdfId::Beckmann, NdfId::Ggx];
+
+/// Bound on the anisotropic furnace error: the multiply scattered part is
+/// read from the isotropic table at an effective roughness and is not
+/// normalised per direction (measured worst 0.203, GGX (0.3, 1) at 80
+/// degrees along x; (0.05, 1) reaches 0.29 and is not tested).
+const ANISO_FURNACE: f64 = 0.21;
+
+/// Complex IOR (eta, k) per RGB channel (about 650, 550, 450 nm).
+const METALS: [(&str, [f32; 3], [f32; 3]); 5] = [
+    ("gold", [0.143, 0.374, 1.442], [3.983, 2.385, 1.603]),
+    ("copper", [0.200, 0.924, 1.102], [3.912, 2.452, 2.142]),
+    ("aluminium", [1.657, 0.880, 0.521], [9.224, 6.270, 4.837]),
+    ("silver", [0.155, 0.130, 0.135], [4.830, 3.480, 2.470]),
+    ("chromium", [3.180, 3.180, 2.350], [3.320, 3.330, 3.220]),
+];
+
+fn desc(model: Model, ndf: NdfId, ax: f32, ay: f32, eta: [f32; 3], k: [f32; 3]) -> MaterialDesc {
+    MaterialDesc {
+        model,
+        ndf,
+        facet: FacetKind::Conductor,
+        alpha_x: ax,
+        alpha_y: ay,
+        eta: Vec3::from(eta),
+        k: Vec3::from(k),
+        ..MaterialDesc::default()
+    }
+}
+
+fn mirror(ndf: NdfId, ax: f32, ay: f32) -> Material {
+    Material::new(&desc(Model::Tabulated, ndf, ax, ay, [0.0; 3], [1.0; 3])).expect("valid")
+}
+
+/// Directional albedo per channel by deterministic quadrature of eval.
+fn albedo_quadrature(m: &Material, wi: Vec3, ax: f32, ay: f32, c: usize) -> f64 {
+    let mut rng = Rng::new(0, 0);
+    single_albedo(|a, b| m.eval(a, b, &mut rng)[c], ax, ay, wi, None, 400)
+}
+
+/// White furnace with F = 1 to 89 degrees: the quadrature of eval and the
+/// mean of 400,000 sample weights are both 1 within 0.5%; the standard error
+/// of the sample mean is asserted below 1e-3 so the test can see a 0.5% loss.
+#[test]
+fn white_furnace_eval_and_sample() {
+    let mut worst: f64 = 0.0;
+    let mut report = String::new();
+    for ndf in NDFS {
+        for (ax, ay) in [(0.05, 0.05), (0.3, 0.3), (0.6, 0.6), (1.0, 1.0), (1.9, 1.9)] {
+            let m = mirror(ndf, ax, ay);
+            for (t, theta) in [0.0, 30.0, 60.0, 80.0, 85.0, 89.0].into_iter().enumerate() {
+                let wi = dir_deg(theta);
+                let q = albedo_quadrature(&m, wi, ax, ay, 0);
+                let mut rng = Rng::new(77, t as u64);
+                let (mean, se) =
+                    mean_and_error((0..400_000).map(|_| m.sample(wi, &mut rng).weight.x as f64));
+                assert!(se < 1e-3, "{ndf:?} {ax} {theta}: standard error {se}");
+                report +=
+                    &format!("{ndf:?} {ax} {theta}: quad {q:.4} sample {mean:.4} +- {se:.1e}\n");
+                worst = worst.max((q - 1.0).abs());
+                assert!((q - 1.0).abs() < 5e-3, "{report}");
+                assert!((mean - 1.0).abs() < 5e-3 + 3.0 * se, "{report}");
+            }
+        }
+    }
+    println!("{report}worst |quadrature - 1| = {worst:.2e}");
+}
+
+/// Anisotropic roughness: the effective-roughness lookup is not normalised
+/// per direction; its furnace error is measured and bounded by
+/// [`ANISO_FURNACE`] (a regression bound, far from the isotropic 0.5%).
+#[test]
+fn white_furnace_anisotropic() {
+    let mut report = String::new();
+    let mut worst: f64 = 0.0;
+    for ndf in NDFS {
+        for (ax, ay) in [(0.1, 0.6), (0.3, 1.0)] {
+            let m = mirror(ndf, ax, ay);
+            for theta in [0.0, 45.0, 80.0, 89.0] {
+                for phi in [0.0f32, 45.0, 90.0] {
+                    let d = dir_deg(theta);
+                    let (s, c) = phi.to_radians().sin_cos();
+                    let wi = Vec3::new(d.x * c, d.x * s, d.z);
+                    let q = albedo_quadrature(&m, wi, ax, ay, 0);
+                    report += &format!("{ndf:?} ({ax},{ay}) {theta} {phi}: {q:.4}\n");
+                    worst = worst.max((q - 1.0).abs());
+                }
+            }
+        }
+    }
+    println!("{report}worst |albedo - 1| = {worst:.4}");
+    assert!(worst < ANISO_FURNACE, "{report}");
+}
+
+/// Sample directions against the pdf: chi-square per configuration with a
+/// Sidak-corrected 1% level; `chi2_sample_vs_pdf` also checks that
+/// sample's pdf equals pdf() and its weight eval / pdf.
+#[test]
+fn chi_square_sample_against_pdf() {
+    let cases: Vec<(NdfId, f32, f32, f64)> = NDFS
+        .iter()
+        .flat_map(|&n| {
+            [(0.1, 0.1), (0.5, 0.5), (1.0, 1.0), (0.1, 0.6)]
+                .into_iter()
+                .flat_map(move |(ax, ay)| [0.0, 50.0, 85.0].map(|t| (n, ax, ay, t)))
+        })
+        .collect();
+    let level = sidak(0.01, cases.len());
+    for (idx, &(ndf, ax, ay, theta)) in cases.iter().enumerate() {
+        let m = Material::new(&desc(
+            Model::Tabulated,
+            ndf,
+            ax,
+            ay,
+            METALS[0].1,
+            METALS[0].2,
+        ))
+        .expect("valid");
+        let r = chi2_sample_vs_pdf(&m, dir_deg(theta), ax, ay, None, 150_000, 500 + idx as u64);
+        assert!(
+            r.p > level,
+            "{ndf:?} ({ax},{ay}) theta {theta}: chi2 {:.1} dof {} p {:.2e}",
+            r.chi2,
+            r.dof,
+            r.p
+        );
+    }
+}
+
+/// f(wi, wo) = f(wo, wi): the table is symmetric and read the same way in
+/// both directions, so only f32 rounding remains (bounded at 1e-4
+/// relative; the single-scattering term is reciprocal to ~1e-6).
+#[test]
+fn reciprocity() {
+    let mut rng = Rng::new(5, 5);
+    let mut worst: f32 = 0.0;
+    for ndf in NDFS {
+        for (ax, ay) in [(0.05, 0.05), (0.3, 0.3), (1.0, 1.0), (0.1, 0.6)] {
+            let m = Material::new(&desc(
+                Model::Tabulated,
+                ndf,
+                ax,
+                ay,
+                METALS[1].1,
+                METALS[1].2,
+            ))
+            .expect("valid");
+            for _ in 0..2000 {
+                let d = |rng: &mut Rng| {
+                    let mu = rng.next_f32().max(1e-3);
+                    let phi = 2.0 * std::f32::consts::PI * rng.next_f32();
+                    let s = (1.0 - mu * mu).sqrt();
+                    Vec3::new(s * phi.cos(), s * phi.sin(), mu)
+                };
+                let (wi, wo) = (d(&mut rng), d(&mut rng));
+                let a = m.eval(wi, wo, &mut rng) / wo.z;
+                let b = m.eval(wo, wi, &mut rng) / wi.z;
+                for c in 0..3 {
+                    let scale = a[c].abs().max(b[c].abs()).max(1e-3);
+                    let e = (a[c] - b[c]).abs() / scale;
+                    worst = worst.max(e);
+                    assert!(e < 1e-4, "{ndf:?} ({ax},{ay}) {wi} {wo}: {a} vs {b}");
+                }
+            }
+        }
+    }
+    println!("worst relative reciprocity error {worst:.2e}");
+}
+
+/// Coloured conductors: the directional albedo per channel against the
+/// library's HEITZ walk with the exact complex Fresnel (mean of 200,000
+/// sample weights, standard error below 1e-3). The tint is an
+/// approximation (one effective reflectance per channel, tabulated order
+/// fractions, first and last facets from the tabulated Schlick weights):
+/// asserted within 1.5% of the albedo plus 4 standard errors (measured
+/// worst 1.04%, gold's blue channel, GGX alpha 1 at 70 degrees; RMS over the
+/// 120 cases 0.37%, against ENERGY_COMPENSATED's worst 1.22% and RMS 0.21%,
+/// printed).
+#[test]
+fn coloured_conductors_against_walks_with_exact_fresnel() {
+    let mut report = String::new();
+    let (mut worst_tab, mut worst_ec) = (0.0f64, 0.0f64);
+    let mut worst_abs = f64::MIN;
+    for ndf in NDFS {
+        for alpha in [0.3f32, 1.0] {
+            for (name, eta, k) in METALS {
+                let tab = Material::new(&desc(Model::Tabulated, ndf, alpha, alpha, eta, k))
+                    .expect("valid");
+                let ec = Material::new(&desc(Model::EnergyCompensated, ndf, alpha, alpha, eta, k))
+                    .expect("valid");
+                let walk = Material::new(&desc(Model::HeitzRandomWalk, ndf, alpha, alpha, eta, k))
+                    .expect("valid");
+                for (t, theta) in [20.0, 70.0].into_iter().enumerate() {
+                    let wi = dir_deg(theta);
+                    let mut rng = Rng::new(900 + t as u64, 3);
+                    let n = 200_000;
+                    let mut sums = [[0.0f64; 2]; 3];
+                    for _ in 0..n {
+                        let w = walk.sample(wi, &mut rng).weight;
+                        for c in 0..3 {
+                            sums[c][0] += w[c] as f64;
+                            sums[c][1] += (w[c] as f64).powi(2);
+                        }
+                    }
+                    for (c, sc) in sums.iter().enumerate() {
+                        let mean = sc[0] / n as f64;
+                        let se = ((sc[1] / n as f64 - mean * mean) / n as f64).sqrt();
+                        assert!(se < 1e-3);
+                        let a_tab = albedo_quadrature(&tab, wi, alpha, alpha, c);
+                        let a_ec = albedo_quadrature(&ec, wi, alpha, alpha, c);
+                        let (e_tab, e_ec) = ((a_tab - mean).abs(), (a_ec - mean).abs());
+                        worst_tab = worst_tab.max(e_tab / mean);
+                        worst_ec = worst_ec.max(e_ec / mean);
+                        report += &format!(
+                            "{ndf:?} {alpha} {name} {theta} ch{c}: walk {mean:.4} +- {se:.1e}, TABULATED {a_tab:.4}, ENERGY_COMPENSATED {a_ec:.4}\n"
+                        );
+                        worst_abs = worst_abs.max(e_tab - 4.0 * se - 0.015 * mean);
+                    }
+                }
+            }
+        }
+    }
+    println!(
+        "{report}worst relative albedo error: TABULATED {worst_tab:.4}, ENERGY_COMPENSATED {worst_ec:.4}"
+    );
+    assert!(worst_abs <= 0.0, "{report}");
+}
+
+/// The committed reference values (`data/reference_values.csv`, converged
+/// HEITZ walks): TABULATED's relative RMS error per conductor material
+/// (`sqrt(sum (f - ref)^2 / sum ref^2)` over the 64 pairs and 3 channels,
+/// the speed-accuracy harness's measure) is at most 0.02 for every
+/// isotropic material and their RMS at most 0.015 (the target for
+/// the class; the anisotropic materials miss it and are bounded apart);
+/// the reference's own relative standard error is ~1e-3.
+#[test]
+fn suite_error_against_reference_values() {
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/data/reference_values.csv"
+    ))
+    .expect("reference values");
+    let mut header: Vec<&str> = Vec::new();
+    let mut mats: Vec<(String, MaterialDesc, f64, f64)> = Vec::new();
+    for line in text.lines().filter(|l| !l.starts_with('#')) {
+        if header.is_empty() {
+            header = line.split(',').collect();
+            continue;
+        }
+        let f: Vec<&str> = line.split(',').collect();
+        let col = |name: &str| f[header.iter().position(|h| *h == name).expect("column")];
+        let num = |name: &str| col(name).parse::<f32>().expect("number");
+        if col("class") != "conductor" {
+            continue;
+        }
+        let ndf = if col("ndf") == "ggx" {
+            NdfId::Ggx
+        } else {
+            NdfId::Beckmann
+        };
+        let name = col("material").to_string();
+        if mats.last().map(|m| &m.0) != Some(&name) {
+            let d = desc(
+                Model::Tabulated,
+                ndf,
+                num("alpha_x"),
+                num("alpha_y"),
+                [num("eta_r"), num("eta_g"), num("eta_b")],
+                [num("k_r"), num("k_g"), num("k_b")],
+            );
+            mats.push((name, d, 0.0, 0.0));
+        }
+        let m = Material::new(&mats.last().expect("material").1).expect("valid");
+        let wi = Vec3::new(num("wi_x"), num("wi_y"), num("wi_z"));
+        let wo = Vec3::new(num("wo_x"), num("wo_y"), num("wo_z"));
+        let v = m.eval(wi, wo, &mut Rng::new(0, 0));
+        let last = mats.last_mut().expect("material");
+        for (c, r) in ["ref_r", "ref_g", "ref_b"].iter().enumerate() {
+            let r = num(r) as f64;
+            last.2 += (v[c] as f64 - r).powi(2);
+            last.3 += r * r;
+        }
+    }
+    assert_eq!(mats.len(), 36, "conductor materials of the suite");
+    let mut report = String::new();
+    let (mut class, mut iso, mut n_iso) = (0.0, 0.0, 0usize);
+    let (mut worst_iso, mut worst_aniso): (f64, f64) = (0.0, 0.0);
+    for (name, d, num, den) in &mats {
+        let e = (num / den).sqrt();
+        class += e * e;
+        report += &format!("{name}: {e:.4}\n");
+        if d.alpha_x == d.alpha_y {
+            worst_iso = worst_iso.max(e);
+            iso += e * e;
+            n_iso += 1;
+        } else {
+            worst_aniso = worst_aniso.max(e);
+        }
+    }
+    let class = (class / mats.len() as f64).sqrt();
+    let iso = (iso / n_iso as f64).sqrt();
+    println!(
+        "{report}relative RMS error: class {class:.4}, isotropic materials {iso:.4} (worst {worst_iso:.4}), anisotropic worst {worst_aniso:.4}"
+    );
+    assert!(worst_iso < 0.02, "{report}");
+    assert!(iso <= 0.015, "{report}isotropic {iso}");
+    // Anisotropic roughness reads the isotropic table at an effective
+    // roughness (module docs): measured 0.076-0.090, bounded at 0.1.
+    assert!(worst_aniso < 0.1, "{report}");
+}
+
+/// Random table cells re-estimated with the library's walk (other seeds).
+/// A cell stores a smooth part `c_0` and the weight `B` of `f_ss1`; its
+/// hat-weighted azimuth average from `wi = mu_i` is
+/// `T_ij = c_0 + B Q_ij / (2 pi H_j)` with `Q_ij = int hat_j f_ss1 mu dw`
+/// (here from 100,000 SINGLE samples). The sum `T_ij + T_ji` (what the
+/// symmetrisation keeps) is compared with the fresh projections of 150,000
+/// walks from each side, within 4 combined standard errors (fresh walks,
+/// the table's 2,000,000 walks per node scaled from the fresh variance, and
+/// the Q samples) plus 2% for the generator's albedo rescaling `s_i s_j`
+/// and the symmetrisation of the smooth/peaked split.
+#[test]
+fn table_cells_reestimated_with_the_library_walk() {
+    let walks_table = 2_000_000f64;
+    let n = 150_000u64;
+    let nq = 100_000u64;
+    let two_pi = 2.0 * std::f64::consts::PI;
+    let mut pick = Rng::new(31337, 1);
+    let mut report = String::new();
+    for cell in 0..8u64 {
+        let nd = (pick.next_u32() % 2) as usize;
+        let a = 4 + (pick.next_u32() % 13) as usize;
+        let i = 4 + (pick.next_u32() % (MU_N as u32 - 4)) as usize;
+        let j = 4 + (pick.next_u32() % (MU_N as u32 - 4)) as usize;
+        let kind = [NdfKind::Beckmann, NdfKind::Ggx][nd];
+        let alpha = grid_alpha(a);
+        let ndf = Ndf::new(kind, alpha, alpha);
+        let white = Facet::Conductor {
+            eta: Vec3::ZERO,
+            k: Vec3::ONE,
+        };
+        let walk = Heitz::new(ndf, white, 0);
+        let single = Single::new(ndf, white, G2Form::HeightCorrelated);
+        let (mut fresh, mut var, mut stored, mut var_q) = (0.0, 0.0, 0.0, 0.0);
+        for (side, (x, y)) in [(i, j), (j, i)].into_iter().enumerate() {
+            let mu = grid_mu(x);
+            let wi = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
+            let stream = cell * 2 + side as u64;
+            let norm = hat_moment(y) * two_pi;
+            let mut rng = Rng::new(4242, stream);
+            let (mut s1, mut s2) = (0.0f64, 0.0f64);
+            for _ in 0..n {
+                let (smp, b) = walk.sample_with_bounces(wi, &mut rng);
+                let mut mom = [[0.0f64; 1]; MU_N];
+                if b >= 2 && smp.wo.z > 0.0 {
+                    project_exit(smp.wo, smp.weight.x as f64, &mut mom);
+                }
+                let v = mom[y][0] / norm;
+                s1 += v;
+                s2 += v * v;
+            }
+            let mean = s1 / n as f64;
+            fresh += mean;
+            var += s2 / n as f64 - mean * mean;
+            // Q_xy / (2 pi H_y) by SINGLE's visible-normal samples.
+            let mut qrng = Rng::new(4243, stream);
+            let (mut q1, mut q2) = (0.0f64, 0.0f64);
+            for _ in 0..nq {
+                let smp = single.sample(wi, &mut qrng);
+                let mut mom = [[0.0f64; 1]; MU_N];
+                if smp.wo.z > 0.0 && smp.pdf > 0.0 {
+                    let ss1 = single.eval(wi, smp.wo, &mut qrng).x as f64;
+                    project_exit(smp.wo, ss1 / smp.pdf as f64, &mut mom);
+                }
+                let v = mom[y][0] / norm;
+                q1 += v;
+                q2 += v * v;
+            }
+            let q = q1 / nq as f64;
+            let b = lobe_index(nd, a, x, y);
+            stored += LOBE[b] as f64 + LOBE[b + PEAK] as f64 * q;
+            var_q += (LOBE[b + PEAK] as f64).powi(2) * (q2 / nq as f64 - q * q) / nq as f64;
+        }
+        let se = (var / n as f64 + var / walks_table + var_q).sqrt();
+        report += &format!(
+            "ndf {nd} alpha {alpha:.3} mu ({:.3}, {:.3}): table {stored:.5}, fresh {fresh:.5} +- {se:.1e}\n",
+            grid_mu(i),
+            grid_mu(j)
+        );
+        assert!(
+            (stored - fresh).abs() <= 4.0 * se + 0.02 * fresh,
+            "{report}"
+        );
+    }
+    println!("{report}");
+    assert!(tabulated::header().starts_with("MSBSDF-TABULATED-v1"));
+}
+
+/// Stability sweep: grazing angles to 89.99 degrees, roughness from 1e-3
+/// to 2, both NDFs, coloured and white facets, both sides: eval, pdf and
+/// sample weights finite and non-negative.
+#[test]
+fn stability_sweep() {
+    let mut rng = Rng::new(99, 1);
+    for ndf in NDFS {
+        for alpha in [1e-3f32, 0.01, 0.1, 0.5, 1.0, 2.0] {
+            for (ax, ay) in [(alpha, alpha), (alpha, (alpha * 3.0).min(2.0))] {
+                for (_, eta, k) in [METALS[0], ("white", [0.0; 3], [1.0; 3])] {
+                    let m =
+                        Material::new(&desc(Model::Tabulated, ndf, ax, ay, eta, k)).expect("valid");
+                    for theta in [0.0, 30.0, 70.0, 89.0, 89.9, 89.99] {
+                        for side in [1.0f32, -1.0] {
+                            let d = dir_deg(theta);
+                            let wi = Vec3::new(d.x, 0.3 * d.x, side * d.z);
+                            for _ in 0..200 {
+                                let s = m.sample(wi, &mut rng);
+                                assert!(s.weight.is_finite() && s.weight.min_element() >= 0.0);
+                                assert!(s.pdf.is_finite() && s.pdf >= 0.0);
+                                let wo = Vec3::new(
+                                    rng.next_f32() - 0.5,
+                                    rng.next_f32() - 0.5,
+                                    side * rng.next_f32().max(1e-6),
+                                );
+                                let f = m.eval(wi, wo, &mut rng);
+                                assert!(f.is_finite() && f.min_element() >= 0.0, "{f}");
+                                let p = m.pdf(wi, wo);
+                                assert!(p.is_finite() && p >= 0.0);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
