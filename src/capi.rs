@@ -252,11 +252,13 @@ pub struct msbsdf_material_desc {
     pub max_bounces: u32,
     /// `MSBSDF_MODEL_AUTO`: largest acceptable relative error (relative RMS
     /// error of f against the converged HEITZ_RANDOM_WALK over the
-    /// measurement suite). The default 0.1 picks SINGLE or
-    /// ENERGY_COMPENSATED (about 100 ns per eval) for conductors and for
-    /// glass up to alpha 0.3, and a walk averaged over 128 evaluations for
-    /// rougher glass; 0.01 picks walks averaged over hundreds to thousands
-    /// of evaluations (0.1 to 11 ms per eval): for references, not frames.
+    /// measurement suite). The default 0.1 picks analytic models for
+    /// conductors (SINGLE up to alpha 0.3, TABULATED above: 85-135 ns per
+    /// eval) and SINGLE for glass up to alpha 0.5, HEITZ_RANDOM_WALK
+    /// averaged over 8 evaluations (about 7 us) for rougher glass; 0.01
+    /// picks TABULATED for GGX conductors and walks averaged over hundreds
+    /// to thousands of evaluations elsewhere (0.1 to 2 ms per eval): for
+    /// references, not frames.
     pub tolerance: f32,
     /// `MSBSDF_FACET_MATERIAL`: the facets scatter as this material. The new
     /// material keeps a copy: `inner` need only be alive during create/init

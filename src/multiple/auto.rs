@@ -32,17 +32,16 @@
 //! tolerance still meets it when measured again (`tests/auto.rs`).
 //!
 //! What the measurements mean for callers (`docs/speed_accuracy.md`): the
-//! suite's grazing pairs carry large values where every analytic model
-//! misses the multiply scattered light, so no deterministic model is within
-//! 1% on any conductor of the suite (ENERGY_COMPENSATED is within 2.2 to 13.5%,
-//! SINGLE 3.2 to 59%); only GGX glass at alpha 0.1 has SINGLE within 1%.
-//! Tolerance 0.01 therefore picks a walk averaged over hundreds to
-//! thousands of evaluations per query (INVARIANCE or BITTERLI_DEON where
-//! their measured bias allows, else HEITZ_RANDOM_WALK): 0.1 to 10 ms per
-//! eval. A renderer that averages many samples per pixel anyway wants a
-//! tolerance near the bias it can accept (0.07 to 0.15 picks
-//! ENERGY_COMPENSATED for most conductors), since its own samples average
-//! the noise.
+//! suite's grazing pairs carry large values where an analytic model misses
+//! the multiply scattered light. TABULATED (SINGLE plus the tabulated
+//! orders >= 2 of the walk) is within 1% on the GGX conductor rows and on
+//! Beckmann alpha 1, so tolerance 0.01 picks it there; elsewhere it picks a
+//! walk averaged over hundreds to thousands of evaluations per query
+//! (BITTERLI_DEON where its measured bias allows, else HEITZ_RANDOM_WALK):
+//! 0.1 to 2 ms per eval. The default 0.1 picks SINGLE or TABULATED for
+//! conductors and SINGLE or HEITZ_RANDOM_WALK x8 for glass. A renderer that
+//! averages many samples per pixel anyway wants a tolerance near the bias
+//! it can accept, since its own samples average the noise.
 
 use crate::Material;
 use crate::desc::{Estimator, FacetKind, MaterialDesc, Model, NdfId};

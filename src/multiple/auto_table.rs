@@ -32,7 +32,7 @@ const fn at(i: usize) -> f32 {
 }
 
 /// Models by their code in the file (the `MSBSDF_MODEL_*` order).
-pub const MODEL_CODES: [Model; 10] = [
+pub const MODEL_CODES: [Model; 11] = [
     Model::Single,
     Model::EnergyCompensated,
     Model::HeitzRandomWalk,
@@ -43,6 +43,7 @@ pub const MODEL_CODES: [Model; 10] = [
     Model::VGrooveNonsymmetric,
     Model::NullScattering,
     Model::Auto,
+    Model::Tabulated,
 ];
 /// Estimators by their code in the file.
 pub const ESTIMATOR_CODES: [Estimator; 2] = [Estimator::Pt, Estimator::Bdpt];
