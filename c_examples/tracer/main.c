@@ -270,7 +270,7 @@ int main(int argc, char **argv) {
     int rc = 0;
 
     if (!compare) {
-        int mrc = scene_create_materials(&s, override, err, sizeof err);
+        int mrc = scene_create_materials(&s, override, 0, err, sizeof err);
         if (mrc) {
             fprintf(stderr, "tracer: %s\n", err);
             scene_free(&s);
@@ -314,7 +314,8 @@ int main(int argc, char **argv) {
         const char *mn = model_name((uint32_t)cmp_models[i]);
         float *img = panels + npix * 3 * (size_t)i;
         scene_destroy_materials(&s);
-        int mrc = scene_create_materials(&s, cmp_models[i], err, sizeof err);
+        /* A material the panel's model refuses uses its own fallback, if any. */
+        int mrc = scene_create_materials(&s, cmp_models[i], 1, err, sizeof err);
         int x0 = (i % cols) * (s.width + gap), y0 = (i / cols) * (s.height + gap);
         char text[TEXT_LEN];
         if (mrc == 1) {
@@ -340,7 +341,7 @@ int main(int argc, char **argv) {
             if (write_outputs(prefix, suffix, img, s.width, s.height, s.exposure, s.tonemap, 0)) rc = 1;
             ok[i] = 1;
             if (ref < 0) ref = i;
-            snprintf(text, sizeof text, "%s  %d spp  %.2f Ms/s", mn, st.spp_done, mss);
+            snprintf(text, sizeof text, "%s  %d spp  %.1f s", mn, st.spp_done, st.seconds);
         }
         for (int y = 0; y < s.height; y++)
             memcpy(grid + 3 * ((size_t)(y0 + y) * (size_t)gw + (size_t)x0), img + 3 * (size_t)y * (size_t)s.width,

@@ -1086,7 +1086,7 @@ int scene_load(scene *s, const char *path, char *err, size_t errlen) {
 
 /* ---------------------------------------------------------------- materials */
 
-int scene_create_materials(scene *s, int model_override, char *err, size_t errlen) {
+int scene_create_materials(scene *s, int model_override, int fallback_on_override, char *err, size_t errlen) {
     int warned[16] = {0}; /* fallback warnings per requested model */
     for (int i = 0; i < s->nmats; i++) {
         material *m = &s->mats[i];
@@ -1099,8 +1099,8 @@ int scene_create_materials(scene *s, int model_override, char *err, size_t errle
         m->fell_back = 0;
         /* Fall back when the model does not support the combination or refuses
            this parameter range (e.g. NULL_SCATTERING below alpha 0.2). */
-        if ((st == MSBSDF_STATUS_UNSUPPORTED || st == MSBSDF_STATUS_INVALID_ARGUMENT) && model_override < 0 &&
-            m->fallback_model >= 0) {
+        if ((st == MSBSDF_STATUS_UNSUPPORTED || st == MSBSDF_STATUS_INVALID_ARGUMENT) &&
+            (model_override < 0 || fallback_on_override) && m->fallback_model >= 0) {
             if (!warned[d.model & 15]++)
                 fprintf(stderr,
                         "warning: %s:%d: material '%s': model '%s' refused this material "

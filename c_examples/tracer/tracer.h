@@ -168,7 +168,7 @@ typedef struct scene {
 int scene_load(scene *s, const char *path, char *err, size_t errlen);
 /* Creates every material handle; model_override < 0 keeps the scene's models.
    Returns 0 on success, 1 if a model is unsupported (err says where), 2 on other errors. */
-int scene_create_materials(scene *s, int model_override, char *err, size_t errlen);
+int scene_create_materials(scene *s, int model_override, int fallback_on_override, char *err, size_t errlen);
 void scene_destroy_materials(scene *s);
 int scene_build_bvh(scene *s, char *err, size_t errlen);
 void scene_free(scene *s);
