@@ -1,7 +1,7 @@
 //! The suite cannot pass by not running: every `#[test]` function under
 //! `tests/` that returns early must say why through `skip::missing` in the
 //! same statement (which fails under `CI=true` and is counted elsewhere, see
-//! `tests/skip/mod.rs`), and no test is `#[ignore]`d.
+//! `tests/skip/mod.rs`), and no test carries the `ignore` attribute.
 //!
 //! This reads the test sources as text: comments and string literals are
 //! blanked, each `#[test]` function's body is found by brace matching, and
@@ -198,7 +198,7 @@ fn no_test_returns_early_without_a_recorded_reason() {
         let code = blank_comments_and_strings(&src);
         if code.contains("#[ignore") {
             problems.push(format!(
-                "{}: #[ignore] (a test that never runs)",
+                "{}: an ignore attribute (a test that never runs)",
                 f.display()
             ));
         }
