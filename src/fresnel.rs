@@ -2,7 +2,112 @@
 //! per RGB channel, and dielectrics with total internal reflection. Nothing
 //! here knows about microfacets.
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A, Vec4};
+use std::ops::{Add, Div, Mul, Sub};
+
+/// What the conductor closed form needs of its numbers: one value (`f32`,
+/// `f64`) or lanes of them (`Vec3`, `Vec3A`, `Vec4`: RGB channels at one
+/// cosine, or one channel at four cosines).
+pub trait Lanes:
+    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self>
+{
+    /// Every lane `x`.
+    fn splat(x: f32) -> Self;
+    /// `sqrt(max(x, 0))` per lane.
+    fn sqrt_pos(self) -> Self;
+}
+
+impl Lanes for f32 {
+    #[inline(always)]
+    fn splat(x: f32) -> Self {
+        x
+    }
+    #[inline(always)]
+    fn sqrt_pos(self) -> Self {
+        self.max(0.0).sqrt()
+    }
+}
+
+impl Lanes for f64 {
+    #[inline(always)]
+    fn splat(x: f32) -> Self {
+        x as f64
+    }
+    #[inline(always)]
+    fn sqrt_pos(self) -> Self {
+        self.max(0.0).sqrt()
+    }
+}
+
+impl Lanes for Vec3 {
+    #[inline(always)]
+    fn splat(x: f32) -> Self {
+        Vec3::splat(x)
+    }
+    #[inline(always)]
+    fn sqrt_pos(self) -> Self {
+        let v = self.max(Vec3::ZERO);
+        Vec3::new(v.x.sqrt(), v.y.sqrt(), v.z.sqrt())
+    }
+}
+
+impl Lanes for Vec3A {
+    #[inline(always)]
+    fn splat(x: f32) -> Self {
+        Vec3A::splat(x)
+    }
+    /// One `sqrtps` for the three lanes on x86-64.
+    #[inline(always)]
+    fn sqrt_pos(self) -> Self {
+        let v = self.max(Vec3A::ZERO);
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::{__m128, _mm_sqrt_ps};
+            // SAFETY: SSE is part of the x86-64 baseline, so the instruction
+            // exists on every target this branch compiles for.
+            Vec3A::from(unsafe { _mm_sqrt_ps(__m128::from(v)) })
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            Vec3A::new(v.x.sqrt(), v.y.sqrt(), v.z.sqrt())
+        }
+    }
+}
+
+impl Lanes for Vec4 {
+    #[inline(always)]
+    fn splat(x: f32) -> Self {
+        Vec4::splat(x)
+    }
+    #[inline(always)]
+    fn sqrt_pos(self) -> Self {
+        let v = self.max(Vec4::ZERO);
+        Vec4::new(v.x.sqrt(), v.y.sqrt(), v.z.sqrt(), v.w.sqrt())
+    }
+}
+
+/// The one closed form of the unpolarised conductor reflectance in real
+/// arithmetic (Born and Wolf, Principles of Optics, sec. 14.4), lane by
+/// lane: `c` the cosine in `[0, 1]`, `eta2_minus_k2 = eta^2 - k^2` and
+/// `four_eta2_k2 = 4 eta^2 k^2` of the complex index `eta + i k`. The raw
+/// value: callers clamp it to `[0, 1]` and fall back to the complex form
+/// ([`conductor_scalar`]) where a lane is not finite (0 / 0 at `c = 0`
+/// with `k = 0`).
+#[inline(always)]
+pub fn conductor_closed_form<L: Lanes>(c: L, eta2_minus_k2: L, four_eta2_k2: L) -> L {
+    let c2 = c * c;
+    let s2 = L::splat(1.0) - c2;
+    let t0 = eta2_minus_k2 - s2;
+    let ab2 = (t0 * t0 + four_eta2_k2).sqrt_pos();
+    let a = (L::splat(0.5) * (ab2 + t0)).sqrt_pos();
+    let t1 = ab2 + c2;
+    let t2 = L::splat(2.0) * c * a;
+    let rs = (t1 - t2) / (t1 + t2);
+    let t3 = c2 * ab2 + s2 * s2;
+    let t4 = t2 * s2;
+    let rp = rs * (t3 - t4) / (t3 + t4);
+    L::splat(0.5) * (rs + rp)
+}
 
 #[derive(Clone, Copy, Debug)]
 struct Complex {
@@ -94,22 +199,8 @@ pub fn conductor(cos_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
 #[inline]
 pub fn conductor_rgb(cos_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
     let c = cos_i.clamp(0.0, 1.0);
-    let c2 = c * c;
-    let s2 = 1.0 - c2;
-    let eta2 = eta * eta;
-    let k2 = k * k;
-    let t0 = eta2 - k2 - Vec3::splat(s2);
-    let ab2 = (t0 * t0 + 4.0 * eta2 * k2).max(Vec3::ZERO);
-    let ab2 = Vec3::new(ab2.x.sqrt(), ab2.y.sqrt(), ab2.z.sqrt());
-    let t1 = ab2 + Vec3::splat(c2);
-    let a = (0.5 * (ab2 + t0)).max(Vec3::ZERO);
-    let a = Vec3::new(a.x.sqrt(), a.y.sqrt(), a.z.sqrt());
-    let t2 = 2.0 * c * a;
-    let rs = (t1 - t2) / (t1 + t2);
-    let t3 = c2 * ab2 + Vec3::splat(s2 * s2);
-    let t4 = t2 * s2;
-    let rp = rs * (t3 - t4) / (t3 + t4);
-    let f = 0.5 * (rs + rp);
+    let (eta2, k2) = (eta * eta, k * k);
+    let f = conductor_closed_form(Vec3::splat(c), eta2 - k2, 4.0 * eta2 * k2);
     if f.is_finite() {
         f.clamp(Vec3::ZERO, Vec3::ONE)
     } else {
@@ -121,19 +212,8 @@ pub fn conductor_rgb(cos_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
 /// built once per material, e.g. the V-groove model's Fresnel table).
 pub fn conductor_f64(cos_i: f64, eta: f64, k: f64) -> f64 {
     let c = cos_i.clamp(0.0, 1.0);
-    let c2 = c * c;
-    let s2 = 1.0 - c2;
     let (eta2, k2) = (eta * eta, k * k);
-    let t0 = eta2 - k2 - s2;
-    let ab2 = (t0 * t0 + 4.0 * eta2 * k2).max(0.0).sqrt();
-    let a = (0.5 * (ab2 + t0)).max(0.0).sqrt();
-    let t1 = ab2 + c2;
-    let t2 = 2.0 * c * a;
-    let rs = (t1 - t2) / (t1 + t2);
-    let t3 = c2 * ab2 + s2 * s2;
-    let t4 = t2 * s2;
-    let rp = rs * (t3 - t4) / (t3 + t4);
-    let f = 0.5 * (rs + rp);
+    let f = conductor_closed_form(c, eta2 - k2, 4.0 * eta2 * k2);
     if f.is_finite() {
         f.clamp(0.0, 1.0)
     } else {

@@ -525,21 +525,8 @@ static COARSE_W: [[[f32; COARSE.len()]; t::ALPHA_N]; 2] = {
 /// `crate::fresnel::conductor_scalar`.
 fn conductor4(c: Vec4, eta: f32, k: f32) -> Vec4 {
     let c = c.clamp(Vec4::ZERO, Vec4::ONE);
-    let c2 = c * c;
-    let s2 = Vec4::ONE - c2;
     let (eta2, k2) = (eta * eta, k * k);
-    let t0 = Vec4::splat(eta2 - k2) - s2;
-    let ab2 = (t0 * t0 + Vec4::splat(4.0 * eta2 * k2)).max(Vec4::ZERO);
-    let ab2 = Vec4::new(ab2.x.sqrt(), ab2.y.sqrt(), ab2.z.sqrt(), ab2.w.sqrt());
-    let t1 = ab2 + c2;
-    let a = (0.5 * (ab2 + t0)).max(Vec4::ZERO);
-    let a = Vec4::new(a.x.sqrt(), a.y.sqrt(), a.z.sqrt(), a.w.sqrt());
-    let t2 = 2.0 * c * a;
-    let rs = (t1 - t2) / (t1 + t2);
-    let t3 = c2 * ab2 + s2 * s2;
-    let t4 = t2 * s2;
-    let rp = rs * (t3 - t4) / (t3 + t4);
-    let f = 0.5 * (rs + rp);
+    let f = fresnel::conductor_closed_form(c, Vec4::splat(eta2 - k2), Vec4::splat(4.0 * eta2 * k2));
     if f.is_finite() {
         f.clamp(Vec4::ZERO, Vec4::ONE)
     } else {

@@ -19,22 +19,6 @@
 use crate::fresnel;
 use glam::{Vec3, Vec3A};
 
-/// Square root of every lane (one `sqrtps` on x86-64).
-#[inline]
-fn sqrt3(v: Vec3A) -> Vec3A {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use std::arch::x86_64::{__m128, _mm_sqrt_ps};
-        // SAFETY: SSE is part of the x86-64 baseline, so the instruction
-        // exists on every target this branch compiles for.
-        Vec3A::from(unsafe { _mm_sqrt_ps(__m128::from(v)) })
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        Vec3A::new(v.x.sqrt(), v.y.sqrt(), v.z.sqrt())
-    }
-}
-
 /// A conductor's reflectance `F(c)` per RGB channel (complex index
 /// `eta + i k`).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -75,18 +59,8 @@ impl FresnelTable {
         // Plain comparisons (one instruction each; NaN goes to 0).
         let c = if c < 1.0 { c } else { 1.0 };
         let c = if c > 0.0 { c } else { 0.0 };
-        let c2 = c * c;
-        let s2 = 1.0 - c2;
-        let t0 = self.eta2_minus_k2 - Vec3A::splat(s2);
-        let ab2 = sqrt3((t0 * t0 + self.four_eta2_k2).max(Vec3A::ZERO));
-        let a = sqrt3((0.5 * (ab2 + t0)).max(Vec3A::ZERO));
-        let t1 = ab2 + Vec3A::splat(c2);
-        let t2 = (2.0 * c) * a;
-        let rs = (t1 - t2) / (t1 + t2);
-        let t3 = c2 * ab2 + Vec3A::splat(s2 * s2);
-        let t4 = t2 * s2;
-        let rp = rs * (t3 - t4) / (t3 + t4);
-        let f = 0.5 * (rs + rp);
+        let f =
+            fresnel::conductor_closed_form(Vec3A::splat(c), self.eta2_minus_k2, self.four_eta2_k2);
         if f.is_finite() {
             f.clamp(Vec3A::ZERO, Vec3A::ONE)
         } else {
