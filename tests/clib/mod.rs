@@ -184,20 +184,27 @@ pub fn run_program(cmd: &mut Command, timeout: Duration) -> (bool, String) {
 /// must not pass for a missing AddressSanitizer. Probed once per process
 /// and flag set (tests run in parallel threads).
 pub fn compiler_supports(compiler: &str, flags: &[&str]) -> Result<(), String> {
-    static CACHE: Mutex<BTreeMap<String, Result<(), String>>> = Mutex::new(BTreeMap::new());
-    let key = format!("{compiler} {flags:?}");
-    let mut cache = CACHE.lock().unwrap_or_else(|e| e.into_inner());
-    cache
-        .entry(key)
-        .or_insert_with(|| probe_compiler(compiler, flags, "detect_leaks=0"))
-        .clone()
+    probe_once(compiler, flags, "detect_leaks=0")
 }
 
 /// `Ok` when LeakSanitizer works here (it needs ptrace, which some
 /// containers forbid): an ASan build of a trivial program runs with
 /// `detect_leaks=1`.
 pub fn leak_sanitizer_runs(compiler: &str) -> Result<(), String> {
-    probe_compiler(compiler, &["-fsanitize=address"], "detect_leaks=1")
+    probe_once(compiler, &["-fsanitize=address"], "detect_leaks=1")
+}
+
+/// One probe per process and (compiler, flags, options): the lock is held
+/// while probing, so parallel tests never write and run the same probe
+/// binary at once (which fails with "Text file busy").
+fn probe_once(compiler: &str, flags: &[&str], asan_options: &str) -> Result<(), String> {
+    static CACHE: Mutex<BTreeMap<String, Result<(), String>>> = Mutex::new(BTreeMap::new());
+    let key = format!("{compiler} {flags:?} {asan_options}");
+    let mut cache = CACHE.lock().unwrap_or_else(|e| e.into_inner());
+    cache
+        .entry(key)
+        .or_insert_with(|| probe_compiler(compiler, flags, asan_options))
+        .clone()
 }
 
 fn probe_compiler(compiler: &str, flags: &[&str], asan_options: &str) -> Result<(), String> {
