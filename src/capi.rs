@@ -913,19 +913,27 @@ pub unsafe extern "C" fn msbsdf_eval(
     if out.is_null() {
         return MSBSDF_STATUS_NULL_POINTER;
     }
-    // SAFETY: `out` is non-NULL and writable per the contract.
-    unsafe { out.write(msbsdf_rgb::default()) };
-    guard(|| {
+    let result = catch_unwind(AssertUnwindSafe(|| {
         // SAFETY: forwarded contract on `material`.
         let m = unsafe { material_ref(material) }?;
         let (wi, wo) = (direction(wi)?, direction(wo)?);
+        if !m.is_stochastic() {
+            // Deterministic models never draw: no generator to copy.
+            return Ok(m.eval_unit(wi, wo, &mut Rng { state: 0, inc: 1 }));
+        }
         // SAFETY: the caller guarantees `rng` is NULL or valid.
         let rng = unsafe { rng.as_mut() };
-        let value = with_rng(m, rng, |r| m.eval_unit(wi, wo, r))?;
-        // SAFETY: `out` checked above.
-        unsafe { out.write(from_rgb(value)) };
-        Ok(())
-    })
+        with_rng(m, rng, |r| m.eval_unit(wi, wo, r))
+    }));
+    let (value, status) = match result {
+        Ok(Ok(v)) => (from_rgb(v), MSBSDF_STATUS_OK),
+        Ok(Err(e)) => (msbsdf_rgb::default(), e as msbsdf_status),
+        Err(_) => (msbsdf_rgb::default(), MSBSDF_STATUS_PANIC),
+    };
+    // SAFETY: `out` is non-NULL and writable per the contract; written once,
+    // zeros on any failure.
+    unsafe { out.write(value) };
+    status
 }
 
 /// Runs `f` with the caller's generator (copied in and back out) or, for a

@@ -208,6 +208,43 @@ pub fn conductor_rgb(cos_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
     }
 }
 
+/// A conductor's indices prepared once per material for [`conductor_rgb`]'s
+/// closed form: `eta^2 - k^2` and `4 eta^2 k^2` per channel in SIMD lanes, so
+/// that a query evaluates the three channels at once with no per-call setup.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ConductorLanes {
+    eta2_minus_k2: Vec3A,
+    four_eta2_k2: Vec3A,
+    eta: Vec3,
+    k: Vec3,
+}
+
+impl ConductorLanes {
+    /// Prepares the indices `eta + i k` (per channel).
+    pub fn new(eta: Vec3, k: Vec3) -> Self {
+        let (eta2, k2) = (Vec3A::from(eta * eta), Vec3A::from(k * k));
+        ConductorLanes {
+            eta2_minus_k2: eta2 - k2,
+            four_eta2_k2: 4.0 * eta2 * k2,
+            eta,
+            k,
+        }
+    }
+
+    /// [`conductor_rgb`] for these indices (the same values: the same closed
+    /// form, in SIMD lanes).
+    #[inline]
+    pub fn eval(&self, cos_i: f32) -> Vec3 {
+        let c = cos_i.clamp(0.0, 1.0);
+        let f = conductor_closed_form(Vec3A::splat(c), self.eta2_minus_k2, self.four_eta2_k2);
+        if f.is_finite() {
+            Vec3::from(f.clamp(Vec3A::ZERO, Vec3A::ONE))
+        } else {
+            conductor(c, self.eta, self.k)
+        }
+    }
+}
+
 /// [`conductor_rgb`]'s closed form for one channel in `f64` (for tables
 /// built once per material, e.g. the V-groove model's Fresnel table).
 pub fn conductor_f64(cos_i: f64, eta: f64, k: f64) -> f64 {

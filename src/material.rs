@@ -472,11 +472,21 @@ impl Material {
     /// [`Material::eval`] of directions already checked and normalised
     /// (finite, unit length), as the C layer passes them: the checks happen
     /// once, at the boundary. Horizon directions give zero.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn eval_unit(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3 {
         if wi.z == 0.0 || wo.z == 0.0 || self.back_face(wi) {
             return Vec3::ZERO;
         }
+        if let ModelImpl::Base(BaseModel::Single(m)) = &self.imp {
+            // The cheap tier inline, without the two dispatch calls.
+            return finite_or_zero(m.eval_pdf(wi, wo, LOBE_ALL, true, false).0);
+        }
+        self.eval_dispatched(wi, wo, rng)
+    }
+
+    /// [`Material::eval_unit`] for every model but SINGLE, out of line.
+    #[inline(never)]
+    fn eval_dispatched(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3 {
         finite_or_zero(eval_prepared(
             &self.imp,
             self.chosen.evaluations,

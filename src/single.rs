@@ -23,7 +23,7 @@ use crate::bsdf::{LOBE_ALL, LOBE_REFLECTION, LOBE_TRANSMISSION, Sample, ScatterM
 use crate::facet::Facet;
 use crate::frame::{RefractionHalf, flip_z, reflect, refract, refraction_half};
 use crate::fresnel;
-use crate::ndf::Ndf;
+use crate::ndf::{Ndf, NdfKind};
 use crate::rng::Rng;
 use glam::Vec3;
 
@@ -52,6 +52,40 @@ pub struct Single {
     g2: G2Form,
     /// The perfect reflector (conductor eta 0, k 1): F = 1, decided once.
     white: bool,
+    /// Any other conductor: its indices prepared for the Fresnel closed form.
+    lanes: Option<fresnel::ConductorLanes>,
+    /// `alpha^2` when the reflection of this material has the isotropic GGX
+    /// closed form ([`iso_ggx_reflection`]): GGX, `alpha_x == alpha_y`,
+    /// height-correlated `G2`; decided once.
+    iso_ggx_a2: Option<f32>,
+}
+
+/// Isotropic GGX reflection with the height-correlated `G2` for unit `wi`,
+/// `wo` with `wi.z > 0`, `wo.z > 0`: `(D(h), D G2 / (4 wi.z), pdf)` without
+/// the Fresnel factor, from the unnormalised half vector `H = wi + wo`.
+///
+/// With `den = H.x^2 + H.y^2 + alpha^2 H.z^2`,
+/// `D(h) = alpha^2 |H|^4 / (pi den^2)` (Walter et al. 2007, eq. 33, with
+/// `cos^2 theta_h = H.z^2 / |H|^2`). Writing `q(w) = sqrt(alpha^2 (w.x^2 +
+/// w.y^2) + w.z^2)`, GGX's `Lambda(w) = (q / w.z - 1) / 2` (Heitz 2014,
+/// eq. 72), so `G2 = 1 / (1 + Lambda(wi) + Lambda(wo)) = 2 wi.z wo.z /
+/// (wo.z q(wi) + wi.z q(wo))` and `f |wo.z| = F D wo.z / (2 (wo.z q(wi) +
+/// wi.z q(wo)))`; the visible-normal pdf of the reflection is
+/// `G1(wi) D / (4 wi.z) = D / (2 (wi.z + q(wi)))`. No normalisation, two
+/// square roots, every denominator positive for directions above the
+/// surface (`den >= min(alpha^2, 1) |H|^2`, `q >= min(alpha, 1)`).
+#[inline(always)]
+fn iso_ggx_reflection(a2: f32, wi: Vec3, wo: Vec3) -> (f32, f32, f32) {
+    let hv = wi + wo;
+    let hxy = hv.x * hv.x + hv.y * hv.y;
+    let hh = hxy + hv.z * hv.z;
+    let den = hxy + a2 * (hv.z * hv.z);
+    let d = a2 * std::f32::consts::FRAC_1_PI * (hh * hh) / (den * den);
+    let qi = (a2 * (wi.x * wi.x + wi.y * wi.y) + wi.z * wi.z).sqrt();
+    let qo = (a2 * (wo.x * wo.x + wo.y * wo.y) + wo.z * wo.z).sqrt();
+    let f = d * wo.z / (2.0 * (wo.z * qi + wi.z * qo));
+    let pdf = d / (2.0 * (wi.z + qi));
+    (d, f, pdf)
 }
 
 /// Relative index and directions in the frame where `wi.z > 0`.
@@ -80,11 +114,21 @@ impl Single {
                 eta: Vec3::ZERO,
                 k: Vec3::ONE,
             };
+        let iso_ggx_a2 = (ndf.kind == NdfKind::Ggx
+            && ndf.alpha_x == ndf.alpha_y
+            && g2 == G2Form::HeightCorrelated)
+            .then_some(ndf.alpha_x * ndf.alpha_x);
+        let lanes = match facet {
+            Facet::Conductor { eta, k } if !white => Some(fresnel::ConductorLanes::new(eta, k)),
+            _ => None,
+        };
         Single {
             ndf,
             facet,
             g2,
             white,
+            lanes,
+            iso_ggx_a2,
         }
     }
 
@@ -92,10 +136,9 @@ impl Single {
     /// reflector, without comparing its indices on every call).
     #[inline(always)]
     fn conductor_fresnel(&self, ci: f32) -> Vec3 {
-        if self.white {
-            Vec3::ONE
-        } else {
-            self.facet.conductor_fresnel(ci)
+        match &self.lanes {
+            Some(l) => l.eval(ci),
+            None => Vec3::ONE,
         }
     }
 
@@ -220,6 +263,22 @@ impl Single {
                 };
                 if wo.z <= 0.0 || lobes & LOBE_REFLECTION == 0 {
                     return (Vec3::ZERO, 0.0);
+                }
+                if let Some(a2) = self.iso_ggx_a2 {
+                    let (_, f, p) = iso_ggx_reflection(a2, wi, wo);
+                    let f = if want_f {
+                        match &self.lanes {
+                            None => Vec3::splat(f),
+                            Some(l) => {
+                                // wi.H = 1 + wi.wo > 0 for two directions above.
+                                let hv = wi + wo;
+                                l.eval(wi.dot(hv) / hv.length()) * f
+                            }
+                        }
+                    } else {
+                        Vec3::ZERO
+                    };
+                    return (f, if want_pdf { p } else { 0.0 });
                 }
                 let h = (wi + wo).normalize_or_zero();
                 let ci = wi.dot(h);
