@@ -13,7 +13,9 @@
 //! the flux-conserving form: `f(wi, wo) / eta_o^2 = f(wo, wi) / eta_i^2`, no
 //! radiance scaling by `1 / eta^2`.
 //!
-//! Cost class: analytic, about 100 ns per query; eval and pdf together
+//! Cost class: analytic; isotropic GGX reflection takes a closed form of its
+//! own (`iso_ggx_reflection`): `msbsdf_eval` costs 1.6-2x the instructions
+//! of the bare formula (`docs/single_cost.md`). Eval and pdf together
 //! ([`Single::eval_pdf`]) share the half vector and D. Single scattering
 //! loses energy with roughness (GGX alpha 1 keeps 31% at normal incidence):
 //! the measured table is `docs/single_albedo.md`, written by
