@@ -209,38 +209,40 @@ pub fn conductor_rgb(cos_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
 }
 
 /// A conductor's indices prepared once per material for [`conductor_rgb`]'s
-/// closed form: `eta^2 - k^2` and `4 eta^2 k^2` per channel in SIMD lanes, so
-/// that a query evaluates the three channels at once with no per-call setup.
+/// closed form: `eta^2 - k^2` and `4 eta^2 k^2` per channel, so that a query
+/// evaluates the three channels at once in SIMD lanes with no per-call setup.
+/// Stored as `Vec3` (12-byte aligned) to keep the material small.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ConductorLanes {
-    eta2_minus_k2: Vec3A,
-    four_eta2_k2: Vec3A,
-    eta: Vec3,
-    k: Vec3,
+    eta2_minus_k2: Vec3,
+    four_eta2_k2: Vec3,
 }
 
 impl ConductorLanes {
     /// Prepares the indices `eta + i k` (per channel).
     pub fn new(eta: Vec3, k: Vec3) -> Self {
-        let (eta2, k2) = (Vec3A::from(eta * eta), Vec3A::from(k * k));
+        let (eta2, k2) = (eta * eta, k * k);
         ConductorLanes {
             eta2_minus_k2: eta2 - k2,
             four_eta2_k2: 4.0 * eta2 * k2,
-            eta,
-            k,
         }
     }
 
-    /// [`conductor_rgb`] for these indices (the same values: the same closed
-    /// form, in SIMD lanes).
+    /// [`conductor_rgb`] for the indices `eta + i k` these were prepared
+    /// from (the same closed form, in SIMD lanes; `eta` and `k` are read
+    /// only when it is not finite).
     #[inline]
-    pub fn eval(&self, cos_i: f32) -> Vec3 {
+    pub fn eval(&self, cos_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
         let c = cos_i.clamp(0.0, 1.0);
-        let f = conductor_closed_form(Vec3A::splat(c), self.eta2_minus_k2, self.four_eta2_k2);
+        let f = conductor_closed_form(
+            Vec3A::splat(c),
+            Vec3A::from(self.eta2_minus_k2),
+            Vec3A::from(self.four_eta2_k2),
+        );
         if f.is_finite() {
             Vec3::from(f.clamp(Vec3A::ZERO, Vec3A::ONE))
         } else {
-            conductor(c, self.eta, self.k)
+            conductor(c, eta, k)
         }
     }
 }

@@ -138,9 +138,9 @@ impl Single {
     /// reflector, without comparing its indices on every call).
     #[inline(always)]
     fn conductor_fresnel(&self, ci: f32) -> Vec3 {
-        match &self.lanes {
-            Some(l) => l.eval(ci),
-            None => Vec3::ONE,
+        match (&self.lanes, self.facet) {
+            (Some(l), Facet::Conductor { eta, k }) => l.eval(ci, eta, k),
+            _ => Vec3::ONE,
         }
     }
 
@@ -269,13 +269,12 @@ impl Single {
                 if let Some(a2) = self.iso_ggx_a2 {
                     let (_, f, p) = iso_ggx_reflection(a2, wi, wo);
                     let f = if want_f {
-                        match &self.lanes {
-                            None => Vec3::splat(f),
-                            Some(l) => {
-                                // wi.H = 1 + wi.wo > 0 for two directions above.
-                                let hv = wi + wo;
-                                l.eval(wi.dot(hv) / hv.length()) * f
-                            }
+                        if self.lanes.is_none() {
+                            Vec3::splat(f)
+                        } else {
+                            // wi.H = 1 + wi.wo > 0 for two directions above.
+                            let hv = wi + wo;
+                            self.conductor_fresnel(wi.dot(hv) / hv.length()) * f
                         }
                     } else {
                         Vec3::ZERO
