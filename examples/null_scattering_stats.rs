@@ -72,7 +72,8 @@ fn ir_mode(args: &[String]) {
             (wi, wo)
         })
         .collect();
-    let mut rng = Rng::new(5, 5);
+    // An optional fifth argument changes the stream (to see the noise).
+    let mut rng = Rng::new(get(5).parse().unwrap_or(5), 5);
     let mut acc = Vec3::ZERO;
     for j in 0..calls {
         let (wi, wo) = pairs[j & 255];
