@@ -221,7 +221,8 @@ fn main() {
              conductor, `wi` at 45 degrees, thread CPU time (the machine may be shared); \
              albedo by sample weights and by eval over uniform hemisphere directions; \
              \"real/tent.\" is the fraction of tentative collisions that are real \
-             (d'Eon 2023, section 3.3).\n\n{table}\n\
+             (d'Eon 2023, section 3.3); Beckmann, GGX and Student-T draw the first \
+             collision of a sample directly (one tentative collision, real).\n\n{table}\n\
              Instructions per call (callgrind: load-independent), `null_scattering_stats \
              callgrind` alone: {IR_CALLS} calls on 256 fixed pairs (uniform directions, \
              cosines >= 0.05; glass: every other `wo` below), minus a run with none; \
