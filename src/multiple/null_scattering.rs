@@ -674,8 +674,7 @@ impl NullScattering {
         if p == Vec3::ZERO {
             return Vec3::ZERO;
         }
-        let t_esc = if o.z < 0.0 { flip_depth(t) } else { t };
-        p * (-tg.sigma_esc * t_esc / tg.esc_z).exp() as f32
+        p * Self::escape(tg, if o.z < 0.0 { flip_depth(t) } else { t })
     }
 
     /// Transmittance towards the target from depth `t` on the target's side.
