@@ -246,7 +246,9 @@ impl GrooveNdf {
     }
 }
 
-/// [`GrooveNdf::first_pdf`] from `i.s`, `s.z` and `D(s)`.
+/// [`GrooveNdf::first_pdf`] from `i.s`, `s.z` and `D(s)`: for Beckmann and
+/// GGX the visible-normal density of [`Ndf::d_visible`] with `D` and
+/// `sigma` computed once per evaluation and reused over its facets.
 #[inline]
 pub fn first_pdf_from(is: f64, sz: f64, d: f64, sigma: Option<f64>) -> f64 {
     match sigma {
