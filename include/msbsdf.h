@@ -745,9 +745,11 @@ msbsdf_status msbsdf_eval_pdf(const struct msbsdf_material *material, const stru
  * multiple scattering of ENERGY_COMPENSATED, the bounce count of a
  * V-groove), `u1, u2` the first visible normal; stochastic models (and the
  * V-groove's partner facet) draw the rest from `ctx->rng`, which they then
- * need. NULL_SCATTERING draws its collisions and facet normals by
- * rejection (d'Eon 2023, sec. 3.1), which a fixed number of uniforms cannot
- * drive: it ignores them and takes every number from `ctx->rng`.
+ * need. NULL_SCATTERING follows them at the first vertex for the Beckmann,
+ * GGX and Student-T NDFs; with vMF, exponential and Bessel K0 it draws every
+ * facet normal by rejection (d'Eon 2023, sec. 3.1), which a fixed number of
+ * uniforms cannot drive: it ignores them and takes every number from
+ * `ctx->rng`.
  * Deterministic models give the same record for the same uniforms,
  * bit for bit. `*rec` must have its `struct_size` set
  * (`msbsdf_sample_record_init`); on failure it is zeroed (keeping

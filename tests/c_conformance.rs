@@ -443,7 +443,7 @@ fn integrator_calls_eval_pdf_uniforms_transport_lobes_specular() {
 }
 
 /// `msbsdf_sample_with` on the walks (tests/c/uniforms_walks.c): their
-/// first vertex follows the uniforms (NULL_SCATTERING excepted, documented).
+/// first vertex follows the uniforms (NULL_SCATTERING with its GGX default).
 #[test]
 fn sample_with_uniforms_walks() {
     let exe = compile(

@@ -819,6 +819,92 @@ pub fn first_vertex_pdf(ms: &Microsurface, wi: Vec3, wo: Vec3) -> f32 {
     ms.phase_pdf(i, o, ms.eta(inside), o.z < 0.0) as f32
 }
 
+// ---------------------------------------------------------------------------
+// Appended by the `layer` helper (issue 13, NULL_SCATTERING on the kernel):
+// the phase function for facet normals that need not form a height field.
+
+/// A density of facet normals over the whole sphere, `D(m)` per steradian:
+/// what [`Microsurface::phase_over`] needs of a distribution. [`Ndf`] is
+/// one (zero below the horizon); NULL_SCATTERING's full-sphere
+/// distributions (d'Eon 2023, sec. 3) are others.
+pub trait NormalDensity {
+    /// `D(m)` for the unit normal `m`.
+    fn density(&self, m: Vec3) -> f64;
+}
+
+impl NormalDensity for Ndf {
+    #[inline]
+    fn density(&self, m: Vec3) -> f64 {
+        self.d(m) as f64
+    }
+}
+
+impl Microsurface {
+    /// The phase function of conductor and dielectric facets whose normals
+    /// have the density `ndf` over the whole sphere, met at `rate` per unit
+    /// length by a ray travelling along `w` (relative index `eta`): the
+    /// density that such a collision has the normal sending the ray to `o`
+    /// (frame of `w`'s side, `o.z < 0`: refraction), Fresnel included.
+    /// Reflection `F D(h) / (4 rate)`, refraction `(1 - F) (i.h) D(h) J /
+    /// rate` with the Jacobian of Walter et al. 2007, eq. (17); the half
+    /// vector is the one facing `i = -w`, up or down. Zero for diffuse
+    /// facets (their phase has no closed form: [`Microsurface::phase`]
+    /// with a drawn normal).
+    ///
+    /// With the kernel's height-field [`Ndf`] and `rate = sigma(-w)` this is
+    /// [`Microsurface::phase`]; NULL_SCATTERING calls it with its
+    /// full-sphere NDFs and the tentative rate `pi D_max` of its null
+    /// collisions (d'Eon 2023, sec. 3.2).
+    #[inline]
+    pub fn phase_over<N: NormalDensity>(
+        &self,
+        ndf: &N,
+        w: Vec3,
+        o: Vec3,
+        eta: f32,
+        rate: f64,
+    ) -> Vec3 {
+        let i = -w;
+        if rate.is_nan() || rate <= 0.0 || matches!(self.facet, Facet::Diffuse { .. }) {
+            return Vec3::ZERO;
+        }
+        if o.z > 0.0 {
+            let h = (i + o).normalize_or_zero();
+            let ci = i.dot(h);
+            if ci <= 0.0 {
+                return Vec3::ZERO;
+            }
+            let p = (ndf.density(h) / (4.0 * rate)) as f32;
+            return match self.facet {
+                Facet::Dielectric { .. } => Vec3::splat(fresnel::dielectric(ci, eta) * p),
+                _ => self.fresnel(ci) * p,
+            };
+        }
+        if !self.is_dielectric() {
+            return Vec3::ZERO;
+        }
+        // `refraction_half` returns the upward facet; a facet facing down
+        // (full-sphere NDFs) is its mirror image in the mirrored frame.
+        let half = refraction_half(i, o, eta).or_else(|| {
+            refraction_half(flip_z(i), flip_z(o), eta).map(|r| RefractionHalf {
+                h: flip_z(r.h),
+                ..r
+            })
+        });
+        let Some(RefractionHalf {
+            h,
+            ci,
+            co,
+            jacobian,
+        }) = half
+        else {
+            return Vec3::ZERO;
+        };
+        let f = fresnel::dielectric_pair(ci, co, eta);
+        Vec3::splat(((1.0 - f) as f64 * (ci * jacobian) as f64 * ndf.density(h) / rate) as f32)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

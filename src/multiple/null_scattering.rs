@@ -9,12 +9,24 @@
 //! `pi D_max` for every direction, so free paths are exponential with a
 //! constant rate). At each tentative collision a candidate normal is drawn
 //! by projecting a uniform point of the disk orthogonal to `w` onto the
-//! unit sphere (density `max(0, -w.m) / pi`); the collision is real with
-//! probability `D(m) / D_max`, otherwise the walk goes on unchanged (delta
-//! tracking in the angular domain). A real collision scatters by the facet:
-//! conductor (mirror, weight `F`), dielectric (reflect with probability `F`,
-//! else refract to the other side), or Lambertian. The walk ends when the
-//! depth becomes negative; the exit direction and weight are returned.
+//! unit sphere (density `max(0, -w.m) / pi`: a cosine lobe about `-w`);
+//! the collision is real with probability `D(m) / D_max`, otherwise the
+//! walk goes on unchanged (delta tracking in the angular domain). A real
+//! collision scatters by the facet: conductor (mirror, weight `F`),
+//! dielectric (reflect with probability `F`, else refract to the other
+//! side), or Lambertian. The walk ends when the depth becomes negative; the
+//! exit direction and weight are returned.
+//!
+//! For Beckmann, GGX and Student-T the first real collision is drawn
+//! directly instead: a ray entering along `w` meets real facets at the rate
+//! `sigma(-w)` (closed form) with normals of density `D_{-w}`, which the
+//! walk kernel samples from two uniforms. This is the same distribution
+//! (the null collisions only thin the constant-rate process to it), so the
+//! first vertex can take the caller's uniforms (`sample_with`: `u[0]`
+//! reflect or refract, `u[1], u[2]` the visible normal); the later vertices,
+//! and every vertex of vMF, exponential and K0 (normals by rejection), take
+//! their numbers from the generator. It also halves the instructions of a
+//! GGX sample at alpha 0.5 (`docs/null_scattering.md`).
 //!
 //! Depth is measured in units where a ray straight down meets real facets
 //! at rate `integral max(0, m.z) D(m) dm` (1 for height-field NDFs). Then
@@ -56,8 +68,9 @@
 //! the quadrature matches (tested) at a thousandth of the cost.
 //!
 //! ## NDFs
-//! Beckmann, GGX, Student-T (`gamma >= 2`: below 2 the NDF is unbounded at
-//! the horizon, refused), von Mises-Fisher `D = C exp(2 (u - 1) / alpha^2)`
+//! Beckmann, GGX, Student-T (the crate's [`Ndf`], whose `D`, cross-section
+//! and visible normals the walk uses; `gamma >= 2`: below 2 the NDF is
+//! unbounded at the horizon, refused), von Mises-Fisher `D = C exp(2 (u - 1) / alpha^2)`
 //! on the full sphere (d'Eon 2023, section 5.3), exponential (eq. 43, isotropic)
 //! and Bessel K0 (eq. 40 with argument `2 tan / alpha` as eq. 36 gives;
 //! eq. 40 drops the `1/u`). K0 is unbounded at `u = 1`, so no constant
@@ -71,7 +84,35 @@
 //! ## pdf
 //! As in the paper (section 3.3), `pdf` is a cosine lobe: `|wo.z| / pi` on
 //! the side of `wi` for opaque facets, half of it on each side for
-//! dielectrics.
+//! dielectrics (the kernel's approximate pdf with no single-scattering part).
+//!
+//! ## On the walk kernel
+//! What every walk shares comes from `microsurface.rs`: the per-side frames
+//! and index (a refraction mirrors the frame, `Microsurface::eta`), facet
+//! scattering (`Microsurface::scatter_at`: conductor with its Fresnel,
+//! dielectric reflect or refract with the side flip, Lambert lobe), the
+//! phase function (`Microsurface::phase_over`, the kernel's phase for a
+//! normal density over the whole sphere and a given collision rate; diffuse
+//! facets with the drawn normal, `Microsurface::phase`), the first vertex's
+//! visible normals, the cosine lobe, the reciprocity factor and the
+//! approximate pdf. What stays here, and why:
+//! - the NDFs that are not the crate's [`Ndf`] (vMF, exponential, K0: see
+//!   [`NullNdf`]), the majorant `D_max`, and the Dirac-quadrature
+//!   cross-section;
+//! - the walk loop itself. The kernel's `DepthState` gives the next *real*
+//!   vertex from Smith's `Lambda` and then draws its normal from the
+//!   visible normals of an [`Ndf`]; the null-collision walk draws
+//!   *tentative* collisions at the constant rate `pi D_max`, proposes the
+//!   normal with the collision and accepts it with `D(m) / D_max`, and
+//!   eval's next-event estimate is taken at every tentative collision
+//!   (normalised by the tentative rate, so `sigma` of the travel direction
+//!   is never needed). Its depth is the optical depth `t` (escape
+//!   `exp(-sigma(-o) t / o.z)`, mirrored to `-ln(1 - e^-t)` by a
+//!   refraction): Heitz et al.'s height with `C1 = e^-t`, defined for
+//!   full-sphere NDFs, which have no `Lambda`;
+//! - no Russian roulette: the weight is a product of Fresnel factors, and
+//!   the walk ends at the bounce limit ([`DEFAULT_BOUNCES`]);
+//! - composition (`with_inner`): facets that scatter as another material.
 //!
 //! ## Cost versus roughness (d'Eon 2023, section 3.3)
 //! The tentative-collision rate is `pi D_max`: about `1 / alpha^2` times the
@@ -82,21 +123,26 @@
 //! `docs/null_scattering.md`, written by
 //! `cargo run --release --example null_scattering_stats`.
 //!
-//! The cost grows like `1 / alpha^2`; at alpha 0.2 a sample costs about 10
-//! times what it costs at alpha 1 (the paper recommends alpha >= 0.4).
+//! The cost grows like `1 / alpha^2`; at alpha 0.2 a sample costs 3.5 to 15
+//! times what it costs at alpha 1 (Student-T, Beckmann and GGX, whose first
+//! collision is drawn directly, 3.5 to 9 times; vMF 8, exponential 15), an
+//! eval 5 to 20 times (the paper recommends alpha >= 0.4).
 //! [`Material::new`](crate::Material::new) refuses roughness below
 //! [`MIN_ALPHA`] = 0.2 with `Error::InvalidArgument`. Eval costs more than
 //! sample: two walks (reciprocal estimate), a next-event estimate at every
 //! tentative collision, and for vMF and exponential two quadrature
 //! cross-sections (about 1.3 and 2.3 us each).
 //!
-//! Composition (`MSBSDF_FACET_MATERIAL`) is not implemented.
+//! Composition (`MSBSDF_FACET_MATERIAL`, d'Eon 2023 section 4): facets that
+//! scatter as another opaque material ([`NullScattering::with_inner`]).
 
-use crate::bsdf::{Sample, ScatterModel, opposite_sides, same_side};
+use crate::bsdf::{Sample, ScatterModel, same_side};
 use crate::facet::Facet;
-use crate::frame::{basis_f64, flip_z, reflect, refract};
-use crate::fresnel;
+use crate::frame::{basis, flip_z};
 use crate::math::{FRAC_1_SQRT_PI, erf, erfcx_pos};
+use crate::multiple::microsurface::{
+    Microsurface, NormalDensity, approximate_pdf, cosine_about, first_uniforms,
+};
 use crate::ndf::{Ndf, NdfKind, beckmann};
 use crate::rng::Rng;
 use crate::specfun::bessel_k;
@@ -105,7 +151,7 @@ use std::f64::consts::PI;
 use std::sync::OnceLock;
 
 /// Smallest roughness accepted (see the module docs: below it the rejection
-/// rate makes a sample cost over 10 times what it costs at alpha 1).
+/// rate makes an eval cost up to 20 times what it costs at alpha 1).
 pub const MIN_ALPHA: f32 = 0.2;
 
 /// Default number of real scattering events followed when the description
@@ -138,16 +184,42 @@ pub enum NullNdfKind {
 }
 
 /// A bounded NDF with its constant majorant (or K0's closed forms).
+///
+/// Beckmann, GGX and Student-T are the crate's [`Ndf`]: `D`, the
+/// cross-section and the visible normals come from it, and the majorant is
+/// its `D` at the peak. vMF, exponential and K0 are formulas of their own
+/// (d'Eon 2023, eqs. 40-43 and sec. 5.3): full-sphere or unbounded at the
+/// top, with no Smith `Lambda` in closed form (vMF, exponential) and no
+/// visible-normal sampler of two uniforms; they stay here.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct NullNdf {
     kind: NullNdfKind,
-    ax: f32,
-    ay: f32,
-    shape: f32,
+    /// The crate's NDF (Beckmann, GGX, Student-T), `None` for the others.
+    smith: Option<Ndf>,
+    /// Roughness of the isotropic vMF, exponential and K0 distributions.
+    alpha: f64,
     /// Constant majorant `D_max >= D(m)` for all `m`.
     d_max: f64,
     /// vMF normalisation `C`.
     c: f64,
+}
+
+/// Relative margin of the majorant over the peak value of `D`: the crate's
+/// `D` is single precision, so the value the walk computes near the peak
+/// may exceed the one computed at it by a few ulps.
+const MAJORANT_MARGIN: f64 = 1e-5;
+
+/// `D` of a height-field NDF at the normal of slope `sqrt(tan2)` along the
+/// x axis (`tan2` infinite: the horizon limit, approached from above).
+fn d_at_slope(ndf: &Ndf, tan2: f64) -> f64 {
+    let m = if tan2.is_finite() {
+        glam::DVec3::new(tan2.sqrt(), 0.0, 1.0)
+            .normalize()
+            .as_vec3()
+    } else {
+        Vec3::new(1.0, 0.0, f32::MIN_POSITIVE)
+    };
+    ndf.d(m) as f64
 }
 
 impl NullNdf {
@@ -156,32 +228,32 @@ impl NullNdf {
     pub fn new(kind: NullNdfKind, ax: f32, ay: f32, shape: f32) -> Option<NullNdf> {
         let iso = ax == ay;
         let a = ax.max(ay) as f64;
-        let norm = 1.0 / (PI * ax as f64 * ay as f64);
         let mut c = 0.0;
+        let mut smith = None;
         let d_max = match kind {
-            NullNdfKind::Beckmann => {
-                // D along the rougher axis peaks at sec^2 = 2 a^2 when 2 a^2 > 1.
-                let peak = if 2.0 * a * a > 1.0 {
-                    (-(2.0 - 1.0 / (a * a))).exp() * 4.0 * a.powi(4)
-                } else {
-                    1.0
-                };
-                norm * peak.max(1.0)
-            }
-            NullNdfKind::Ggx => norm * (a.powi(4)).max(1.0),
-            NullNdfKind::StudentT => {
+            NullNdfKind::Beckmann | NullNdfKind::Ggx | NullNdfKind::StudentT => {
                 let g = shape as f64;
-                if g.is_nan() || g < 2.0 {
-                    return None;
-                }
-                if g == 2.0 {
-                    norm * (a.powi(4)).max(1.0)
-                } else {
-                    // d/dx [-g ln(1 + x/((g-1)a^2)) + 2 ln(1 + x)] = 0, x = tan^2.
-                    let x = ((2.0 * (g - 1.0) * a * a - g) / (g - 2.0)).max(0.0);
-                    let v = (-g * (x / ((g - 1.0) * a * a)).ln_1p() + 2.0 * x.ln_1p()).exp();
-                    norm * v.max(1.0)
-                }
+                let ndf_kind = match kind {
+                    NullNdfKind::Beckmann => NdfKind::Beckmann,
+                    NullNdfKind::Ggx => NdfKind::Ggx,
+                    _ if g.is_nan() || g < 2.0 => return None,
+                    _ => NdfKind::StudentT,
+                };
+                // `D` along the rougher axis, whose slopes it favours, is
+                // largest at the top or at `tan^2 theta = x`: Beckmann
+                // `2 a^2 - 1`; GGX and Student-T 2 the horizon (`a^4 / (pi
+                // a_x a_y)`); Student-T above 2, where
+                // d/dx [-g ln(1 + x / ((g - 1) a^2)) + 2 ln(1 + x)] = 0.
+                let x = match kind {
+                    NullNdfKind::Beckmann => 2.0 * a * a - 1.0,
+                    _ if ndf_kind == NdfKind::Ggx || g == 2.0 => f64::INFINITY,
+                    _ => (2.0 * (g - 1.0) * a * a - g) / (g - 2.0),
+                };
+                // The rougher axis as x.
+                let (rx, ry) = if ax >= ay { (ax, ay) } else { (ay, ax) };
+                let n = Ndf::with_shape(ndf_kind, rx, ry, shape);
+                smith = Some(Ndf::with_shape(ndf_kind, ax, ay, shape));
+                d_at_slope(&n, 0.0).max(d_at_slope(&n, x.max(0.0)))
             }
             NullNdfKind::Vmf => {
                 if !iso {
@@ -214,10 +286,9 @@ impl NullNdf {
         };
         Some(NullNdf {
             kind,
-            ax,
-            ay,
-            shape,
-            d_max: d_max * (1.0 + 1e-9),
+            smith,
+            alpha: a,
+            d_max: d_max * (1.0 + MAJORANT_MARGIN),
             c,
         })
     }
@@ -225,6 +296,12 @@ impl NullNdf {
     /// The kind.
     pub fn kind(&self) -> NullNdfKind {
         self.kind
+    }
+
+    /// The crate's NDF for Beckmann, GGX and Student-T; `None` for the
+    /// others.
+    pub fn smith(&self) -> Option<&Ndf> {
+        self.smith.as_ref()
     }
 
     /// The constant majorant `D_max` (infinite for K0).
@@ -238,35 +315,21 @@ impl NullNdf {
         self.kind != NullNdfKind::BesselK0
     }
 
-    #[inline]
-    fn closed_ndf(&self) -> Option<Ndf> {
-        let k = match self.kind {
-            NullNdfKind::Beckmann => NdfKind::Beckmann,
-            NullNdfKind::Ggx => NdfKind::Ggx,
-            NullNdfKind::StudentT => NdfKind::StudentT,
-            _ => return None,
-        };
-        Some(Ndf::with_shape(k, self.ax, self.ay, self.shape))
-    }
-
     /// `D(m)` per steradian on the whole sphere, `integral D(m) m.z dm = 1`.
     #[inline]
     pub fn d(&self, m: Vec3) -> f64 {
-        match self.kind {
-            NullNdfKind::Vmf => {
-                self.c * (2.0 * (m.z as f64 - 1.0) / (self.ax as f64).powi(2)).exp()
+        match (&self.smith, self.kind) {
+            (Some(n), _) => n.d(m) as f64,
+            (None, NullNdfKind::Vmf) => {
+                self.c * (2.0 * (m.z as f64 - 1.0) / (self.alpha * self.alpha)).exp()
             }
-            NullNdfKind::Exponential | NullNdfKind::BesselK0 => self.d_iso(m.z as f64),
-            _ => match self.closed_ndf() {
-                Some(n) => n.d(m) as f64,
-                None => 0.0,
-            },
+            (None, _) => self.d_iso(m.z as f64),
         }
     }
 
     /// `D` of an isotropic distribution as a function of the cosine `u`.
     pub fn d_iso(&self, u: f64) -> f64 {
-        let a = self.ax as f64;
+        let a = self.alpha;
         match self.kind {
             NullNdfKind::Vmf => self.c * (2.0 * (u - 1.0) / (a * a)).exp(),
             NullNdfKind::Exponential => {
@@ -294,18 +357,15 @@ impl NullNdf {
 
     /// Projected area `sigma(v) = integral max(0, v.m) D(m) dm` seen from the
     /// unit direction `v`: the Dirac quadrature (eq. 33) for vMF and the
-    /// exponential NDF; the closed forms of Beckmann, GGX, Student-T and K0
-    /// (eq. 42) where they exist (equal to the quadrature within 2e-5,
-    /// `tests/null_scattering.rs`, and 700 times cheaper: 3 ns against
-    /// 2.1-2.5 us, which made eval 2-3 times slower).
+    /// exponential NDF; the closed forms of Beckmann, GGX, Student-T (the
+    /// crate's [`Ndf::sigma`]) and K0 (eq. 42), equal to the quadrature
+    /// within 2e-5 (`tests/null_scattering.rs`) and 700 times cheaper: 3 ns
+    /// against 2.1-2.5 us, which made eval 2-3 times slower.
     pub fn sigma(&self, v: Vec3) -> f64 {
-        match self.kind {
-            NullNdfKind::BesselK0 => k0_sigma(self.ax as f64, v.z as f64),
-            NullNdfKind::Vmf | NullNdfKind::Exponential => self.sigma_quadrature(v.z as f64),
-            _ => match self.closed_ndf() {
-                Some(n) => n.sigma(v) as f64,
-                None => self.sigma_quadrature(v.z as f64),
-            },
+        match (&self.smith, self.kind) {
+            (Some(n), _) => n.sigma(v) as f64,
+            (None, NullNdfKind::BesselK0) => k0_sigma(self.alpha, v.z as f64),
+            (None, _) => self.sigma_quadrature(v.z as f64),
         }
     }
 
@@ -317,6 +377,13 @@ impl NullNdf {
             _ => GL_NODES,
         };
         sigma_quadrature_nodes(|x| self.d_iso(x), u, nodes)
+    }
+}
+
+impl NormalDensity for NullNdf {
+    #[inline]
+    fn density(&self, m: Vec3) -> f64 {
+        self.d(m)
     }
 }
 
@@ -508,13 +575,12 @@ fn flip_depth(t: f64) -> f64 {
 /// Where `eval` sends its next-event estimates.
 #[derive(Clone, Copy)]
 struct Target {
-    /// `wo` in the oriented world frame.
+    /// `wo` in the world frame.
     wo: Vec3,
-    /// Side (0 upper, 1 lower) the escape happens on.
-    side: u8,
-    /// Escape travel direction in that side's frame (z > 0).
-    esc: Vec3,
-    /// Real cross-section for travelling along `esc`: `sigma(-esc)`.
+    /// Cosine of `wo` on its own side (> 0).
+    esc_z: f64,
+    /// Real cross-section for leaving along `wo` on its side:
+    /// `sigma(-esc)`, `esc = wo` seen from its side.
     sigma_esc: f64,
 }
 
@@ -522,8 +588,14 @@ struct Target {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct NullScattering {
     ndf: NullNdf,
-    facet: Facet,
-    max_bounces: u32,
+    /// The walk kernel's microsurface: facet scattering, Fresnel, per-side
+    /// index, reciprocity, approximate pdf, and for Beckmann, GGX and
+    /// Student-T the first vertex's visible normals. Its `ndf` is the
+    /// crate's NDF for those kinds; for vMF, exponential and K0 (not an
+    /// [`Ndf`]) it is the Beckmann NDF of the same roughness, which nothing
+    /// reads: the phase function takes [`NullNdf`]
+    /// ([`Microsurface::phase_over`]).
+    ms: Microsurface,
     /// Composition (d'Eon 2023 section 4): the facets scatter as this opaque
     /// material, in a frame whose z is the facet normal.
     inner: Option<crate::dispatch::Inner>,
@@ -534,6 +606,15 @@ struct WalkEnd {
     dir: Vec3,
     weight: Vec3,
     escaped: bool,
+}
+
+impl WalkEnd {
+    /// Absorbed, cut or lost.
+    const LOST: WalkEnd = WalkEnd {
+        dir: Vec3::ZERO,
+        weight: Vec3::ZERO,
+        escaped: false,
+    };
 }
 
 /// Statistics of walks (for the documentation's measurements).
@@ -554,10 +635,11 @@ impl NullScattering {
         } else {
             max_bounces.min(crate::desc::MAX_BOUNCES)
         };
+        let a = ndf.alpha as f32;
+        let kernel_ndf = ndf.smith.unwrap_or(Ndf::new(NdfKind::Beckmann, a, a));
         NullScattering {
             ndf,
-            facet,
-            max_bounces,
+            ms: Microsurface::new(kernel_ndf, facet, max_bounces),
             inner: None,
         }
     }
@@ -580,171 +662,134 @@ impl NullScattering {
         &self.ndf
     }
 
-    /// Relative index of the side the walk is on.
+    /// Next-event estimate at a tentative collision at depth `t` of a ray
+    /// travelling along `w` (frame of its side, `inside`, index `eta`) with
+    /// tentative rate `rate`: the phase function per unit rate times the
+    /// probability of leaving towards `wo` (after a refraction, from the
+    /// mirrored depth on the other side).
     #[inline]
-    fn eta(&self, side: u8) -> f32 {
-        match self.facet {
-            Facet::Dielectric { eta } => {
-                if side == 0 {
-                    eta
-                } else {
-                    1.0 / eta
-                }
-            }
-            _ => 1.0,
-        }
-    }
-
-    /// Analytic phase density (per solid angle of `o`) that a collision of a
-    /// travel direction `w` with event rate `rate` is real, has a normal
-    /// sending the path to the travel direction `o` (same frame), times the
-    /// facet weight. `o` on the same side (`o.z` of either sign) is a
-    /// reflection; `refr` asks for a refraction.
-    #[inline]
-    fn phase(&self, w: Vec3, o: Vec3, refr: bool, side: u8, rate: f64) -> Vec3 {
-        let wi = -w;
-        if !refr {
-            let h = (wi + o).normalize_or_zero();
-            let ci = wi.dot(h);
-            if ci <= 0.0 {
-                return Vec3::ZERO;
-            }
-            let dens = ci as f64 * self.ndf.d(h) / (rate * 4.0 * ci as f64);
-            let f = match self.facet {
-                Facet::Dielectric { .. } => Vec3::splat(fresnel::dielectric(ci, self.eta(side))),
-                _ => self.facet.conductor_fresnel(ci),
-            };
-            f * dens as f32
-        } else {
-            let eta = self.eta(side);
-            let h = -(wi + eta * o);
-            let len = h.length();
-            if len.is_nan() || len <= 1e-6 {
-                return Vec3::ZERO;
-            }
-            let mut h = h / len;
-            if wi.dot(h) < 0.0 {
-                h = -h;
-            }
-            let (ci, co) = (wi.dot(h), o.dot(h));
-            if ci <= 0.0 || co >= 0.0 {
-                return Vec3::ZERO;
-            }
-            let den = ci + eta * co;
-            let jac = (eta * eta * -co / (den * den)) as f64;
-            let f = fresnel::dielectric(ci, eta);
-            Vec3::splat(((1.0 - f) as f64 * ci as f64 * self.ndf.d(h) / rate * jac) as f32)
-        }
-    }
-
-    /// Next-event estimate at a collision on `side`, depth `t`, travel `w`:
-    /// analytic phase times the escape probability.
-    #[inline]
-    fn nee_analytic(&self, tg: &Target, side: u8, t: f64, w: Vec3, rate: f64) -> Vec3 {
-        let o = if side == 0 { tg.wo } else { -tg.wo };
-        let refr = side != tg.side;
-        let p = self.phase(w, o, refr, side, rate);
+    fn nee(&self, tg: &Target, inside: bool, eta: f32, t: f64, w: Vec3, rate: f64) -> Vec3 {
+        let o = if inside { flip_z(tg.wo) } else { tg.wo };
+        let p = self.ms.phase_over(&self.ndf, w, o, eta, rate);
         if p == Vec3::ZERO {
             return Vec3::ZERO;
         }
-        let t_esc = if refr { flip_depth(t) } else { t };
-        p * (-tg.sigma_esc * t_esc / tg.esc.z as f64).exp() as f32
+        p * Self::escape(tg, if o.z < 0.0 { flip_depth(t) } else { t })
     }
 
-    /// The walk. With a target, accumulates the next-event estimates into
-    /// `acc` (then the returned end is irrelevant).
+    /// Transmittance towards the target from depth `t` on the target's side.
+    #[inline]
+    fn escape(tg: &Target, t: f64) -> f32 {
+        (-tg.sigma_esc * t / tg.esc_z).exp() as f32
+    }
+
+    /// The walk from `wi` (world frame; opaque facets are two-sided, a
+    /// dielectric seen from below has the inverse index). With a target,
+    /// accumulates the next-event estimates into `acc` (then the returned
+    /// end is irrelevant). `first`: uniforms for the first vertex (see
+    /// [`ScatterModel::sample_with`]), used by Beckmann, GGX and Student-T.
     fn walk(
         &self,
         wi: Vec3,
+        first: Option<[f32; 3]>,
         rng: &mut Rng,
         target: Option<&Target>,
         acc: &mut Vec3,
         stats: &mut WalkStats,
     ) -> WalkEnd {
-        let mut side = 0u8;
-        let mut w = -wi;
+        let ms = &self.ms;
+        let mut inside = wi.z < 0.0;
+        let to_side = |v: Vec3, inside: bool| if inside { flip_z(v) } else { v };
+        let mut w = -to_side(wi, inside);
+        let mut eta = ms.eta(inside);
         let mut t = 0.0f64;
         let mut weight = Vec3::ONE;
         let null = self.ndf.is_null();
         let rate_null = PI * self.ndf.d_max;
         let mut events = 0u32;
         // Facets whose phase has no closed form: NEE at real collisions only.
-        let diffuse = matches!(self.facet, Facet::Diffuse { .. }) || self.inner.is_some();
-        for _bounce in 0..self.max_bounces {
+        let diffuse = matches!(ms.facet, Facet::Diffuse { .. }) || self.inner.is_some();
+        // The first vertex from the caller's uniforms: the first real
+        // collision of a ray entering along `w` is at rate `sigma(-w)`
+        // with a normal of density `D_{-w}`, which the kernel samples.
+        let mut first = first.and_then(|u| self.ndf.smith.map(|_| u));
+        for _bounce in 0..ms.max_bounces {
             // Find the next real collision (or escape).
-            let m = loop {
-                events += 1;
-                if events > MAX_EVENTS {
-                    return WalkEnd {
-                        dir: Vec3::ZERO,
-                        weight: Vec3::ZERO,
-                        escaped: false,
-                    };
-                }
-                let rate = if null { rate_null } else { self.ndf.sigma(-w) };
-                let wz = w.z as f64;
+            let (m, u0) = if let Some(u) = first.take() {
+                let rate = self.ndf.sigma(-w);
                 if rate.is_nan() || rate <= 0.0 {
-                    if wz > 0.0 {
+                    return WalkEnd::LOST;
+                }
+                t -= w.z as f64 * (-(1.0 - rng.next_f64()).ln() / rate);
+                stats.tentative += 1;
+                match ms.facet_normal(w, u[1], u[2]) {
+                    Some((m, _)) => (m, u[0]),
+                    None => return WalkEnd::LOST,
+                }
+            } else {
+                let m = loop {
+                    events += 1;
+                    if events > MAX_EVENTS {
+                        return WalkEnd::LOST;
+                    }
+                    let rate = if null { rate_null } else { self.ndf.sigma(-w) };
+                    let wz = w.z as f64;
+                    if rate.is_nan() || rate <= 0.0 {
+                        if wz > 0.0 {
+                            break None;
+                        }
+                        return WalkEnd::LOST;
+                    }
+                    t -= wz * (-(1.0 - rng.next_f64()).ln() / rate);
+                    if t < 0.0 {
                         break None;
                     }
-                    return WalkEnd {
-                        dir: Vec3::ZERO,
-                        weight: Vec3::ZERO,
-                        escaped: false,
-                    };
-                }
-                let dist = -(1.0 - rng.next_f64()).ln() / rate;
-                t -= wz * dist;
-                if t < 0.0 {
-                    break None;
-                }
-                stats.tentative += 1;
-                if let (Some(tg), false) = (target, diffuse) {
-                    *acc += weight * self.nee_analytic(tg, side, t, w, rate);
-                }
-                if !null {
-                    break Some(k0_sample_visible(self.ndf.ax, -w, rng));
-                }
-                // Candidate normal: uniform disk orthogonal to w, onto the sphere.
-                let wd = w.as_dvec3().normalize();
-                let (e1, e2) = basis_f64(wd);
-                let r = rng.next_f64().sqrt();
-                let phi = 2.0 * PI * rng.next_f64();
-                let m = (e1 * (r * phi.cos()) + e2 * (r * phi.sin())
-                    - wd * (1.0 - r * r).max(0.0).sqrt())
-                .as_vec3();
-                if rng.next_f64() * self.ndf.d_max < self.ndf.d(m) {
-                    break Some(m);
-                }
-            };
-            let Some(m) = m else {
-                let dir = if side == 0 { w } else { -w };
-                return WalkEnd {
-                    dir,
-                    weight,
-                    escaped: true,
+                    stats.tentative += 1;
+                    if let (Some(tg), false) = (target, diffuse) {
+                        *acc += weight * self.nee(tg, inside, eta, t, w, rate);
+                    }
+                    if !null {
+                        break Some(k0_sample_visible(self.ndf.alpha as f32, -w, rng));
+                    }
+                    // Candidate normal: a uniform point of the disk
+                    // orthogonal to w projected onto the sphere, i.e. a
+                    // cosine lobe about -w (d'Eon 2023, sec. 3.1, fig. 4).
+                    let m = cosine_about(-w, rng.next_f32(), rng.next_f32());
+                    if rng.next_f64() * self.ndf.d_max < self.ndf.d(m) {
+                        break Some(m);
+                    }
                 };
+                let Some(m) = m else {
+                    return WalkEnd {
+                        dir: to_side(w, inside),
+                        weight,
+                        escaped: true,
+                    };
+                };
+                let u0 = if ms.is_dielectric() {
+                    rng.next_f32()
+                } else {
+                    0.0
+                };
+                (m, u0)
             };
             stats.real += 1;
-            let wi_l = -w;
-            let ci = wi_l.dot(m);
+            let ci = -w.dot(m);
             if ci <= 0.0 {
                 continue; // rounding at the rim: treat as null
             }
             if let Some(inner) = &self.inner {
                 // Scatter by the inner material in the facet's frame.
-                let (t1, t2) = basis_f64(m.as_dvec3());
-                let (t1, t2) = (t1.as_vec3(), t2.as_vec3());
+                let (t1, t2) = basis(m);
                 let to_local = |v: Vec3| Vec3::new(v.dot(t1), v.dot(t2), v.dot(m));
-                let wi_loc = to_local(wi_l);
-                if let Some(tg) = target
-                    && tg.wo.dot(m) > 0.0
-                {
-                    let f = inner.eval(wi_loc, to_local(tg.wo), rng);
-                    let tr = (-tg.sigma_esc * t / tg.esc.z as f64).exp() as f32;
-                    *acc += weight * f * tr;
+                if let Some(tg) = target {
+                    let o = to_side(tg.wo, inside);
+                    if o.dot(m) > 0.0 {
+                        let f = inner.eval(-to_local(w), to_local(o), rng);
+                        *acc += weight * f * Self::escape(tg, t);
+                    }
                 }
-                let s = inner.sample(wi_loc, rng);
+                let s = inner.sample(-to_local(w), rng);
                 if s.flags != crate::bsdf::SAMPLE_REFLECTION {
                     break;
                 }
@@ -755,86 +800,50 @@ impl NullScattering {
                 }
                 continue;
             }
-            match self.facet {
-                Facet::Conductor { .. } => {
-                    weight *= self.facet.conductor_fresnel(ci);
-                    w = reflect(wi_l, m);
-                }
-                Facet::Diffuse { albedo } => {
-                    if let Some(tg) = target {
-                        // NEE with the sampled normal (opaque facets: side 0).
-                        let cm = tg.wo.dot(m);
-                        if cm > 0.0 {
-                            let tr = (-tg.sigma_esc * t / tg.esc.z as f64).exp() as f32;
-                            *acc += weight * albedo * (cm * std::f32::consts::FRAC_1_PI * tr);
-                        }
-                    }
-                    weight *= albedo;
-                    let (e1, e2) = basis_f64(m.as_dvec3());
-                    let r = rng.next_f64().sqrt();
-                    let phi = 2.0 * PI * rng.next_f64();
-                    let d = e1 * (r * phi.cos())
-                        + e2 * (r * phi.sin())
-                        + m.as_dvec3() * (1.0 - r * r).max(0.0).sqrt();
-                    w = d.normalize().as_vec3();
-                }
-                Facet::Dielectric { .. } => {
-                    let eta = self.eta(side);
-                    let f = fresnel::dielectric(ci, eta);
-                    if rng.next_f32() < f {
-                        w = reflect(wi_l, m);
-                    } else {
-                        match refract(wi_l, m, eta) {
-                            Some(wt) => {
-                                w = -wt;
-                                side ^= 1;
-                                t = flip_depth(t);
-                            }
-                            None => w = reflect(wi_l, m),
-                        }
-                    }
-                }
+            if let (Some(tg), Facet::Diffuse { .. }) = (target, ms.facet) {
+                // NEE with the sampled normal (opaque facets: same side).
+                let o = to_side(tg.wo, inside);
+                *acc += weight * ms.phase(w, o, eta, 1.0, m) * Self::escape(tg, t);
             }
-            if weight.max_element() <= 0.0 || !w.is_finite() || w == Vec3::ZERO {
+            let Some(s) = ms.scatter_at(w, m, ci, eta, u0, rng) else {
                 break;
+            };
+            weight *= s.weight;
+            if s.refracted {
+                inside = !inside;
+                eta = 1.0 / eta;
+                t = flip_depth(t);
             }
+            w = s.w;
         }
-        WalkEnd {
-            dir: Vec3::ZERO,
-            weight: Vec3::ZERO,
-            escaped: false,
-        }
+        WalkEnd::LOST
     }
 
-    /// Orients `wi` upwards (two-sided opaque facets mirror; a dielectric
-    /// seen from below has the inverse index). Returns the model to use.
-    #[inline]
-    fn oriented(&self, wi: Vec3) -> (NullScattering, bool) {
-        if wi.z >= 0.0 {
-            return (*self, false);
-        }
-        let mut m = *self;
-        if let Facet::Dielectric { eta } = self.facet {
-            m.facet = Facet::Dielectric { eta: 1.0 / eta };
-        }
-        (m, true)
-    }
-
-    /// One sampled walk with its statistics (for measurements).
+    /// One sampled walk with its statistics (for measurements), as
+    /// [`ScatterModel::sample`].
     pub fn sample_with_stats(&self, wi: Vec3, rng: &mut Rng, stats: &mut WalkStats) -> Sample {
-        let (model, flipped) = self.oriented(wi);
-        let wi_l = if flipped { flip_z(wi) } else { wi };
+        // Only the kinds with a visible-normal sampler take uniforms.
+        let u = match self.ndf.smith {
+            Some(_) => first_uniforms(rng),
+            None => [0.0; 3],
+        };
+        self.sample_uniforms(wi, u, rng, stats)
+    }
+
+    /// One sampled walk, `u` as in [`ScatterModel::sample_with`].
+    fn sample_uniforms(
+        &self,
+        wi: Vec3,
+        u: [f32; 3],
+        rng: &mut Rng,
+        stats: &mut WalkStats,
+    ) -> Sample {
         let mut acc = Vec3::ZERO;
-        let end = model.walk(wi_l, rng, None, &mut acc, stats);
-        if !end.escaped {
+        let end = self.walk(wi, Some(u), rng, None, &mut acc, stats);
+        if !end.escaped || end.dir.z == 0.0 {
             return Sample::ABSORBED;
         }
-        let wo = if flipped { flip_z(end.dir) } else { end.dir };
-        if wo.z == 0.0 {
-            return Sample::ABSORBED;
-        }
-        let pdf = self.pdf(wi, wo);
-        Sample::new(wi, wo, end.weight, pdf)
+        Sample::new(wi, end.dir, end.weight, self.pdf(wi, end.dir))
     }
 
     /// One eval estimate from the walk started at `wi` alone, with its
@@ -847,30 +856,20 @@ impl NullScattering {
         rng: &mut Rng,
         stats: &mut WalkStats,
     ) -> Vec3 {
-        let (model, flipped) = self.oriented(wi);
-        let (wi_l, wo_l) = if flipped {
-            (flip_z(wi), flip_z(wo))
-        } else {
-            (wi, wo)
-        };
-        let side = if wo_l.z > 0.0 { 0 } else { 1 };
-        if side == 1 && !matches!(self.facet, Facet::Dielectric { .. }) {
+        if !self.ms.is_dielectric() && !same_side(wi, wo) {
             return Vec3::ZERO;
         }
-        let esc = if side == 0 { wo_l } else { -wo_l };
+        let esc = Vec3::new(wo.x, wo.y, wo.z.abs());
         let tg = Target {
-            wo: wo_l,
-            side,
-            esc,
-            sigma_esc: model.ndf.sigma(-esc),
+            wo,
+            esc_z: esc.z as f64,
+            sigma_esc: self.ndf.sigma(-esc),
         };
         let mut acc = Vec3::ZERO;
-        model.walk(wi_l, rng, Some(&tg), &mut acc, stats);
+        self.walk(wi, None, rng, Some(&tg), &mut acc, stats);
         acc
     }
-}
 
-impl NullScattering {
     /// The reciprocal eval estimate: the mean of the walk from `wi` with
     /// next-event estimation towards `wo` and the walk from `wo` towards
     /// `wi`, the latter scaled by the generalised reciprocity
@@ -887,11 +886,7 @@ impl NullScattering {
     ) -> Vec3 {
         let a = self.eval_with_stats(wi, wo, rng, stats);
         let b = self.eval_with_stats(wo, wi, rng, stats);
-        let mut scale = wo.z.abs() / wi.z.abs();
-        if let (Facet::Dielectric { eta }, true) = (self.facet, opposite_sides(wi, wo)) {
-            let r = if wi.z > 0.0 { eta } else { 1.0 / eta }; // eta_o / eta_i
-            scale *= r * r;
-        }
+        let scale = wo.z.abs() / wi.z.abs() * self.ms.reciprocity_factor(wi, wo);
         0.5 * (a + b * scale)
     }
 }
@@ -903,29 +898,21 @@ impl ScatterModel for NullScattering {
     }
 
     fn sample(&self, wi: Vec3, rng: &mut Rng) -> Sample {
-        let mut st = WalkStats::default();
-        self.sample_with_stats(wi, rng, &mut st)
+        self.sample_with_stats(wi, rng, &mut WalkStats::default())
     }
 
-    fn sample_with(&self, wi: Vec3, _u: [f32; 3], rng: &mut Rng) -> Sample {
-        // The null-collision walk draws its collision distances and facet
-        // normals by rejection (d'Eon 2023, sec. 3.1): a fixed number of
-        // caller uniforms cannot select them, so all of the walk's numbers
-        // come from rng.
-        self.sample(wi, rng)
+    /// Beckmann, GGX and Student-T: the first vertex takes `u[0]`
+    /// (reflect or refract) and `u[1], u[2]` (its visible normal, drawn
+    /// by the kernel); the rest of the walk, and for vMF, exponential and
+    /// K0 all of it (normals drawn by rejection, d'Eon 2023, sec. 3.1),
+    /// comes from `rng`.
+    fn sample_with(&self, wi: Vec3, u: [f32; 3], rng: &mut Rng) -> Sample {
+        self.sample_uniforms(wi, u, rng, &mut WalkStats::default())
     }
 
+    /// The cosine lobe of the paper (section 3.3): the kernel's
+    /// approximate pdf with no single-scattering part.
     fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
-        let c = wo.z.abs() * std::f32::consts::FRAC_1_PI;
-        match self.facet {
-            Facet::Dielectric { .. } => 0.5 * c,
-            _ => {
-                if same_side(wi, wo) {
-                    c
-                } else {
-                    0.0
-                }
-            }
-        }
+        approximate_pdf(&self.ms, 1.0, wi, wo)
     }
 }

@@ -4,8 +4,13 @@
 //! with its tabulated inverse CDF, and the bounce-count percentiles of
 //! Lee et al. 2018 Table 2.
 //!
-//! Phong lives here privately (the crate's `Ndf` has no Lambda for it, and
-//! the V-groove models need none). Roughness maps to the Phong exponent as
+//! Beckmann and GGX are the crate's [`Ndf`]: `D`, the cross-section and
+//! the visible normals of the first facet come from it. What stays here is
+//! the V-groove's own: the partner density `P(theta_r)` of eq. 20 and its
+//! inverse CDFs (the distribution of the groove angle in a groove plane: a
+//! marginal of the slope distribution in `tan theta / alpha_phi`, not `D`),
+//! the bounce-count quantiles, and Phong, which lives here privately (the
+//! crate's `Ndf` has no Lambda for it, and the V-groove models need none). Roughness maps to the Phong exponent as
 //! Walter et al. 2007 do, `e = 2 / alpha^2 - 2`, so `alpha` in `(0, 1]`
 //! (`e >= 0`); anisotropy is Ashikhmin-Shirley's
 //! `D(s) = sqrt((e_x + 2)(e_y + 2)) / (2 pi) cos^(e_x cos^2 phi + e_y sin^2 phi) theta`,
@@ -39,6 +44,8 @@ pub enum Family {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GrooveNdf {
     family: Family,
+    /// The crate's NDF (Beckmann, GGX); `None` for Phong.
+    smith: Option<Ndf>,
     ax: f64,
     ay: f64,
     /// Phong exponents along x and y.
@@ -58,10 +65,16 @@ impl GrooveNdf {
     /// A distribution (roughness validated by the caller; Phong needs
     /// `alpha <= 1`).
     pub fn new(family: Family, ax: f32, ay: f32) -> Self {
+        let smith = match family {
+            Family::Beckmann => Some(Ndf::new(NdfKind::Beckmann, ax, ay)),
+            Family::Ggx => Some(Ndf::new(NdfKind::Ggx, ax, ay)),
+            Family::Phong => None,
+        };
         let (ax, ay) = (ax as f64, ay as f64);
         let (ex, ey) = (phong_exponent(ax), phong_exponent(ay));
         GrooveNdf {
             family,
+            smith,
             ax,
             ay,
             ex,
@@ -75,42 +88,29 @@ impl GrooveNdf {
         self.family
     }
 
-    /// The crate NDF for the families that have one.
-    fn crate_ndf(&self) -> Option<Ndf> {
-        let kind = match self.family {
-            Family::Beckmann => NdfKind::Beckmann,
-            Family::Ggx => NdfKind::Ggx,
-            Family::Phong => return None,
-        };
-        Some(Ndf::new(kind, self.ax as f32, self.ay as f32))
+    /// The crate's NDF (Beckmann, GGX); `None` for Phong.
+    pub fn smith(&self) -> Option<&Ndf> {
+        self.smith.as_ref()
     }
 
     /// `D(s)` per steradian, `integral D(s) s.z ds = 1`; 0 for `s.z <= 0`.
+    /// Beckmann and GGX: the crate's [`Ndf::d`] (single precision).
     #[inline]
     pub fn d(&self, s: DVec3) -> f64 {
         if s.z <= 0.0 {
             return 0.0;
         }
-        let z2 = s.z * s.z;
-        match self.family {
-            Family::Beckmann => {
-                let e = ((s.x / self.ax).powi(2) + (s.y / self.ay).powi(2)) / z2;
-                (-e).exp() / (PI * self.ax * self.ay * z2 * z2)
-            }
-            Family::Ggx => {
-                let t = (s.x / self.ax).powi(2) + (s.y / self.ay).powi(2) + z2;
-                1.0 / (PI * self.ax * self.ay * t * t)
-            }
-            Family::Phong => {
-                let r2 = s.x * s.x + s.y * s.y;
-                let e = if r2 > 0.0 {
-                    (self.ex * s.x * s.x + self.ey * s.y * s.y) / r2
-                } else {
-                    self.ex
-                };
-                self.phong_norm * s.z.powf(e)
-            }
+        if let Some(n) = &self.smith {
+            return n.d(s.as_vec3()) as f64;
         }
+        // Phong (Ashikhmin-Shirley).
+        let r2 = s.x * s.x + s.y * s.y;
+        let e = if r2 > 0.0 {
+            (self.ex * s.x * s.x + self.ey * s.y * s.y) / r2
+        } else {
+            self.ex
+        };
+        self.phong_norm * s.z.powf(e)
     }
 
     /// Normaliser of the visible-normal density from `i` (`i.z > 0`):
@@ -119,7 +119,7 @@ impl GrooveNdf {
     /// which samples `D(s) s.z` (Lee et al. 2018, sec. 6).
     #[inline]
     pub fn sigma(&self, i: Vec3) -> Option<f64> {
-        self.crate_ndf().map(|n| n.sigma(i) as f64)
+        self.smith.map(|n| n.sigma(i) as f64)
     }
 
     /// Density (per steradian) with which [`GrooveNdf::sample_first`] picks
@@ -135,7 +135,7 @@ impl GrooveNdf {
     /// caller rejects facets facing away from `i`.
     #[inline]
     pub fn sample_first(&self, i: Vec3, u1: f32, u2: f32) -> DVec3 {
-        if let Some(n) = self.crate_ndf() {
+        if let Some(n) = &self.smith {
             return n.sample_visible(i, u1, u2).as_dvec3().normalize();
         }
         // Ashikhmin-Shirley: phi with density ∝ 1 / (e(phi) + 2), then
@@ -246,7 +246,9 @@ impl GrooveNdf {
     }
 }
 
-/// [`GrooveNdf::first_pdf`] from `i.s`, `s.z` and `D(s)`.
+/// [`GrooveNdf::first_pdf`] from `i.s`, `s.z` and `D(s)`: for Beckmann and
+/// GGX the visible-normal density of [`Ndf::d_visible`] with `D` and
+/// `sigma` computed once per evaluation and reused over its facets.
 #[inline]
 pub fn first_pdf_from(is: f64, sz: f64, d: f64, sigma: Option<f64>) -> f64 {
     match sigma {

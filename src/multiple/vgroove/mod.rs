@@ -174,7 +174,10 @@
 //! | Phong 0.5 (4) | 3004 -> 2281 | 2612 -> 1885 | 5085 -> 4697 |
 //! | Phong 1 (50) | 5825 -> 5182 | 3369 -> 2721 | 11444 -> 11223 |
 //!
-//! (Phong: first -> second round only.) The `k = 1` term alone
+//! (Phong: first -> second round only; later rounds of other work moved
+//! these figures, e.g. GGX 0.5 eval 4045 and Beckmann 0.5 eval 2094 before
+//! the facet `D` became the crate's single-precision `Ndf::d`, 4126 and
+//! 2034 after, same script and pairs.) The `k = 1` term alone
 //! (`max_bounces = 1`, `MAXB=1 scripts/vgroove_ir.sh`) went from 1701 /
 //! 1775 / 1850 instructions (GGX / Beckmann / Phong) to 641 / 710 /
 //! 706-780: 1.09x SINGLE's whole eval for GGX, 0.6-0.67x for Beckmann.
