@@ -445,6 +445,35 @@ fn profile(args: &[String]) {
     println!("{sink}");
 }
 
+/// `var <model name part> <alpha> <theta_i> [evals per pair]`: mean and
+/// variance of one eval per pair, and the geometric mean of the variances.
+fn variance(args: &[String]) {
+    let Some(&(_, model, est)) = MODELS.iter().find(|m| m.0.contains(args[0].as_str())) else {
+        eprintln!("no model named like {}", args[0]);
+        return;
+    };
+    let alpha: f32 = args[1].parse().unwrap_or(0.5);
+    let theta_i: f64 = args[2].parse().unwrap_or(60.0);
+    let n: usize = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(100_000);
+    let m = material(model, est, alpha).expect("a supported material");
+    let wi = wi_of(theta_i);
+    let mut rng = Rng::new(5, 3);
+    let mut log_var = 0.0;
+    for (t, p) in outs(theta_i) {
+        let (mut s, mut s2) = (0.0f64, 0.0f64);
+        for _ in 0..n {
+            let v = m.eval(wi, wo_of(t, p), &mut rng).y as f64;
+            s += v;
+            s2 += v * v;
+        }
+        let mean = s / n as f64;
+        let var = s2 / n as f64 - mean * mean;
+        log_var += var.ln() / 8.0;
+        println!("({t:>2},{p:>3}) mean {mean:.5} var {var:.3e}");
+    }
+    println!("geometric mean variance {:.3e}", log_var.exp());
+}
+
 /// Per-order tally of one walk.
 struct Orders([f64; 12]);
 
@@ -492,7 +521,7 @@ fn orders(args: &[String]) {
         let mut verts = 0u64;
         for _ in 0..n {
             let mut f = Orders([0.0; 12]);
-            let mut run = |a: Vec3, b: Vec3, scale: f64, rng: &mut Rng, f: &mut Orders| {
+            let run = |a: Vec3, b: Vec3, scale: f64, rng: &mut Rng, f: &mut Orders| {
                 let mut g = Orders([0.0; 12]);
                 let v = if heights {
                     walk::<HeightState, _>(&ms, a, b, rng, opt, &mut g)
@@ -548,6 +577,7 @@ fn main() {
         Some("report") if args.len() >= 4 => report(&args[2], &args[3]),
         Some("profile") if args.len() >= 5 => profile(&args[2..]),
         Some("orders") if args.len() >= 5 => orders(&args[2..]),
+        Some("var") if args.len() >= 5 => variance(&args[2..]),
         _ => eprintln!(
             "usage: efficiency measure <out.csv> [evals per pair] | report <baseline.csv> <current.csv> | count"
         ),

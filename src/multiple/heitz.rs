@@ -56,7 +56,8 @@ use crate::bsdf::{Sample, ScatterModel, same_side};
 use crate::desc::MAX_BOUNCES;
 use crate::facet::Facet;
 use crate::multiple::microsurface::{
-    self, DepthState, Microsurface, Travel, WalkOptions, log1mexp, open_uniform,
+    self, DepthState, Microsurface, Travel, WalkOptions, exp_m1_nonpositive, exp_nonpositive,
+    ln_1p, ln_positive, log1mexp, open_uniform,
 };
 use crate::ndf::Ndf;
 use crate::rng::Rng;
@@ -142,7 +143,9 @@ impl DepthState for HeightState {
         } else {
             self.lc
         };
-        (lam_o * lc).exp()
+        // Inline exp and ln (microsurface::exp_nonpositive and friends):
+        // the libm calls were a quarter of a walk's instructions.
+        exp_nonpositive(lam_o * lc)
     }
 
     #[inline]
@@ -150,18 +153,18 @@ impl DepthState for HeightState {
         let u = open_uniform(rng);
         if lam >= 0.0 {
             if lam.is_finite() {
-                let escape = (lam * self.lc).exp();
+                let escape = exp_nonpositive(lam * self.lc);
                 if u < escape {
                     return Travel::Escape;
                 }
                 // Hit below the top: C1(h') = C1(h) / (1 - U')^(1 / Lambda)
                 // with U' = u - escape uniform on [0, 1 - G1).
-                self.lc = (self.lc - (1.0 - u + escape).ln() / lam).min(0.0);
+                self.lc = (self.lc - ln_positive(1.0 - u + escape) / lam).min(0.0);
             }
             // Lambda infinite (horizontal ray): hits where it is.
         } else if lam.is_finite() {
             // Downward: always hits, C1(h') = C1(h) (1 - U)^(1 / |Lambda|).
-            self.lc += u.ln() / (-lam);
+            self.lc += ln_positive(u) / (-lam);
         }
         Travel::Hit
     }
@@ -178,11 +181,11 @@ impl DepthState for HeightState {
         }
         // Hit with probability 1 at a height drawn given a hit, weight 1 - G1.
         let u = open_uniform(rng);
-        let p_hit = -(lam * self.lc).exp_m1();
+        let p_hit = -exp_m1_nonpositive(lam * self.lc);
         if p_hit.is_nan() || p_hit <= 0.0 {
             return Some(0.0);
         }
-        self.lc = (self.lc - (-u * p_hit).ln_1p() / lam).min(0.0);
+        self.lc = (self.lc - ln_1p(-u * p_hit) / lam).min(0.0);
         Some(p_hit)
     }
 
@@ -190,6 +193,11 @@ impl DepthState for HeightState {
     fn ln_entry_density(&self, lam0: f64) -> f64 {
         // (1 + Lambda_i) C1(h_1)^Lambda_i with Lambda_i = -1 - lam0.
         (-lam0).ln() + (-1.0 - lam0) * self.lc
+    }
+
+    #[inline]
+    fn entry_density(&self, lam0: f64) -> f64 {
+        (-lam0) * exp_nonpositive((-1.0 - lam0) * self.lc)
     }
 
     #[inline]
@@ -312,11 +320,14 @@ impl ScatterModel for Heitz {
                     order_one: false,
                     roulette: true,
                 };
+                // The pair's Lambdas serve single scattering and both walks.
+                let pair = microsurface::Pair::new(&self.ms, wi, wo);
                 let mut fwd = Vec3::ZERO;
-                self.walk_with(wi, wo, rng, opt, &mut fwd);
+                microsurface::walk_pair::<HeightState, _>(&self.ms, &pair, rng, opt, &mut fwd);
                 let mut bwd = Vec3::ZERO;
-                self.walk_with(wo, wi, rng, opt, &mut bwd);
-                self.ms.single(wi, wo) + fwd + bwd * scale
+                let rev = pair.reversed();
+                microsurface::walk_pair::<HeightState, _>(&self.ms, &rev, rng, opt, &mut bwd);
+                self.ms.single_pair(&pair) + fwd + bwd * scale
             }
             false => {
                 let forward = self.estimate(wi, wo, rng);
