@@ -56,7 +56,7 @@ use crate::bsdf::{Sample, ScatterModel, same_side};
 use crate::desc::MAX_BOUNCES;
 use crate::facet::Facet;
 use crate::multiple::microsurface::{
-    self, DepthState, Microsurface, Travel, WalkOptions, exp_m1_nonpositive, exp_nonpositive,
+    self, BounceRule, DepthState, Microsurface, Travel, WalkOptions, exp_m1_nonpositive, exp_nonpositive,
     ln_1p, ln_positive, log1mexp, open_uniform,
 };
 use crate::ndf::Ndf;
@@ -73,17 +73,28 @@ use glam::Vec3;
 ///   tail): `max(10, ceil(16 alpha^1.4))` (16 at alpha 1, 43 at alpha 2);
 ///
 /// all capped at [`MAX_BOUNCES`]. [`Heitz::new`] applies it to the roughness
-/// scaled by the NDF's tail (`invariance::heavy_tail_bounce_scale`: 1 for
+/// scaled by the NDF's tail (`microsurface::heavy_tail_bounce_scale`: 1 for
 /// Beckmann, GGX and Student-T with shape >= 2; e.g. 28 bounces instead of
 /// 10 for Student-T shape 1.6 at alpha 1, whose furnace was 0.917).
 pub fn default_max_bounces(alpha_x: f32, alpha_y: f32, facet: &Facet) -> u32 {
-    let a = alpha_x.max(alpha_y);
-    let n = match facet {
-        Facet::Conductor { .. } => 5.0 * a + 4.0,
-        Facet::Dielectric { .. } => 7.5 * a + 6.0,
-        Facet::Diffuse { .. } => 16.0 * a.powf(1.4),
+    bounces(facet).limit_at(alpha_x.max(alpha_y))
+}
+
+/// The bounce-limit rule of the HEITZ walk for the facets
+/// ([`default_max_bounces`]).
+pub fn bounces(facet: &Facet) -> BounceRule {
+    let (slope, power, offset) = match facet {
+        Facet::Conductor { .. } => (5.0, 1.0, 4.0),
+        Facet::Dielectric { .. } => (7.5, 1.0, 6.0),
+        Facet::Diffuse { .. } => (16.0, 1.4, 0.0),
     };
-    (n.ceil().clamp(10.0, MAX_BOUNCES as f32)) as u32
+    BounceRule {
+        steps: &[],
+        slope,
+        power,
+        offset,
+        beyond_floor: 10,
+    }
 }
 
 /// Weight of the cosine lobe in [`Heitz`]'s pdf for the mean roughness
@@ -228,13 +239,10 @@ impl Heitz {
     pub fn new(ndf: Ndf, facet: Facet, max_bounces: u32) -> Self {
         let max_bounces = if max_bounces == 0 {
             // Heavy-tailed NDFs (Student-T with shape below 2) keep light
-            // longer: the roughness is scaled and the limit floored as for
-            // INVARIANCE (`invariance::heavy_tail_bounce_scale`); Beckmann,
-            // GGX and Student-T with shape >= 2 are unchanged.
-            let (scale, floor) = crate::multiple::invariance::heavy_tail_bounce_scale(&ndf);
-            default_max_bounces(ndf.alpha_x * scale, ndf.alpha_y * scale, &facet)
-                .max(floor)
-                .min(MAX_BOUNCES)
+            // longer: the roughness is scaled and the limit floored
+            // (`microsurface::heavy_tail_bounce_scale`); Beckmann, GGX and
+            // Student-T with shape >= 2 are unchanged.
+            bounces(&facet).limit(&ndf)
         } else {
             max_bounces.min(MAX_BOUNCES)
         };

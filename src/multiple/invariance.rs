@@ -51,10 +51,10 @@
 //!   forces every upward segment to collide (weight the hit probability)
 //!   and goes on past the vertex it reaches by Russian roulette with that
 //!   probability after the vertex's next event (Alg. 3's Russian roulette,
-//!   delayed by one vertex, from the first vertex on). Below a mean roughness of
-//!   0.75 it runs a walk from `wi` and one from `wo`, weighted by the
-//!   balance heuristic on their direction densities (unbiased for any
-//!   weights that sum to 1; measured in `docs/efficiency.md`).
+//!   delayed by one vertex, from the first vertex on). It runs a walk from
+//!   `wi` and one from `wo`, weighted by the balance heuristic on their
+//!   direction densities (unbiased for any weights that sum to 1; measured
+//!   in `docs/efficiency.md`).
 //! - **Hapke lobe** (eq. 15): `H(mu) = (1 + 2 mu) / (1 + 2 mu sqrt(1 - a))`
 //!   (Hapke 1981; the extraction of the paper reads `sqrt(1 - a mu)`, which
 //!   makes `H < 1` and the lobe negative), `a = min((alpha_x + alpha_y)/2, 1)`.
@@ -110,7 +110,7 @@ use crate::bsdf::{Sample, ScatterModel};
 use crate::desc::{Estimator, MAX_BOUNCES};
 use crate::facet::Facet;
 use crate::frame::flip_z;
-use crate::multiple::microsurface::{self, DepthState, Microsurface, WalkOptions};
+use crate::multiple::microsurface::{self, BounceRule, DepthState, Microsurface, WalkOptions};
 use crate::ndf::Ndf;
 use crate::rng::Rng;
 use glam::{DVec3, Vec3};
@@ -298,42 +298,36 @@ const PT_OPTIONS: WalkOptions = WalkOptions {
     roulette: true,
 };
 
-/// Mean roughness below which the PT estimators of INVARIANCE and
-/// BITTERLI_DEON run two walks (from `wi` and from `wo`) weighted by MIS on
-/// their direction densities, and from which they run one walk from `wi`.
-/// Measured (`examples/efficiency.rs`, GGX, F = 1, efficiency relative to
-/// HEITZ_RANDOM_WALK at commit 9f91b5f, theta_i 0 / 60 / 80): alpha 0.3:
-/// two walks 7.5 / 4.5 / 6.6x, one walk 0.7 / 1.1 / 2.4x; alpha 0.5:
-/// 3.2 / 1.9 / 2.9x against 1.3 / 1.2 / 2.0x; alpha 1: 1.5 / 1.6 / 2.4x
-/// against 3.0 / 1.7 / 2.8x (the direction densities ignore the escape
-/// probabilities, which rough surfaces make matter).
-pub(crate) const TWO_WALKS_BELOW_ALPHA: f32 = 0.75;
-
 /// The PT estimate with the depth state `S`: single scattering in closed
-/// form plus, with `two_walks`, the MIS-weighted walks from `wi` and from
-/// `wo` (the latter scaled by reciprocity, `f(wi, wo) |wo.z| = f(wo, wi)
-/// |wi.z| |wo.z| / |wi.z|`), else one walk from `wi`. The
-/// options are [`PT_OPTIONS`].
+/// form plus the walks from `wi` and from `wo` (the latter scaled by
+/// reciprocity, `f(wi, wo) |wo.z| = f(wo, wi) |wi.z| |wo.z| / |wi.z|`),
+/// weighted by the balance heuristic on their direction densities
+/// (unbiased for any weights that sum to 1); options [`PT_OPTIONS`].
+///
+/// Two walks at every roughness: with the forced segments and delayed
+/// roulette of [`PT_OPTIONS`] they have 1.7-3.4x less variance than one
+/// walk from `wi` for 1.5-1.9x its instructions (`efficiency orders`, GGX,
+/// F = 1, geometric mean over the 8 pairs: alpha 0.5, theta_i 60: 3.4x;
+/// alpha 1, theta_i 0 / 60 / 80: 2.4 / 2.0 / 1.8x; alpha 2, theta_i 60:
+/// 1.7x). With the first two segments forced and no roulette, one walk
+/// had been better from alpha 0.75 on.
 pub(crate) fn eval_two_walks<S: DepthState>(
     ms: &Microsurface,
     wi: Vec3,
     wo: Vec3,
-    two_walks: bool,
     rng: &mut Rng,
 ) -> Vec3 {
     let opt = WalkOptions {
-        mis: two_walks,
+        mis: true,
         ..PT_OPTIONS
     };
     // The pair's Lambdas serve single scattering and both walks.
     let pair = microsurface::Pair::new(ms, wi, wo);
     let mut f = Vec3::ZERO;
     microsurface::walk_pair::<S, _>(ms, &pair, rng, opt, &mut f);
-    if two_walks {
-        let mut bwd = Vec3::ZERO;
-        microsurface::walk_pair::<S, _>(ms, &pair.reversed(), rng, opt, &mut bwd);
-        f += bwd * (wo.z / wi.z);
-    }
+    let mut bwd = Vec3::ZERO;
+    microsurface::walk_pair::<S, _>(ms, &pair.reversed(), rng, opt, &mut bwd);
+    f += bwd * (wo.z / wi.z);
     let v = ms.single_pair(&pair) + f;
     if v.is_finite() {
         v.max(Vec3::ZERO)
@@ -433,64 +427,20 @@ pub(crate) fn vertex(ms: &Microsurface, d: Vec3, o: Vec3) -> (Vec3, f32) {
 /// | 5.0 | 61% | 44% | 28% | 15% | 2.8% | 0.003% | |
 /// | 10.0 | 97% | 96% | 93% | 90% | 78% | 27% | 0.017% |
 pub fn default_max_bounces(alpha_x: f32, alpha_y: f32) -> u32 {
-    let a = alpha_x.max(alpha_y);
-    if a <= 1.5 {
-        10
-    } else {
-        ((5.0 * a + 5.0).ceil() as u32).clamp(10, MAX_BOUNCES)
-    }
+    BOUNCES.limit_at(alpha_x.max(alpha_y))
 }
 
-/// Roughness scale and bounce floor that carry the bounce limits measured
-/// for GGX over to heavier-tailed NDFs (Student-T with shape `gamma < 2`),
-/// from the generic Smith API only: `r = sigma_1(x) / sigma_GGX,1(x)`, the
-/// projected area at the horizon of the NDF at unit roughness relative to
-/// GGX's (`1/2`; `sigma = (1 + Lambda) z` there is the limit of `Lambda z`).
-/// `r = 1` for GGX and Student-T `gamma = 2`, `1 / sqrt(pi)` for Beckmann and
-/// below 1 for every Student-T `gamma > 2`: these keep the GGX rules
-/// unchanged (scale 1, floor 10). Above 1 (Student-T `gamma < 2`:
-/// `r = 1.11, 1.30, 1.67, 2.79, 5.04, 23.0` for
-/// `gamma = 1.9, 1.8, 1.7, 1.6, 1.55, 1.51`; it diverges like
-/// `1 / (2 gamma - 3)` because the mean slope does), the rules are applied
-/// to the roughness `alpha r^1.5`, with at least `10 + floor(2.8 (r - 1))`
-/// bounces.
-///
-/// Why: the walks' path length grows as the tail gets heavier. Fraction of
-/// white-furnace walks (INVARIANCE, exact-exit `sample`, F = 1, 20k walks
-/// per incidence, worst of theta_i = 0, 30, 60, 80, 89) still inside after
-/// K bounces (the HEITZ walk loses the same: gamma 1.6, alpha 1: 9.3% at
-/// K = 10, 1.2% at 16, 0.06% at 24):
-///
-/// | gamma | alpha | K = 10 | 16 | 24 | 32 | 64 | 128 | 256 |
-/// |---|---|---|---|---|---|---|---|---|
-/// | 1.9 | 1.5 | 0.21% | 0 | | | | | |
-/// | 1.8 | 1 | 0.07% | 0 | | | | | |
-/// | 1.8 | 1.5 | 1.1% | 0.005% | 0 | | | | |
-/// | 1.8 | 3 | 30% | 3.6% | 0.06% | 0 | | | |
-/// | 1.7 | 1 | 0.84% | 0.015% | 0 | | | | |
-/// | 1.7 | 3 | 48% | 14% | 1.2% | 0.06% | 0 | | |
-/// | 1.6 | 0.3 | 0.16% | 0.005% | 0 | | | | |
-/// | 1.6 | 1 | 9.3% | 1.3% | 0.07% | 0 | | | |
-/// | 1.6 | 3 | 75% | 50% | 21% | 6.4% | 0.005% | 0 | |
-/// | 1.55 | 0.1 | 0.46% | 0.01% | 0 | | | | |
-/// | 1.55 | 1 | 32% | 14% | 3.5% | 0.78% | 0.005% | 0 | |
-/// | 1.51 | 0.1 | 30% | 15% | 6.1% | 2.5% | 0.08% | 0 | |
-/// | 1.51 | 1 | 81% | 70% | 58% | 47% | 18% | 2.0% | 0 |
-/// | 1.51 | 3 | 98% | 97% | 95% | 93% | 81% | 48% | 0.11% |
-///
-/// Over gamma = 1.51 .. 2 and alpha = 0.1 .. 3 the rule gives at least the
-/// K that keeps the loss below 0.1% (interpolated in log loss between the
-/// measured K), except where no limit can: gamma 1.51 from alpha 3 on needs
-/// more than [`MAX_BOUNCES`].
-pub fn heavy_tail_bounce_scale(ndf: &Ndf) -> (f32, u32) {
-    let unit = Ndf::with_shape(ndf.kind, 1.0, 1.0, ndf.shape);
-    let r = 2.0 * unit.sigma(Vec3::X);
-    if !r.is_finite() || r <= 1.001 {
-        return (1.0, 10);
-    }
-    let floor = (10.0 + (2.8 * (r - 1.0)).floor()).min(MAX_BOUNCES as f32);
-    (r.powf(1.5), floor as u32)
-}
+/// The bounce-limit rule of INVARIANCE and BITTERLI_DEON
+/// ([`default_max_bounces`]).
+pub const BOUNCES: BounceRule = BounceRule {
+    steps: &[(1.5, 10)],
+    slope: 5.0,
+    power: 1.0,
+    offset: 5.0,
+    beyond_floor: 10,
+};
+
+pub use crate::multiple::microsurface::heavy_tail_bounce_scale;
 
 /// Largest default bounce limit ([`default_max_bounces_for`]) for which
 /// INVARIANCE and BITTERLI_DEON accept an NDF: Student-T with a heavy tail
@@ -515,10 +465,7 @@ pub const MAX_DEFAULT_BOUNCES: u32 = 80;
 /// `default_max_bounces(alpha_x, alpha_y)` for Beckmann, GGX and Student-T
 /// with `gamma >= 2`).
 pub fn default_max_bounces_for(ndf: &Ndf) -> u32 {
-    let (scale, floor) = heavy_tail_bounce_scale(ndf);
-    default_max_bounces(ndf.alpha_x * scale, ndf.alpha_y * scale)
-        .max(floor)
-        .min(MAX_BOUNCES)
+    BOUNCES.limit(ndf)
 }
 
 /// [`hapke_pdf`] for a two-sided conductor: `wi` below mirrors both
@@ -613,8 +560,7 @@ impl Invariance {
     /// Unidirectional estimator with next-event estimation (Cui et al.
     /// 2023, Alg. 3) on the shared walk, the segment term as its state.
     fn eval_pt<const C: usize>(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3 {
-        let two = 0.5 * (self.ndf.alpha_x + self.ndf.alpha_y) < TWO_WALKS_BELOW_ALPHA;
-        eval_two_walks::<SegmentTerm<C>>(&self.ms, wi, wo, two, rng)
+        eval_two_walks::<SegmentTerm<C>>(&self.ms, wi, wo, rng)
     }
 
     /// Draws `wo` from caller uniforms: `u[0]` chooses the lobe at the first
