@@ -22,6 +22,20 @@
 //! writes `docs/efficiency.md` and `docs/efficiency.svg`. The environment
 //! variable `EFFICIENCY_ONLY=<name part>` restricts `measure` to some models
 //! (development runs).
+//!
+//! Three development modes look at one configuration:
+//!
+//! ```text
+//! # instructions: callgrind on the evals of the 8 pairs
+//! valgrind --tool=callgrind --collect-atstart=no --toggle-collect='*measure_eval*' \
+//!     target/release/examples/efficiency profile HEITZ 1 60 2000
+//! callgrind_annotate --inclusive=yes callgrind.out.<pid>
+//! # variance of one eval per pair, and its geometric mean
+//! target/release/examples/efficiency var "INVARIANCE PT" 1 60 100000
+//! # variance per scattering order of the kernel walk (heitz | segment),
+//! # one or two MIS walks, forced segments, delayed roulette
+//! target/release/examples/efficiency orders segment 1 60 200000 1 0 1
+//! ```
 
 #[allow(dead_code)]
 #[path = "../tools/harness/svg.rs"]

@@ -48,7 +48,7 @@ use crate::desc::MAX_BOUNCES;
 use crate::facet::Facet;
 use crate::frame::flip_z;
 use crate::multiple::invariance::{
-    CAP_MAX, CAP_SMALL, default_max_bounces_for, eval_two_walks,
+    CAP_MAX, CAP_SMALL, TWO_WALKS_BELOW_ALPHA, default_max_bounces_for, eval_two_walks,
     sample_exact_exit, two_sided_hapke_pdf,
 };
 use crate::multiple::microsurface::{self, Microsurface};
@@ -206,7 +206,9 @@ impl BitterliDeon {
     /// The PT estimator (supplement eq. 3) on the shared walk, `p_exit`
     /// as its state.
     fn eval_pt<const C: usize>(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3 {
-        eval_two_walks::<HeightDistribution<C>>(&self.ms, wi, wo, rng)
+        let ndf = &self.ms.ndf;
+        let two = 0.5 * (ndf.alpha_x + ndf.alpha_y) < TWO_WALKS_BELOW_ALPHA;
+        eval_two_walks::<HeightDistribution<C>>(&self.ms, wi, wo, two, rng)
     }
 
     /// Draws `wo` from caller uniforms: `u[0]` chooses the lobe at the first

