@@ -82,8 +82,11 @@ fn horner(c: &[f64], x: f64) -> f64 {
 /// normal range); NaN stays NaN.
 #[inline]
 pub fn exp_nonpositive(x: f64) -> f64 {
-    if !(x > -708.0) {
-        return if x.is_nan() { x } else { 0.0 };
+    if x.is_nan() {
+        return x;
+    }
+    if x <= -708.0 {
+        return 0.0;
     }
     // Nearest integer of x / ln 2 by truncation (x <= 0).
     let k = (x * std::f64::consts::LOG2_E - 0.5) as i64;
@@ -119,7 +122,7 @@ fn two_atanh(s: f64) -> f64 {
 /// `x` go to libm.
 #[inline]
 pub fn ln_positive(x: f64) -> f64 {
-    if !(x >= f64::MIN_POSITIVE && x < f64::INFINITY) {
+    if !(f64::MIN_POSITIVE..f64::INFINITY).contains(&x) {
         return x.ln();
     }
     let bits = x.to_bits();
