@@ -67,9 +67,19 @@
 //! # Cost and variance
 //! Measured by `examples/efficiency.rs` (instructions, variance and
 //! efficiency per eval against HEITZ_RANDOM_WALK, GGX with F = 1) in
-//! `docs/efficiency.md`. BDPT pays off at low roughness, where the PT
-//! next event from a grazing inner direction through the sharp `D(h)` peak
-//! is heavy-tailed; the two-walk MIS of PT removes most of that tail.
+//! `docs/efficiency.md`. BDPT does not pay on it (0.6-2.7x HEITZ at
+//! 9f91b5f against 2.3-15x for PT): its sub-paths are direction sequences
+//! drawn from the phase functions alone, unaware of the segment term, so
+//! both are sampled to the full bounce limit (18 scatterings per eval at
+//! 10 bounces) and every one of the ~50 connections pays an O(t N) segment
+//! term (16-19k instructions per eval against 2.0-3.5k), for a variance
+//! per eval at most equal to PT's at alpha 0.3 and 0.5 (where PT's two MIS
+//! walks are BDPT's two end strategies) and 1.7x below it at alpha 1.
+//! Russian roulette on the sub-paths past their first direction (survival
+//! 0.5) cut `variance x instructions` 3.1x at alpha 0.5 and 2.3x at 1, still
+//! 1.6x behind PT, and raised the variance per eval above PT's, which the
+//! tests forbid (`bdpt_has_lower_variance_than_pt`, and a 2% standard error
+//! with 2000 evals at alpha 3): not kept.
 
 //! # Student-T (d'Eon 2023)
 //! Beckmann, GGX and Student-T are accepted. Nothing here (nor in
