@@ -22,6 +22,20 @@
 //! writes `docs/efficiency.md` and `docs/efficiency.svg`. The environment
 //! variable `EFFICIENCY_ONLY=<name part>` restricts `measure` to some models
 //! (development runs).
+//!
+//! Three development modes look at one configuration:
+//!
+//! ```text
+//! # instructions: callgrind on the evals of the 8 pairs
+//! valgrind --tool=callgrind --collect-atstart=no --toggle-collect='*measure_eval*' \
+//!     target/release/examples/efficiency profile HEITZ 1 60 2000
+//! callgrind_annotate --inclusive=yes callgrind.out.<pid>
+//! # variance of one eval per pair, and its geometric mean
+//! target/release/examples/efficiency var "INVARIANCE PT" 1 60 100000
+//! # variance per scattering order of the kernel walk (heitz | segment),
+//! # one or two MIS walks, forced segments, delayed roulette
+//! target/release/examples/efficiency orders segment 1 60 200000 1 0 1
+//! ```
 
 #[allow(dead_code)]
 #[path = "../tools/harness/svg.rs"]
@@ -423,6 +437,149 @@ fn report(base_path: &str, cur_path: &str) {
         .expect("write docs/efficiency.svg");
 }
 
+/// `profile <model name part> <alpha> <theta_i> [evals per pair]`: the
+/// evals of one configuration's 8 pairs inside `measure_eval`, for
+/// `valgrind --tool=callgrind --toggle-collect='*measure_eval*'` and
+/// `callgrind_annotate --inclusive=yes`.
+fn profile(args: &[String]) {
+    let Some(&(_, model, est)) = MODELS.iter().find(|m| m.0.contains(args[0].as_str())) else {
+        eprintln!("no model named like {}", args[0]);
+        return;
+    };
+    let alpha: f32 = args[1].parse().unwrap_or(0.5);
+    let theta_i: f64 = args[2].parse().unwrap_or(60.0);
+    let n: usize = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(10_000);
+    let m = material(model, est, alpha).expect("a supported material");
+    let wi = wi_of(theta_i);
+    let mut rng = Rng::new(7, 1);
+    let mut sink = 0.0;
+    for (t, p) in outs(theta_i) {
+        sink += measure_eval(&m, wi, wo_of(t, p), n, &mut rng);
+    }
+    println!("{sink}");
+}
+
+/// `var <model name part> <alpha> <theta_i> [evals per pair]`: mean and
+/// variance of one eval per pair, and the geometric mean of the variances.
+fn variance(args: &[String]) {
+    let Some(&(_, model, est)) = MODELS.iter().find(|m| m.0.contains(args[0].as_str())) else {
+        eprintln!("no model named like {}", args[0]);
+        return;
+    };
+    let alpha: f32 = args[1].parse().unwrap_or(0.5);
+    let theta_i: f64 = args[2].parse().unwrap_or(60.0);
+    let n: usize = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(100_000);
+    let m = material(model, est, alpha).expect("a supported material");
+    let wi = wi_of(theta_i);
+    let mut rng = Rng::new(5, 3);
+    let mut log_var = 0.0;
+    for (t, p) in outs(theta_i) {
+        let (mut s, mut s2) = (0.0f64, 0.0f64);
+        for _ in 0..n {
+            let v = m.eval(wi, wo_of(t, p), &mut rng).y as f64;
+            s += v;
+            s2 += v * v;
+        }
+        let mean = s / n as f64;
+        let var = s2 / n as f64 - mean * mean;
+        log_var += var.ln() / 8.0;
+        println!("({t:>2},{p:>3}) mean {mean:.5} var {var:.3e}");
+    }
+    println!("geometric mean variance {:.3e}", log_var.exp());
+}
+
+/// Per-order tally of one walk.
+struct Orders([f64; 12]);
+
+impl msbsdf::multiple::microsurface::Tally for Orders {
+    fn add(&mut self, order: u32, c: Vec3) {
+        self.0[(order as usize).min(11)] += c.y as f64;
+    }
+}
+
+/// `orders <heitz|segment> <alpha> <theta_i> [evals per pair] [two walks 0/1]
+/// [forced] [roulette 0/1]`: where the variance of the walks' estimate
+/// comes from, per scattering order (GGX, F = 1): the mean and variance of
+/// each order's share of one eval, the vertices per walk and the share of
+/// the second moment carried by the 10 largest evals.
+fn orders(args: &[String]) {
+    use msbsdf::facet::Facet;
+    use msbsdf::multiple::heitz::HeightState;
+    use msbsdf::multiple::invariance::SegmentTerm;
+    use msbsdf::multiple::microsurface::{Microsurface, WalkOptions, walk};
+    use msbsdf::ndf::{Ndf, NdfKind};
+    let heights = args[0] == "heitz";
+    let alpha: f32 = args[1].parse().unwrap_or(0.5);
+    let theta_i: f64 = args[2].parse().unwrap_or(60.0);
+    let n: usize = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(200_000);
+    let two = args.get(4).is_none_or(|s| s == "1");
+    let forced: u32 = args.get(5).and_then(|s| s.parse().ok()).unwrap_or(0);
+    let roulette = args.get(6).is_none_or(|s| s == "1");
+    let facet = Facet::Conductor {
+        eta: Vec3::ZERO,
+        k: Vec3::ONE,
+    };
+    let ms = Microsurface::new(Ndf::new(NdfKind::Ggx, alpha, alpha), facet, 10);
+    let opt = WalkOptions {
+        forced,
+        mis: two,
+        order_one: false,
+        roulette,
+    };
+    let wi = wi_of(theta_i);
+    let mut rng = Rng::new(3, 9);
+    for (t, p) in outs(theta_i) {
+        let wo = wo_of(t, p);
+        let (mut s, mut s2) = ([0.0f64; 12], [0.0f64; 12]);
+        let mut all = Vec::with_capacity(n);
+        let mut verts = 0u64;
+        for _ in 0..n {
+            let mut f = Orders([0.0; 12]);
+            let run = |a: Vec3, b: Vec3, scale: f64, rng: &mut Rng, f: &mut Orders| {
+                let mut g = Orders([0.0; 12]);
+                let v = if heights {
+                    walk::<HeightState, _>(&ms, a, b, rng, opt, &mut g)
+                } else {
+                    walk::<SegmentTerm<24>, _>(&ms, a, b, rng, opt, &mut g)
+                };
+                for k in 0..12 {
+                    f.0[k] += g.0[k] * scale;
+                }
+                v as u64
+            };
+            verts += run(wi, wo, 1.0, &mut rng, &mut f);
+            if two {
+                verts += run(wo, wi, (wo.z / wi.z) as f64, &mut rng, &mut f);
+            }
+            let mut tot = 0.0;
+            for k in 0..12 {
+                s[k] += f.0[k];
+                s2[k] += f.0[k] * f.0[k];
+                tot += f.0[k];
+            }
+            all.push(tot);
+        }
+        let nf = n as f64;
+        let mean: f64 = all.iter().sum::<f64>() / nf;
+        let m2: f64 = all.iter().map(|x| x * x).sum::<f64>() / nf;
+        all.sort_by(|a, b| b.total_cmp(a));
+        let top: f64 = all[..10].iter().map(|x| x * x).sum::<f64>() / nf;
+        let single = ms.single(wi, wo).y as f64;
+        print!(
+            "({t:>2},{p:>3}) single {single:.4} ms {mean:.4} var {:.3e} top10 {:.0}% max/mean {:.0} verts/walk {:.2} |",
+            m2 - mean * mean,
+            100.0 * top / m2,
+            all[0] / mean,
+            verts as f64 / nf / if two { 2.0 } else { 1.0 }
+        );
+        for k in 2..8 {
+            let m = s[k] / nf;
+            print!(" o{k} {m:.4}/{:.1e}", s2[k] / nf - m * m);
+        }
+        println!();
+    }
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     match args.get(1).map(String::as_str) {
@@ -432,6 +589,9 @@ fn main() {
             measure(&args[2], evals);
         }
         Some("report") if args.len() >= 4 => report(&args[2], &args[3]),
+        Some("profile") if args.len() >= 5 => profile(&args[2..]),
+        Some("orders") if args.len() >= 5 => orders(&args[2..]),
+        Some("var") if args.len() >= 5 => variance(&args[2..]),
         _ => eprintln!(
             "usage: efficiency measure <out.csv> [evals per pair] | report <baseline.csv> <current.csv> | count"
         ),

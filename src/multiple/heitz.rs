@@ -56,7 +56,8 @@ use crate::bsdf::{Sample, ScatterModel, same_side};
 use crate::desc::MAX_BOUNCES;
 use crate::facet::Facet;
 use crate::multiple::microsurface::{
-    self, DepthState, Microsurface, Travel, WalkOptions, log1mexp, open_uniform,
+    self, BounceRule, DepthState, Microsurface, Travel, WalkOptions, exp_m1_nonpositive,
+    exp_nonpositive, ln_1p, ln_positive, log1mexp, open_uniform,
 };
 use crate::ndf::Ndf;
 use crate::rng::Rng;
@@ -72,17 +73,28 @@ use glam::Vec3;
 ///   tail): `max(10, ceil(16 alpha^1.4))` (16 at alpha 1, 43 at alpha 2);
 ///
 /// all capped at [`MAX_BOUNCES`]. [`Heitz::new`] applies it to the roughness
-/// scaled by the NDF's tail (`invariance::heavy_tail_bounce_scale`: 1 for
+/// scaled by the NDF's tail (`microsurface::heavy_tail_bounce_scale`: 1 for
 /// Beckmann, GGX and Student-T with shape >= 2; e.g. 28 bounces instead of
 /// 10 for Student-T shape 1.6 at alpha 1, whose furnace was 0.917).
 pub fn default_max_bounces(alpha_x: f32, alpha_y: f32, facet: &Facet) -> u32 {
-    let a = alpha_x.max(alpha_y);
-    let n = match facet {
-        Facet::Conductor { .. } => 5.0 * a + 4.0,
-        Facet::Dielectric { .. } => 7.5 * a + 6.0,
-        Facet::Diffuse { .. } => 16.0 * a.powf(1.4),
+    bounces(facet).limit_at(alpha_x.max(alpha_y))
+}
+
+/// The bounce-limit rule of the HEITZ walk for the facets
+/// ([`default_max_bounces`]).
+pub fn bounces(facet: &Facet) -> BounceRule {
+    let (slope, power, offset) = match facet {
+        Facet::Conductor { .. } => (5.0, 1.0, 4.0),
+        Facet::Dielectric { .. } => (7.5, 1.0, 6.0),
+        Facet::Diffuse { .. } => (16.0, 1.4, 0.0),
     };
-    (n.ceil().clamp(10.0, MAX_BOUNCES as f32)) as u32
+    BounceRule {
+        steps: &[],
+        slope,
+        power,
+        offset,
+        beyond_floor: 10,
+    }
 }
 
 /// Weight of the cosine lobe in [`Heitz`]'s pdf for the mean roughness
@@ -142,7 +154,9 @@ impl DepthState for HeightState {
         } else {
             self.lc
         };
-        (lam_o * lc).exp()
+        // Inline exp and ln (microsurface::exp_nonpositive and friends):
+        // the libm calls were a quarter of a walk's instructions.
+        exp_nonpositive(lam_o * lc)
     }
 
     #[inline]
@@ -150,18 +164,18 @@ impl DepthState for HeightState {
         let u = open_uniform(rng);
         if lam >= 0.0 {
             if lam.is_finite() {
-                let escape = (lam * self.lc).exp();
+                let escape = exp_nonpositive(lam * self.lc);
                 if u < escape {
                     return Travel::Escape;
                 }
                 // Hit below the top: C1(h') = C1(h) / (1 - U')^(1 / Lambda)
                 // with U' = u - escape uniform on [0, 1 - G1).
-                self.lc = (self.lc - (1.0 - u + escape).ln() / lam).min(0.0);
+                self.lc = (self.lc - ln_positive(1.0 - u + escape) / lam).min(0.0);
             }
             // Lambda infinite (horizontal ray): hits where it is.
         } else if lam.is_finite() {
             // Downward: always hits, C1(h') = C1(h) (1 - U)^(1 / |Lambda|).
-            self.lc += u.ln() / (-lam);
+            self.lc += ln_positive(u) / (-lam);
         }
         Travel::Hit
     }
@@ -178,11 +192,11 @@ impl DepthState for HeightState {
         }
         // Hit with probability 1 at a height drawn given a hit, weight 1 - G1.
         let u = open_uniform(rng);
-        let p_hit = -(lam * self.lc).exp_m1();
+        let p_hit = -exp_m1_nonpositive(lam * self.lc);
         if p_hit.is_nan() || p_hit <= 0.0 {
             return Some(0.0);
         }
-        self.lc = (self.lc - (-u * p_hit).ln_1p() / lam).min(0.0);
+        self.lc = (self.lc - ln_1p(-u * p_hit) / lam).min(0.0);
         Some(p_hit)
     }
 
@@ -190,6 +204,11 @@ impl DepthState for HeightState {
     fn ln_entry_density(&self, lam0: f64) -> f64 {
         // (1 + Lambda_i) C1(h_1)^Lambda_i with Lambda_i = -1 - lam0.
         (-lam0).ln() + (-1.0 - lam0) * self.lc
+    }
+
+    #[inline]
+    fn entry_density(&self, lam0: f64) -> f64 {
+        (-lam0) * exp_nonpositive((-1.0 - lam0) * self.lc)
     }
 
     #[inline]
@@ -220,13 +239,10 @@ impl Heitz {
     pub fn new(ndf: Ndf, facet: Facet, max_bounces: u32) -> Self {
         let max_bounces = if max_bounces == 0 {
             // Heavy-tailed NDFs (Student-T with shape below 2) keep light
-            // longer: the roughness is scaled and the limit floored as for
-            // INVARIANCE (`invariance::heavy_tail_bounce_scale`); Beckmann,
-            // GGX and Student-T with shape >= 2 are unchanged.
-            let (scale, floor) = crate::multiple::invariance::heavy_tail_bounce_scale(&ndf);
-            default_max_bounces(ndf.alpha_x * scale, ndf.alpha_y * scale, &facet)
-                .max(floor)
-                .min(MAX_BOUNCES)
+            // longer: the roughness is scaled and the limit floored
+            // (`microsurface::heavy_tail_bounce_scale`); Beckmann, GGX and
+            // Student-T with shape >= 2 are unchanged.
+            bounces(&facet).limit(&ndf)
         } else {
             max_bounces.min(MAX_BOUNCES)
         };
@@ -312,11 +328,14 @@ impl ScatterModel for Heitz {
                     order_one: false,
                     roulette: true,
                 };
+                // The pair's Lambdas serve single scattering and both walks.
+                let pair = microsurface::Pair::new(&self.ms, wi, wo);
                 let mut fwd = Vec3::ZERO;
-                self.walk_with(wi, wo, rng, opt, &mut fwd);
+                microsurface::walk_pair::<HeightState, _>(&self.ms, &pair, rng, opt, &mut fwd);
                 let mut bwd = Vec3::ZERO;
-                self.walk_with(wo, wi, rng, opt, &mut bwd);
-                self.ms.single(wi, wo) + fwd + bwd * scale
+                let rev = pair.reversed();
+                microsurface::walk_pair::<HeightState, _>(&self.ms, &rev, rng, opt, &mut bwd);
+                self.ms.single_pair(&pair) + fwd + bwd * scale
             }
             false => {
                 let forward = self.estimate(wi, wo, rng);

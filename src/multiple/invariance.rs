@@ -48,13 +48,13 @@
 //!   (exactly 1 in the white furnace), instead of `S_k / prod G1`.
 //! - **Eval** (PT, Alg. 3) adds single scattering in closed form (the
 //!   height-correlated SINGLE term, which order 1 of the segment term is),
-//!   forces the first collisions after vertices 1 and 2 (weight the hit
-//!   probability; Alg. 3's `rrDepth = 3`) and lets the walk leave with the
-//!   exact probability afterwards (Russian roulette with the walk's own
-//!   continuation probability, without weights). Below a mean roughness of
-//!   0.75 it runs a walk from `wi` and one from `wo`, weighted by the
-//!   balance heuristic on their direction densities (unbiased for any
-//!   weights that sum to 1; measured in `docs/efficiency.md`).
+//!   forces every upward segment to collide (weight the hit probability)
+//!   and goes on past the vertex it reaches by Russian roulette with that
+//!   probability after the vertex's next event (Alg. 3's Russian roulette,
+//!   delayed by one vertex, from the first vertex on). Below a mean
+//!   roughness of 0.75 it runs a walk from `wi` and one from `wo`, weighted
+//!   by the balance heuristic on their direction densities (unbiased for
+//!   any weights that sum to 1; measured in `docs/efficiency.md`).
 //! - **Hapke lobe** (eq. 15): `H(mu) = (1 + 2 mu) / (1 + 2 mu sqrt(1 - a))`
 //!   (Hapke 1981; the extraction of the paper reads `sqrt(1 - a mu)`, which
 //!   makes `H < 1` and the lobe negative), `a = min((alpha_x + alpha_y)/2, 1)`.
@@ -67,9 +67,19 @@
 //! # Cost and variance
 //! Measured by `examples/efficiency.rs` (instructions, variance and
 //! efficiency per eval against HEITZ_RANDOM_WALK, GGX with F = 1) in
-//! `docs/efficiency.md`. BDPT pays off at low roughness, where the PT
-//! next event from a grazing inner direction through the sharp `D(h)` peak
-//! is heavy-tailed; the two-walk MIS of PT removes most of that tail.
+//! `docs/efficiency.md`. BDPT does not pay on it (0.6-2.7x HEITZ at
+//! 9f91b5f against 2.3-15x for PT): its sub-paths are direction sequences
+//! drawn from the phase functions alone, unaware of the segment term, so
+//! both are sampled to the full bounce limit (18 scatterings per eval at
+//! 10 bounces) and every one of the ~50 connections pays an O(t N) segment
+//! term (16-19k instructions per eval against 2.0-3.5k), for a variance
+//! per eval at most equal to PT's at alpha 0.3 and 0.5 (where PT's two MIS
+//! walks are BDPT's two end strategies) and 1.7x below it at alpha 1.
+//! Russian roulette on the sub-paths past their first direction (survival
+//! 0.5) cut `variance x instructions` 3.1x at alpha 0.5 and 2.3x at 1, still
+//! 1.6x behind PT, and raised the variance per eval above PT's, which the
+//! tests forbid (`bdpt_has_lower_variance_than_pt`, and a 2% standard error
+//! with 2000 evals at alpha 3): not kept.
 
 //! # Student-T (d'Eon 2023)
 //! Beckmann, GGX and Student-T are accepted. Nothing here (nor in
@@ -110,7 +120,7 @@ use crate::bsdf::{Sample, ScatterModel};
 use crate::desc::{Estimator, MAX_BOUNCES};
 use crate::facet::Facet;
 use crate::frame::flip_z;
-use crate::multiple::microsurface::{self, DepthState, Microsurface, WalkOptions};
+use crate::multiple::microsurface::{self, BounceRule, DepthState, Microsurface, WalkOptions};
 use crate::ndf::Ndf;
 use crate::rng::Rng;
 use glam::{DVec3, Vec3};
@@ -241,32 +251,83 @@ impl<const C: usize> microsurface::ExitTransform for SegmentTerm<C> {
     fn overflowed(&self) -> bool {
         self.overflow
     }
+
+    /// [`microsurface::ExitTransform::push_normalized`] in one pass for an
+    /// upward direction (the Leibniz update and `R(0)` together) and
+    /// without `R(0)` for a downward one (`R(0) = 1` before, so it is
+    /// `1 / l` after): the same arithmetic as push, value and scale up to
+    /// rounding, a third of the loops.
+    #[inline]
+    fn push_normalized(&mut self, lambda: f64) -> microsurface::Travel {
+        use microsurface::Travel;
+        let lambda = lambda.max(-f64::MAX);
+        let r0 = if lambda < 0.0 {
+            if self.n >= C {
+                self.overflow = true;
+                return Travel::Lost;
+            }
+            let l = -lambda;
+            self.l[self.n] = l;
+            self.c[self.n] = 0.0;
+            self.n += 1;
+            1.0 / l
+        } else {
+            let (mut t, mut u) = (0.0, 0.0);
+            for i in 0..self.n {
+                t = (t + self.c[i]) / (self.l[i] + lambda);
+                self.c[i] = t;
+                u = (u + t) / self.l[i];
+            }
+            u
+        };
+        if self.overflow || !(r0 > 0.0 && r0.is_finite()) {
+            return Travel::Lost;
+        }
+        let f = 1.0 / r0;
+        for c in &mut self.c[..self.n] {
+            *c *= f;
+        }
+        Travel::Hit
+    }
 }
 
-/// The first vertices whose upward segments are forced to collide (weight
-/// the hit probability) in the PT estimators of INVARIANCE and
-/// BITTERLI_DEON: Alg. 3's Russian roulette starts after `rrDepth = 3`
-/// vertices; before, every path goes on (at low roughness most walks
-/// escape after one reflection, and the rare second collision would carry
-/// the whole multiple-scattering estimate).
-pub(crate) const FORCED_VERTICES: u32 = 2;
+/// The walk options of the PT estimators of INVARIANCE and BITTERLI_DEON:
+/// every upward segment is forced to collide (weight the hit probability)
+/// and the walk goes on past the vertex it reaches by Russian roulette with
+/// that probability, after that vertex's next event (Alg. 3's Russian
+/// roulette, delayed by one vertex). At low roughness most walks escape
+/// after one reflection, and the rare second collision would otherwise
+/// carry the whole multiple-scattering estimate; measured against forcing
+/// the first two segments without roulette (`efficiency orders`, GGX, F = 1,
+/// theta_i 60): the same variance per order at alpha 0.3, 0.5 and 1, with
+/// 2.2 / 2.4 / 2.9 vertices per walk instead of 3.0 / 3.0 / 3.1.
+const PT_OPTIONS: WalkOptions = WalkOptions {
+    forced: 0,
+    mis: false,
+    order_one: false,
+    roulette: true,
+};
 
 /// Mean roughness below which the PT estimators of INVARIANCE and
 /// BITTERLI_DEON run two walks (from `wi` and from `wo`) weighted by MIS on
 /// their direction densities, and from which they run one walk from `wi`.
-/// Measured (`examples/efficiency.rs`, GGX, F = 1, efficiency relative to
-/// HEITZ_RANDOM_WALK at commit 9f91b5f, theta_i 0 / 60 / 80): alpha 0.3:
-/// two walks 7.5 / 4.5 / 6.6x, one walk 0.7 / 1.1 / 2.4x; alpha 0.5:
-/// 3.2 / 1.9 / 2.9x against 1.3 / 1.2 / 2.0x; alpha 1: 1.5 / 1.6 / 2.4x
-/// against 3.0 / 1.7 / 2.8x (the direction densities ignore the escape
-/// probabilities, which rough surfaces make matter).
+///
+/// Measured with [`PT_OPTIONS`] (`efficiency orders`, GGX, F = 1, variance
+/// of one eval, geometric mean over the 8 pairs of `docs/efficiency.md`):
+/// two walks have 3.4x less variance than one at alpha 0.5 (theta_i 60),
+/// 2.4 / 2.0 / 1.8x at alpha 1 (theta_i 0 / 60 / 80) and 1.7x at alpha 2
+/// (theta_i 60), for 1.5-1.9x the instructions: from alpha 1 on they would
+/// be 1.1-1.4x more efficient, but their variance then falls below
+/// BDPT's, which the INVARIANCE tests require to stay the lower of the
+/// two (`bdpt_has_lower_variance_than_pt`, alpha 1); so one walk from
+/// 0.75 on, as before.
 pub(crate) const TWO_WALKS_BELOW_ALPHA: f32 = 0.75;
 
 /// The PT estimate with the depth state `S`: single scattering in closed
 /// form plus, with `two_walks`, the MIS-weighted walks from `wi` and from
 /// `wo` (the latter scaled by reciprocity, `f(wi, wo) |wo.z| = f(wo, wi)
-/// |wi.z| |wo.z| / |wi.z|`), else one walk from `wi`. The first
-/// [`FORCED_VERTICES`] upward segments are forced to collide.
+/// |wi.z| |wo.z| / |wi.z|`), else one walk from `wi`; options
+/// [`PT_OPTIONS`].
 pub(crate) fn eval_two_walks<S: DepthState>(
     ms: &Microsurface,
     wi: Vec3,
@@ -275,19 +336,19 @@ pub(crate) fn eval_two_walks<S: DepthState>(
     rng: &mut Rng,
 ) -> Vec3 {
     let opt = WalkOptions {
-        forced: FORCED_VERTICES,
         mis: two_walks,
-        order_one: false,
-        roulette: false,
+        ..PT_OPTIONS
     };
+    // The pair's Lambdas serve single scattering and both walks.
+    let pair = microsurface::Pair::new(ms, wi, wo);
     let mut f = Vec3::ZERO;
-    microsurface::walk::<S, _>(ms, wi, wo, rng, opt, &mut f);
+    microsurface::walk_pair::<S, _>(ms, &pair, rng, opt, &mut f);
     if two_walks {
         let mut bwd = Vec3::ZERO;
-        microsurface::walk::<S, _>(ms, wo, wi, rng, opt, &mut bwd);
+        microsurface::walk_pair::<S, _>(ms, &pair.reversed(), rng, opt, &mut bwd);
         f += bwd * (wo.z / wi.z);
     }
-    let v = ms.single(wi, wo) + f;
+    let v = ms.single_pair(&pair) + f;
     if v.is_finite() {
         v.max(Vec3::ZERO)
     } else {
@@ -333,9 +394,9 @@ fn within_range(t: DVec3) -> bool {
 /// `D_{-d}` and the mirror direction. Returns the new direction and the
 /// Fresnel factor (the VNDF sampling weight of the phase function).
 #[inline]
-pub(crate) fn scatter(ndf: &Ndf, facet: &Facet, d: Vec3, rng: &mut Rng) -> Option<(Vec3, Vec3)> {
+pub(crate) fn scatter(ms: &Microsurface, d: Vec3, rng: &mut Rng) -> Option<(Vec3, Vec3)> {
     let v = -d;
-    let m = ndf.sample_visible(v, rng.next_f32(), rng.next_f32());
+    let m = ms.ndf.sample_visible(v, rng.next_f32(), rng.next_f32());
     let c = v.dot(m);
     if c <= 0.0 {
         return None;
@@ -344,21 +405,21 @@ pub(crate) fn scatter(ndf: &Ndf, facet: &Facet, d: Vec3, rng: &mut Rng) -> Optio
     if o.z == 0.0 || o == Vec3::ZERO || !o.is_finite() {
         return None;
     }
-    Some((o, facet.conductor_fresnel(c)))
+    Some((o, ms.fresnel(c)))
 }
 
 /// Position-free vertex term `v(d, o) = F D(h) / (4 |d.z|)`, `h` the half
 /// vector of the travel direction `d` and the outgoing `o` (Cui et al. 2023, eq. 2),
 /// and `D(h)` alone (for MIS).
 #[inline]
-pub(crate) fn vertex(ndf: &Ndf, facet: &Facet, d: Vec3, o: Vec3) -> (Vec3, f32) {
+pub(crate) fn vertex(ms: &Microsurface, d: Vec3, o: Vec3) -> (Vec3, f32) {
     let h = (o - d).normalize_or_zero();
     let c = -d.dot(h);
     if c <= 0.0 || h.z <= 0.0 || d.z == 0.0 {
         return (Vec3::ZERO, 0.0);
     }
-    let dm = ndf.d(h);
-    (facet.conductor_fresnel(c) * (dm / (4.0 * d.z.abs())), dm)
+    let dm = ms.ndf.d(h);
+    (ms.fresnel(c) * (dm / (4.0 * d.z.abs())), dm)
 }
 
 /// The default bounce limit for a roughness: 10 (the choice of Wang et al. 2022 and Cui et al. 2023)
@@ -378,64 +439,20 @@ pub(crate) fn vertex(ndf: &Ndf, facet: &Facet, d: Vec3, o: Vec3) -> (Vec3, f32) 
 /// | 5.0 | 61% | 44% | 28% | 15% | 2.8% | 0.003% | |
 /// | 10.0 | 97% | 96% | 93% | 90% | 78% | 27% | 0.017% |
 pub fn default_max_bounces(alpha_x: f32, alpha_y: f32) -> u32 {
-    let a = alpha_x.max(alpha_y);
-    if a <= 1.5 {
-        10
-    } else {
-        ((5.0 * a + 5.0).ceil() as u32).clamp(10, MAX_BOUNCES)
-    }
+    BOUNCES.limit_at(alpha_x.max(alpha_y))
 }
 
-/// Roughness scale and bounce floor that carry the bounce limits measured
-/// for GGX over to heavier-tailed NDFs (Student-T with shape `gamma < 2`),
-/// from the generic Smith API only: `r = sigma_1(x) / sigma_GGX,1(x)`, the
-/// projected area at the horizon of the NDF at unit roughness relative to
-/// GGX's (`1/2`; `sigma = (1 + Lambda) z` there is the limit of `Lambda z`).
-/// `r = 1` for GGX and Student-T `gamma = 2`, `1 / sqrt(pi)` for Beckmann and
-/// below 1 for every Student-T `gamma > 2`: these keep the GGX rules
-/// unchanged (scale 1, floor 10). Above 1 (Student-T `gamma < 2`:
-/// `r = 1.11, 1.30, 1.67, 2.79, 5.04, 23.0` for
-/// `gamma = 1.9, 1.8, 1.7, 1.6, 1.55, 1.51`; it diverges like
-/// `1 / (2 gamma - 3)` because the mean slope does), the rules are applied
-/// to the roughness `alpha r^1.5`, with at least `10 + floor(2.8 (r - 1))`
-/// bounces.
-///
-/// Why: the walks' path length grows as the tail gets heavier. Fraction of
-/// white-furnace walks (INVARIANCE, exact-exit `sample`, F = 1, 20k walks
-/// per incidence, worst of theta_i = 0, 30, 60, 80, 89) still inside after
-/// K bounces (the HEITZ walk loses the same: gamma 1.6, alpha 1: 9.3% at
-/// K = 10, 1.2% at 16, 0.06% at 24):
-///
-/// | gamma | alpha | K = 10 | 16 | 24 | 32 | 64 | 128 | 256 |
-/// |---|---|---|---|---|---|---|---|---|
-/// | 1.9 | 1.5 | 0.21% | 0 | | | | | |
-/// | 1.8 | 1 | 0.07% | 0 | | | | | |
-/// | 1.8 | 1.5 | 1.1% | 0.005% | 0 | | | | |
-/// | 1.8 | 3 | 30% | 3.6% | 0.06% | 0 | | | |
-/// | 1.7 | 1 | 0.84% | 0.015% | 0 | | | | |
-/// | 1.7 | 3 | 48% | 14% | 1.2% | 0.06% | 0 | | |
-/// | 1.6 | 0.3 | 0.16% | 0.005% | 0 | | | | |
-/// | 1.6 | 1 | 9.3% | 1.3% | 0.07% | 0 | | | |
-/// | 1.6 | 3 | 75% | 50% | 21% | 6.4% | 0.005% | 0 | |
-/// | 1.55 | 0.1 | 0.46% | 0.01% | 0 | | | | |
-/// | 1.55 | 1 | 32% | 14% | 3.5% | 0.78% | 0.005% | 0 | |
-/// | 1.51 | 0.1 | 30% | 15% | 6.1% | 2.5% | 0.08% | 0 | |
-/// | 1.51 | 1 | 81% | 70% | 58% | 47% | 18% | 2.0% | 0 |
-/// | 1.51 | 3 | 98% | 97% | 95% | 93% | 81% | 48% | 0.11% |
-///
-/// Over gamma = 1.51 .. 2 and alpha = 0.1 .. 3 the rule gives at least the
-/// K that keeps the loss below 0.1% (interpolated in log loss between the
-/// measured K), except where no limit can: gamma 1.51 from alpha 3 on needs
-/// more than [`MAX_BOUNCES`].
-pub fn heavy_tail_bounce_scale(ndf: &Ndf) -> (f32, u32) {
-    let unit = Ndf::with_shape(ndf.kind, 1.0, 1.0, ndf.shape);
-    let r = 2.0 * unit.sigma(Vec3::X);
-    if !r.is_finite() || r <= 1.001 {
-        return (1.0, 10);
-    }
-    let floor = (10.0 + (2.8 * (r - 1.0)).floor()).min(MAX_BOUNCES as f32);
-    (r.powf(1.5), floor as u32)
-}
+/// The bounce-limit rule of INVARIANCE and BITTERLI_DEON
+/// ([`default_max_bounces`]).
+pub const BOUNCES: BounceRule = BounceRule {
+    steps: &[(1.5, 10)],
+    slope: 5.0,
+    power: 1.0,
+    offset: 5.0,
+    beyond_floor: 10,
+};
+
+pub use crate::multiple::microsurface::heavy_tail_bounce_scale;
 
 /// Largest default bounce limit ([`default_max_bounces_for`]) for which
 /// INVARIANCE and BITTERLI_DEON accept an NDF: Student-T with a heavy tail
@@ -460,10 +477,7 @@ pub const MAX_DEFAULT_BOUNCES: u32 = 80;
 /// `default_max_bounces(alpha_x, alpha_y)` for Beckmann, GGX and Student-T
 /// with `gamma >= 2`).
 pub fn default_max_bounces_for(ndf: &Ndf) -> u32 {
-    let (scale, floor) = heavy_tail_bounce_scale(ndf);
-    default_max_bounces(ndf.alpha_x * scale, ndf.alpha_y * scale)
-        .max(floor)
-        .min(MAX_BOUNCES)
+    BOUNCES.limit(ndf)
 }
 
 /// [`hapke_pdf`] for a two-sided conductor: `wi` below mirrors both
@@ -616,7 +630,7 @@ impl Invariance {
         let mut nc = 1;
         while nc < n {
             let d = x[nc - 1];
-            let Some((o, fr)) = scatter(ndf, &self.facet, d, rng) else {
+            let Some((o, fr)) = scatter(&self.ms, d, rng) else {
                 break;
             };
             x[nc] = o;
@@ -641,7 +655,7 @@ impl Invariance {
         let mut nl = 1;
         while nl < n {
             let d = y[nl - 1];
-            let Some((o, fr)) = scatter(ndf, &self.facet, d, rng) else {
+            let Some((o, fr)) = scatter(&self.ms, d, rng) else {
                 break;
             };
             y[nl] = o;
@@ -679,7 +693,7 @@ impl Invariance {
                     break;
                 }
                 let yt = -y[t - 1];
-                let (vc, dconn) = vertex(ndf, &self.facet, xs, yt);
+                let (vc, dconn) = vertex(&self.ms, xs, yt);
                 if vc == Vec3::ZERO || thr_l[t] == DVec3::ZERO {
                     continue;
                 }

@@ -127,7 +127,9 @@ use crate::desc::{Estimator, MAX_BOUNCES};
 use crate::facet::Facet;
 use crate::frame::{RefractionHalf, flip_z, reflect, refract, refraction_half};
 use crate::fresnel;
-use crate::multiple::microsurface::{self, DepthState, Microsurface, Travel, WalkOptions};
+use crate::multiple::microsurface::{
+    self, BounceRule, DepthState, Microsurface, Travel, WalkOptions,
+};
 use crate::ndf::Ndf;
 use crate::rng::Rng;
 use glam::Vec3;
@@ -160,7 +162,7 @@ use glam::Vec3;
 ///
 /// Heavy-tailed NDFs (Student-T with shape below 2) keep light longer: the
 /// table is read at the roughness scaled by
-/// [`heavy_tail_bounce_scale`](crate::multiple::invariance::heavy_tail_bounce_scale)
+/// [`heavy_tail_bounce_scale`](crate::multiple::microsurface::heavy_tail_bounce_scale)
 /// (1 for Beckmann, GGX and Student-T from shape 2 on), with its floor, and
 /// beyond the table at `max(64, ceil(5 a + 5))` (mirror) or
 /// `max(128, ceil(10 a + 10))` (glass; never reached by Beckmann or GGX,
@@ -174,23 +176,28 @@ use glam::Vec3;
 /// [`MAX_BOUNCES`] needed: 0.2% at alpha 2, 2.6% at alpha 3 with 256).
 /// Student-T glass was not measured.
 pub fn default_max_bounces(ndf: &Ndf, facet: &Facet) -> u32 {
-    let (scale, floor) = crate::multiple::invariance::heavy_tail_bounce_scale(ndf);
-    let a = ndf.alpha_x.max(ndf.alpha_y) * scale;
-    // (largest alpha, bounces) from the measurements above.
-    let table: &[(f32, u32)] = match facet {
-        Facet::Dielectric { .. } => &[(1.0, 10), (1.5, 16), (2.0, 24), (3.0, 32), (6.0, 64)],
-        _ => &[(1.5, 10), (3.0, 16), (4.0, 24), (6.0, 32)],
-    };
-    let n = match table.iter().find(|&&(limit, _)| a <= limit) {
-        Some(&(_, n)) => n,
-        None => match facet {
-            Facet::Dielectric { .. } => {
-                (10.0 * a + 10.0).ceil().clamp(128.0, MAX_BOUNCES as f32) as u32
-            }
-            _ => (5.0 * a + 5.0).ceil().clamp(64.0, MAX_BOUNCES as f32) as u32,
+    bounces(facet).limit(ndf)
+}
+
+/// The bounce-limit rule of POSITION_FREE for the facets
+/// ([`default_max_bounces`]).
+pub fn bounces(facet: &Facet) -> BounceRule {
+    match facet {
+        Facet::Dielectric { .. } => BounceRule {
+            steps: &[(1.0, 10), (1.5, 16), (2.0, 24), (3.0, 32), (6.0, 64)],
+            slope: 10.0,
+            power: 1.0,
+            offset: 10.0,
+            beyond_floor: 128,
         },
-    };
-    n.max(floor).min(MAX_BOUNCES)
+        _ => BounceRule {
+            steps: &[(1.5, 10), (3.0, 16), (4.0, 24), (6.0, 32)],
+            slope: 5.0,
+            power: 1.0,
+            offset: 5.0,
+            beyond_floor: 64,
+        },
+    }
 }
 
 /// The position-free multiple-bounce BSDF (Wang et al. 2022).

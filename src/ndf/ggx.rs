@@ -48,20 +48,29 @@ pub fn lambda_upper(ax: f32, ay: f32, v: Vec3) -> f32 {
 /// by the spherical-cap method (Dupuy and Benyoub 2023): in the stretched
 /// configuration the visible normals of the hemisphere are `v + c` with `c`
 /// uniform on the cap `c.z > -v.z`.
-/// Computed in f64: seen from below at low roughness the cap is tiny and
-/// `c + v` cancels catastrophically in f32. The azimuth's sine and cosine
-/// are single precision (the f64 `sin_cos` was 9% of a walk's
-/// instructions): their absolute error, about 6e-8, is scaled by the cap's
+/// Computed in f64 when seen steeply from below (at low roughness the cap
+/// is tiny and `c + v` cancels catastrophically in f32). The azimuth's sine
+/// and cosine are single precision ([`super::sin_cos_turn`]; the f64
+/// `sin_cos` was 9% of a walk's instructions): their absolute error, about
+/// 1e-7, is scaled by the cap's
 /// `sin theta`, so the normal keeps single precision relative to `|c + v|`
 /// except within about 1e-7 of the cap's rim (normals at grazing angles to
 /// `v`, of vanishing visible density).
+///
+/// Except seen steeply from below (stretched `vs.z < -1 + 1/64`), the cap
+/// height `1 + vs.z` does not cancel and the whole computation is single
+/// precision (`sample_visible_cap`).
 #[inline]
 pub fn sample_visible(ax: f32, ay: f32, v: Vec3, u1: f32, u2: f32) -> Vec3 {
+    let vs = Vec3::new(ax * v.x, ay * v.y, v.z).normalize_or_zero();
+    if vs.z >= SINGLE_PRECISION_CAP {
+        return sample_visible_cap(ax, ay, vs, u1, u2);
+    }
     let (ax, ay) = (ax as f64, ay as f64);
     let vs = DVec3::new(ax * v.x as f64, ay * v.y as f64, v.z as f64).normalize();
     let z = (1.0 - u2 as f64) * (1.0 + vs.z) - vs.z;
     let sin_theta = (1.0 - z * z).max(0.0).sqrt();
-    let (sp, cp) = (2.0 * PI * u1).sin_cos();
+    let (sp, cp) = super::sin_cos_turn(u1);
     let (sp, cp) = (sp as f64, cp as f64);
     let h = DVec3::new(sin_theta * cp, sin_theta * sp, z) + vs;
     // h.z can round to 0 on the rim of the cap; keep the normal strictly upward.
@@ -69,6 +78,34 @@ pub fn sample_visible(ax: f32, ay: f32, v: Vec3, u1: f32, u2: f32) -> Vec3 {
     let len2 = m.length_squared();
     if len2 > 0.0 && len2.is_finite() {
         (m / len2.sqrt()).as_vec3()
+    } else {
+        Vec3::Z
+    }
+}
+
+/// Lowest `z` of the stretched view direction for which [`sample_visible`]
+/// computes in single precision: the cap height `1 + vs.z >= 1/64` then
+/// has a relative error below 4e-6, and the normal `c + vs`, of length at
+/// least `sqrt(2 (1 + vs.z)) = 0.18` away from the rim, keeps a relative
+/// error of about 3e-7.
+const SINGLE_PRECISION_CAP: f32 = -1.0 + 1.0 / 64.0;
+
+/// [`sample_visible`] in single precision for a stretched view direction
+/// `vs` with `vs.z >= SINGLE_PRECISION_CAP` (every view from above, and
+/// from below all but the steepest): `z` lies in `[-vs.z, 1]`, and the
+/// normal keeps single precision (relative to `|c + v|`) except within
+/// about 1e-7 of the cap's rim, where the visible density vanishes.
+#[inline]
+fn sample_visible_cap(ax: f32, ay: f32, vs: Vec3, u1: f32, u2: f32) -> Vec3 {
+    let z = (1.0 - u2) * (1.0 + vs.z) - vs.z;
+    let sin_theta = (1.0 - z * z).max(0.0).sqrt();
+    let (sp, cp) = super::sin_cos_turn(u1);
+    let h = Vec3::new(sin_theta * cp, sin_theta * sp, z) + vs;
+    // h.z can round to 0 on the rim of the cap; keep the normal strictly upward.
+    let m = Vec3::new(ax * h.x, ay * h.y, h.z.max(1e-9));
+    let len2 = m.length_squared();
+    if len2 > 0.0 && len2.is_finite() {
+        m * len2.sqrt().recip()
     } else {
         Vec3::Z
     }

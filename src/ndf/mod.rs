@@ -15,6 +15,30 @@ pub mod student_t;
 
 use glam::Vec3;
 
+/// `(sin, cos)` of the angle `2 pi u` for `u` in `[0, 1]`, within about
+/// 1e-7 absolute (the rounding of single precision), for the azimuths of
+/// the samplers: the angle is split into quarter turns `q pi / 2 + a` with
+/// `|a| <= pi / 4`, where the Taylor series to `a^9` (sine) and `a^8`
+/// (cosine) leave at most 2e-9 and 3e-8; then rotated by `q` quarters. No
+/// libm call (`sincosf` was a fifth of a visible-normal draw).
+#[inline]
+pub fn sin_cos_turn(u: f32) -> (f32, f32) {
+    let v = 4.0 * u;
+    // Nearest quarter, by truncation of a positive number.
+    let q = (v + 0.5) as i32;
+    let a = (v - q as f32) * std::f32::consts::FRAC_PI_2;
+    let a2 = a * a;
+    let s =
+        a * (1.0 + a2 * (-1.0 / 6.0 + a2 * (1.0 / 120.0 + a2 * (-1.0 / 5040.0 + a2 / 362_880.0))));
+    let c = 1.0 + a2 * (-0.5 + a2 * (1.0 / 24.0 + a2 * (-1.0 / 720.0 + a2 / 40_320.0)));
+    match q & 3 {
+        0 => (s, c),
+        1 => (c, -s),
+        2 => (-s, -c),
+        _ => (-c, s),
+    }
+}
+
 /// Which distribution.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum NdfKind {
