@@ -52,6 +52,7 @@
 use super::auto_table::{FACET_CODES, NDF_CODES, REFERENCE_NS, ROWS};
 use crate::desc::{Estimator, FacetKind, MaterialDesc, Model, NdfId};
 use crate::status::Error;
+use glam::Vec4;
 
 /// One measured configuration.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -507,6 +508,13 @@ struct Fronts {
     usable: bool,
     /// The isotropic alphas, padded with infinities.
     alpha: [f32; MAX_ISO],
+    /// Twice the number of isotropic rows: states from it on (above the
+    /// largest alpha) scale the errors and are left to [`best`].
+    n_states: usize,
+    /// (alpha_x, alpha_y) of the anisotropic rows, and how many: a
+    /// description measured exactly is left to [`best`].
+    aniso_alpha: [(f32, f32); N_ROWS],
+    n_aniso: usize,
     /// Per bracket state of an isotropic description: (start, length) in
     /// the pool.
     iso: [(u16, u8); MAX_STATES],
@@ -523,6 +531,9 @@ impl Fronts {
     const EMPTY: Fronts = Fronts {
         usable: false,
         alpha: [f32::INFINITY; MAX_ISO],
+        n_states: 0,
+        aniso_alpha: [(f32::NAN, f32::NAN); N_ROWS],
+        n_aniso: 0,
         iso: [(0, 0); MAX_STATES],
         aniso: [[(0, 0); MAX_STATES]; MAX_STATES],
         entry: [Candidate {
@@ -555,6 +566,14 @@ impl Fronts {
             f.alpha[i] = sorted.iso_alpha[i];
             i += 1;
         }
+        let mut i = 0;
+        while i < sorted.n_aniso {
+            let r = &ROWS[sorted.aniso[i] as usize];
+            f.aniso_alpha[i] = (r.alpha_x, r.alpha_y);
+            i += 1;
+        }
+        f.n_aniso = sorted.n_aniso;
+        f.n_states = 2 * n;
         // State 2n (above the largest alpha) scales the errors: not here.
         let states = 2 * n;
         let mut lo = 0;
@@ -757,13 +776,41 @@ static FRONTS_OWN_11: Fronts = Fronts::of(&OWN_SORTED[1][1]);
 static FRONTS_FACET_0: Fronts = Fronts::of(&FACET_SORTED[0]);
 static FRONTS_FACET_1: Fronts = Fronts::of(&FACET_SORTED[1]);
 
+/// The fronts a description uses, per NDF code (the last slot: an NDF
+/// without rows) and facet code: its own rows', or the facet's when it has
+/// none (as [`relevant`] picks them).
+static FRONTS: [[&Fronts; FACET_CODES.len()]; NDF_CODES.len() + 1] = {
+    const _: () = assert!(NDF_CODES.len() == 2 && FACET_CODES.len() == 2);
+    const fn own(
+        n: usize,
+        f: usize,
+        o: &'static Fronts,
+        facet: &'static Fronts,
+    ) -> &'static Fronts {
+        if OWN_ROWS[n][f].len > 0 { o } else { facet }
+    }
+    [
+        [
+            own(0, 0, &FRONTS_OWN_00, &FRONTS_FACET_0),
+            own(0, 1, &FRONTS_OWN_01, &FRONTS_FACET_1),
+        ],
+        [
+            own(1, 0, &FRONTS_OWN_10, &FRONTS_FACET_0),
+            own(1, 1, &FRONTS_OWN_11, &FRONTS_FACET_1),
+        ],
+        [&FRONTS_FACET_0, &FRONTS_FACET_1],
+    ]
+};
+
 /// Bracket state of `a` among the distinct isotropic alphas `fronts.alpha`.
 #[inline]
 fn state(fronts: &Fronts, a: f32) -> usize {
-    // Padded with infinities: counts without branches.
-    let below: usize = fronts.alpha.iter().map(|&x| usize::from(x < a)).sum();
-    let equal: usize = fronts.alpha.iter().map(|&x| usize::from(x == a)).sum();
-    2 * below + equal
+    // Padded with infinities: two four-lane comparisons, no branches.
+    let [x0, x1] = [&fronts.alpha[..4], &fronts.alpha[4..]].map(Vec4::from_slice);
+    let a = Vec4::splat(a);
+    let below = x0.cmplt(a).bitmask().count_ones() + x1.cmplt(a).bitmask().count_ones();
+    let equal = x0.cmpeq(a).bitmask().count_ones() + x1.cmpeq(a).bitmask().count_ones();
+    (2 * below + equal) as usize
 }
 
 /// The best candidate for `d` from the precomputed fronts (no refusal
@@ -771,30 +818,14 @@ fn state(fronts: &Fronts, a: f32) -> usize {
 /// [`best`]). `Some(None)`: no candidate at all.
 fn best_from_fronts(d: &MaterialDesc) -> Option<Option<Choice>> {
     let fc = code_of(&FACET_CODES, d.facet)?;
-    let nc = code_of(&NDF_CODES, d.ndf);
-    let own = |n: usize| match (n, fc) {
-        (0, 0) => &FRONTS_OWN_00,
-        (0, _) => &FRONTS_OWN_01,
-        (_, 0) => &FRONTS_OWN_10,
-        _ => &FRONTS_OWN_11,
-    };
-    let (sorted, fronts) = match nc {
-        Some(n) if OWN_ROWS[n][fc].len > 0 => (&OWN_SORTED[n][fc], own(n)),
-        _ => (
-            &FACET_SORTED[fc],
-            if fc == 0 {
-                &FRONTS_FACET_0
-            } else {
-                &FRONTS_FACET_1
-            },
-        ),
-    };
+    let nc = code_of(&NDF_CODES, d.ndf).unwrap_or(NDF_CODES.len());
+    let fronts = FRONTS[nc][fc];
     if !fronts.usable {
         return None;
     }
     let (lo, hi) = (d.alpha_x.min(d.alpha_y), d.alpha_x.max(d.alpha_y));
     let s_hi = state(fronts, hi);
-    if s_hi >= 2 * sorted.n_iso {
+    if s_hi >= fronts.n_states {
         // Above the largest measured roughness: errors are scaled.
         return None;
     }
@@ -803,13 +834,7 @@ fn best_from_fronts(d: &MaterialDesc) -> Option<Option<Choice>> {
     } else {
         // An anisotropic row measured for exactly this roughness is used
         // alone: left to `best`.
-        if sorted.aniso[..sorted.n_aniso.min(N_ROWS)]
-            .iter()
-            .any(|&ri| {
-                let r = &ROWS[ri as usize];
-                r.alpha_x == d.alpha_x && r.alpha_y == d.alpha_y
-            })
-        {
+        if fronts.aniso_alpha[..fronts.n_aniso.min(N_ROWS)].contains(&(d.alpha_x, d.alpha_y)) {
             return None;
         }
         let s_lo = state(fronts, lo);
