@@ -535,7 +535,7 @@ static COARSE_W: [[[f32; COARSE.len()]; t::ALPHA_N]; 2] = {
 /// (alpha, mu) and the four surrounding cells are read at that one `F0'`
 /// (one table abscissa per direction) and combined bilinearly; a material
 /// stores its Fresnel fit and the normalisation `norm` (from `COARSE_W` and
-/// the tint at the [`COARSE`] nodes): four Fresnel evaluations and five
+/// the tint at the `COARSE` nodes): four Fresnel evaluations and five
 /// table reads per material, no table built.
 ///
 /// The lobe is `f_ms |o.z| = (1 - E(wi)) (1 - E(wo)) T(mu_i) T(mu_o) norm |o.z|`:
