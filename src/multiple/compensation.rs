@@ -586,31 +586,6 @@ static KAPPA4: [[[[f32; 4]; t::MU_N]; t::ALPHA_N]; 2] = {
     out
 };
 
-/// `CONDUCTOR_MS_TINT` as (value, slope to the next `F0` node) per `F0`
-/// interval. Compile time.
-static TINT_PAIRS: [[[[[f32; 2]; ms::F0_N - 1]; t::MU_N]; t::ALPHA_N]; 2] = {
-    let mut out = [[[[[0.0f32; 2]; ms::F0_N - 1]; t::MU_N]; t::ALPHA_N]; 2];
-    let mut n = 0;
-    while n < 2 {
-        let mut j = 0;
-        while j < t::ALPHA_N {
-            let mut i = 0;
-            while i < t::MU_N {
-                let row = &ms::CONDUCTOR_MS_TINT[n][j][i];
-                let mut q = 0;
-                while q + 1 < ms::F0_N {
-                    out[n][j][i][q] = [row[q], row[q + 1] - row[q]];
-                    q += 1;
-                }
-                i += 1;
-            }
-            j += 1;
-        }
-        n += 1;
-    }
-    out
-};
-
 impl Tint {
     /// No multiple scattering.
     const ZERO: Tint = Tint {
@@ -649,10 +624,10 @@ impl Tint {
         let mut t = Vec3A::ZERO;
         for k in 0..N {
             let (j, i) = cells[k];
-            let row = &TINT_PAIRS[n][j][i];
-            let base = Vec3A::new(row[q[0]][0], row[q[1]][0], row[q[2]][0]);
-            let slope = Vec3A::new(row[q[0]][1], row[q[1]][1], row[q[2]][1]);
-            t += (base + slope * f) * w[k];
+            let row = &ms::CONDUCTOR_MS_TINT[n][j][i];
+            let lo = Vec3A::new(row[q[0]], row[q[1]], row[q[2]]);
+            let hi = Vec3A::new(row[q[0] + 1], row[q[1] + 1], row[q[2] + 1]);
+            t += (lo + (hi - lo) * f) * w[k];
         }
         t
     }
