@@ -8,7 +8,11 @@
 //! --callgrind` also runs each case under `valgrind --tool=callgrind` with
 //! collection switched on inside `msbsdf_material_init` (then inside
 //! `msbsdf_eval`) only, and prints instructions per call: the
-//! load-independent figure. A name filter may follow (`-- --callgrind AUTO`).
+//! load-independent figure, then each case's init instructions relative to
+//! SINGLE conductor's and AUTO's own overhead: AUTO's init minus that of
+//! the models it picks, built directly from the same descriptions (the
+//! `: chosen model` cases). A name filter may follow (`-- --callgrind
+//! AUTO`; the ratios need `SINGLE conductor` among the cases run).
 //!
 //! Internally, `--count init|eval CASE N` runs `N` calls of one case (the
 //! mode the callgrind runs use).
@@ -30,6 +34,10 @@ struct Case {
     model: u32,
     ndf: u32,
     facet: u32,
+    /// AUTO only: build the model AUTO picks for each description (its
+    /// model and estimator in the description) instead of AUTO itself, so
+    /// that AUTO's own overhead is the difference of the two cases.
+    chosen: bool,
 }
 
 const CASES: &[Case] = &[
@@ -38,114 +46,168 @@ const CASES: &[Case] = &[
         model: MSBSDF_MODEL_SINGLE,
         ndf: MSBSDF_NDF_GGX,
         facet: MSBSDF_FACET_CONDUCTOR,
+        chosen: false,
     },
     Case {
         name: "SINGLE dielectric",
         model: MSBSDF_MODEL_SINGLE,
         ndf: MSBSDF_NDF_GGX,
         facet: MSBSDF_FACET_DIELECTRIC,
+        chosen: false,
     },
     Case {
         name: "ENERGY_COMPENSATED conductor",
         model: MSBSDF_MODEL_ENERGY_COMPENSATED,
         ndf: MSBSDF_NDF_GGX,
         facet: MSBSDF_FACET_CONDUCTOR,
+        chosen: false,
     },
     Case {
         name: "ENERGY_COMPENSATED conductor aniso",
         model: MSBSDF_MODEL_ENERGY_COMPENSATED,
         ndf: MSBSDF_NDF_GGX,
         facet: u32::MAX, // conductor, alpha_y = 2 alpha_x (see `desc`)
+        chosen: false,
     },
     Case {
         name: "ENERGY_COMPENSATED dielectric",
         model: MSBSDF_MODEL_ENERGY_COMPENSATED,
         ndf: MSBSDF_NDF_GGX,
         facet: MSBSDF_FACET_DIELECTRIC,
+        chosen: false,
     },
     Case {
         name: "HEITZ_RANDOM_WALK conductor",
         model: MSBSDF_MODEL_HEITZ_RANDOM_WALK,
         ndf: MSBSDF_NDF_GGX,
         facet: MSBSDF_FACET_CONDUCTOR,
+        chosen: false,
     },
     Case {
         name: "HEITZ_RANDOM_WALK dielectric",
         model: MSBSDF_MODEL_HEITZ_RANDOM_WALK,
         ndf: MSBSDF_NDF_GGX,
         facet: MSBSDF_FACET_DIELECTRIC,
+        chosen: false,
     },
     Case {
         name: "HEITZ_RANDOM_WALK diffuse",
         model: MSBSDF_MODEL_HEITZ_RANDOM_WALK,
         ndf: MSBSDF_NDF_GGX,
         facet: MSBSDF_FACET_DIFFUSE,
+        chosen: false,
     },
     Case {
         name: "POSITION_FREE conductor",
         model: MSBSDF_MODEL_POSITION_FREE,
         ndf: MSBSDF_NDF_GGX,
         facet: MSBSDF_FACET_CONDUCTOR,
+        chosen: false,
     },
     Case {
         name: "POSITION_FREE dielectric",
         model: MSBSDF_MODEL_POSITION_FREE,
         ndf: MSBSDF_NDF_GGX,
         facet: MSBSDF_FACET_DIELECTRIC,
+        chosen: false,
     },
     Case {
         name: "INVARIANCE conductor",
         model: MSBSDF_MODEL_INVARIANCE,
         ndf: MSBSDF_NDF_GGX,
         facet: MSBSDF_FACET_CONDUCTOR,
+        chosen: false,
     },
     Case {
         name: "BITTERLI_DEON conductor",
         model: MSBSDF_MODEL_BITTERLI_DEON,
         ndf: MSBSDF_NDF_GGX,
         facet: MSBSDF_FACET_CONDUCTOR,
+        chosen: false,
+    },
+    Case {
+        name: "TABULATED conductor",
+        model: MSBSDF_MODEL_TABULATED,
+        ndf: MSBSDF_NDF_GGX,
+        facet: MSBSDF_FACET_CONDUCTOR,
+        chosen: false,
+    },
+    Case {
+        name: "TABULATED conductor aniso",
+        model: MSBSDF_MODEL_TABULATED,
+        ndf: MSBSDF_NDF_GGX,
+        facet: u32::MAX,
+        chosen: false,
     },
     Case {
         name: "VGROOVE conductor",
         model: MSBSDF_MODEL_VGROOVE,
         ndf: MSBSDF_NDF_GGX,
         facet: MSBSDF_FACET_CONDUCTOR,
+        chosen: false,
     },
     Case {
         name: "VGROOVE_NONSYMMETRIC conductor",
         model: MSBSDF_MODEL_VGROOVE_NONSYMMETRIC,
         ndf: MSBSDF_NDF_GGX,
         facet: MSBSDF_FACET_CONDUCTOR,
+        chosen: false,
     },
     Case {
         name: "NULL_SCATTERING conductor",
         model: MSBSDF_MODEL_NULL_SCATTERING,
         ndf: MSBSDF_NDF_GGX,
         facet: MSBSDF_FACET_CONDUCTOR,
+        chosen: false,
     },
     Case {
         name: "NULL_SCATTERING dielectric",
         model: MSBSDF_MODEL_NULL_SCATTERING,
         ndf: MSBSDF_NDF_GGX,
         facet: MSBSDF_FACET_DIELECTRIC,
+        chosen: false,
     },
     Case {
         name: "AUTO conductor",
         model: MSBSDF_MODEL_AUTO,
         ndf: MSBSDF_NDF_GGX,
         facet: MSBSDF_FACET_CONDUCTOR,
+        chosen: false,
     },
     Case {
         name: "AUTO conductor aniso",
         model: MSBSDF_MODEL_AUTO,
         ndf: MSBSDF_NDF_GGX,
         facet: u32::MAX,
+        chosen: false,
     },
     Case {
         name: "AUTO dielectric",
         model: MSBSDF_MODEL_AUTO,
         ndf: MSBSDF_NDF_GGX,
         facet: MSBSDF_FACET_DIELECTRIC,
+        chosen: false,
+    },
+    Case {
+        name: "AUTO conductor: chosen model",
+        model: MSBSDF_MODEL_AUTO,
+        ndf: MSBSDF_NDF_GGX,
+        facet: MSBSDF_FACET_CONDUCTOR,
+        chosen: true,
+    },
+    Case {
+        name: "AUTO conductor aniso: chosen model",
+        model: MSBSDF_MODEL_AUTO,
+        ndf: MSBSDF_NDF_GGX,
+        facet: u32::MAX,
+        chosen: true,
+    },
+    Case {
+        name: "AUTO dielectric: chosen model",
+        model: MSBSDF_MODEL_AUTO,
+        ndf: MSBSDF_NDF_GGX,
+        facet: MSBSDF_FACET_DIELECTRIC,
+        chosen: true,
     },
 ];
 
@@ -196,6 +258,22 @@ fn desc(c: &Case, i: usize) -> msbsdf_material_desc {
                 b: 1.603 * s,
             };
         }
+    }
+    if c.chosen {
+        // What AUTO picks for this description (built with
+        // `msbsdf_material_create`, outside the measured function).
+        let mut m: *mut msbsdf_material = std::ptr::null_mut();
+        // SAFETY: `d` and `m` are valid locals.
+        let st = unsafe { msbsdf_material_create(&d, &mut m) };
+        assert_eq!(st, MSBSDF_STATUS_OK, "{}: AUTO refused", c.name);
+        let (mut model, mut est, mut n) = (0u32, 0u32, 0u32);
+        // SAFETY: `m` is live; the outputs are valid locals.
+        let st = unsafe { msbsdf_material_model(m, &mut model, &mut est, &mut n) };
+        assert_eq!(st, MSBSDF_STATUS_OK);
+        // SAFETY: created above, not used after.
+        unsafe { msbsdf_material_destroy(m) };
+        d.model = model;
+        d.estimator = est;
     }
     d
 }
@@ -358,6 +436,8 @@ fn main() {
         "{:<36} {:>9} {:>9} {:>11} {:>11}",
         "model and facet", "init ns", "eval ns", "init instr", "eval instr"
     );
+    // Init instructions per case, for the ratios printed at the end.
+    let mut init_instr: Vec<(&str, f64)> = Vec::new();
     for c in CASES
         .iter()
         .filter(|c| filter.is_none_or(|f| c.name.contains(f.as_str())))
@@ -373,14 +453,34 @@ fn main() {
             black_box(run_eval(c, N_EVAL));
         });
         let (ci, ce) = if with_callgrind {
+            let i = callgrind("init", c.name, "msbsdf_material_init", 2000);
+            if let Some(i) = i {
+                init_instr.push((c.name, i));
+            }
             let f = |x: Option<f64>| x.map_or("-".to_string(), |v| format!("{v:.0}"));
-            (
-                f(callgrind("init", c.name, "msbsdf_material_init", 2000)),
-                f(callgrind("eval", c.name, "msbsdf_eval", 2000)),
-            )
+            (f(i), f(callgrind("eval", c.name, "msbsdf_eval", 2000)))
         } else {
             ("-".into(), "-".into())
         };
         println!("{:<36} {init:>9.1} {eval:>9.1} {ci:>11} {ce:>11}", c.name);
+    }
+    // Init instructions relative to SINGLE conductor's, and AUTO's own
+    // overhead (AUTO minus the model it picks, built directly).
+    let get = |n: &str| init_instr.iter().find(|x| x.0 == n).map(|x| x.1);
+    if let Some(single) = get("SINGLE conductor") {
+        println!("\ninit instructions / SINGLE conductor's ({single:.0}):");
+        for (n, i) in &init_instr {
+            println!("  {n:<36} {:>6.2}", i / single);
+        }
+        for (n, i) in &init_instr {
+            if let Some(chosen) = get(&format!("{n}: chosen model")) {
+                println!(
+                    "  {n}: AUTO overhead {:.0} instructions ({:.2} x SINGLE), chosen model {chosen:.0} ({:.2} x SINGLE)",
+                    i - chosen,
+                    (i - chosen) / single,
+                    chosen / single
+                );
+            }
+        }
     }
 }

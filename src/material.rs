@@ -178,22 +178,6 @@ impl Material {
                 }
             }
         };
-        let ndf_kind = match d.ndf {
-            NdfId::Beckmann => Some(NdfKind::Beckmann),
-            NdfId::Ggx => Some(NdfKind::Ggx),
-            NdfId::StudentT => Some(NdfKind::StudentT),
-            _ => None,
-        };
-        // The Smith NDF of the description (roughness clamped to MIN_ALPHA;
-        // the shape matters for Student-T only).
-        let smith_ndf = |kind: NdfKind| {
-            Ndf::with_shape(
-                kind,
-                d.alpha_x.max(MIN_ALPHA),
-                d.alpha_y.max(MIN_ALPHA),
-                d.shape,
-            )
-        };
         let smooth = d.alpha_x.max(d.alpha_y) < SPECULAR_ALPHA;
         if smooth && matches!(facet, Facet::Conductor { .. } | Facet::Dielectric { .. }) {
             // The model must accept the description at the threshold.
@@ -212,6 +196,32 @@ impl Material {
                 },
             ));
         }
+        Material::build(&d, facet, inner)
+    }
+
+    /// The model of a validated description `d` whose facet is `facet`:
+    /// each arm holds one model's support checks (what it refuses) and
+    /// calls its constructor. AUTO builds the model it picks through this
+    /// same dispatch ([`auto::build`]), so a model refuses for AUTO exactly
+    /// what it refuses when asked for by name.
+    #[inline(always)]
+    fn build(d: &MaterialDesc, facet: Facet, inner: Option<&Material>) -> Result<Material, Error> {
+        let ndf_kind = match d.ndf {
+            NdfId::Beckmann => Some(NdfKind::Beckmann),
+            NdfId::Ggx => Some(NdfKind::Ggx),
+            NdfId::StudentT => Some(NdfKind::StudentT),
+            _ => None,
+        };
+        // The Smith NDF of the description (roughness clamped to MIN_ALPHA;
+        // the shape matters for Student-T only).
+        let smith_ndf = |kind: NdfKind| {
+            Ndf::with_shape(
+                kind,
+                d.alpha_x.max(MIN_ALPHA),
+                d.alpha_y.max(MIN_ALPHA),
+                d.shape,
+            )
+        };
         let imp = match d.model {
             Model::Single => {
                 let kind = ndf_kind.ok_or(Error::Unsupported)?;
@@ -365,19 +375,16 @@ impl Material {
                 ModelImpl::Base(BaseModel::VGroove(m))
             }
             Model::Auto => {
-                // The choice comes from the measured table (multiple/auto.rs).
-                let (c, built) = auto::build(&d)?;
-                return Ok(Material::finish(built.imp, d, c));
+                // The choice comes from the measured table (multiple/auto.rs),
+                // which builds its candidates through this dispatch.
+                // The material keeps AUTO's description and the choice.
+                return auto::build(d, |cd, c| {
+                    Material::build(cd, facet, inner).map(|m| Material::finish(m.imp, *d, c))
+                });
             }
         };
-        let chosen = auto::Choice {
-            model: d.model,
-            estimator: d.estimator,
-            evaluations: 1,
-            error: f32::INFINITY,
-            ns: f32::INFINITY,
-        };
-        Ok(Material::finish(imp, d, chosen))
+        let chosen = auto::Choice::own(d.model, d.estimator);
+        Ok(Material::finish(imp, *d, chosen))
     }
 
     /// The material of a built model, with its flags.

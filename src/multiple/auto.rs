@@ -15,8 +15,8 @@
 //! - the rows measured for `(n, f)`; if there are none, the rows of the
 //!   same facet with another NDF (the harness measured glass with GGX
 //!   only: Beckmann glass uses them, an approximation); no rows (diffuse
-//!   facets, other NDFs): the first model `Material::new` accepts among
-//!   HEITZ_RANDOM_WALK and NULL_SCATTERING, one evaluation;
+//!   facets, other NDFs): the first model that accepts the description
+//!   among HEITZ_RANDOM_WALK and NULL_SCATTERING, one evaluation;
 //! - a row measured for exactly this roughness alone; otherwise
 //!   the isotropic rows that bracket `min(alpha)` and `max(alpha)` (the
 //!   nearest row when outside the measured range), plus the anisotropic
@@ -24,8 +24,14 @@
 //!   worst over those rows (conservative: errors do not interpolate
 //!   linearly). Above the largest measured roughness the errors are scaled
 //!   by `alpha / alpha_max` (every bias measured grows with roughness);
-//! - among the candidates `Material::new` accepts, the cheapest with error
-//!   within `tolerance`; when none is, the one with the smallest error.
+//! - among the candidates whose model accepts the description, the
+//!   cheapest with error within `tolerance`; when none is, the one with the
+//!   smallest error.
+//!
+//! Acceptance is the models' own: [`build`] takes the constructor dispatch
+//! (`Material`'s, which holds each model's support checks) as a function
+//! and builds the best candidate through it, trying the next one only when
+//! the model refuses. This module knows nothing of `Material`.
 //!
 //! The table's errors are upper confidence values (squared bias and
 //! variance each raised by 3 standard errors), so that a choice near the
@@ -43,9 +49,10 @@
 //! averages many samples per pixel anyway wants a tolerance near the bias
 //! it can accept, since its own samples average the noise.
 
-use crate::Material;
+use super::auto_table::{FACET_CODES, NDF_CODES, REFERENCE_NS, ROWS};
 use crate::desc::{Estimator, FacetKind, MaterialDesc, Model, NdfId};
 use crate::status::Error;
+use glam::Vec4;
 
 /// One measured configuration.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -78,9 +85,6 @@ pub struct Row {
     pub candidates: &'static [Candidate],
 }
 
-/// Largest number of rows combined for one lookup.
-const MAX_RELEVANT: usize = 8;
-
 /// What AUTO picked.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Choice {
@@ -99,58 +103,310 @@ pub struct Choice {
     pub ns: f32,
 }
 
-/// The rows relevant to `d` (at most [`MAX_RELEVANT`]) and the error scale.
-fn relevant(d: &MaterialDesc, rows: &'static [Row]) -> ([Option<&'static Row>; MAX_RELEVANT], f32) {
-    let mut out = [None; MAX_RELEVANT];
-    let same = |ndf_match: bool| {
-        rows.iter()
-            .filter(move |r| r.facet == d.facet && (r.ndf == d.ndf) == ndf_match)
+impl Choice {
+    /// The choice of a material built from its own description (not AUTO):
+    /// one evaluation, error and cost unknown.
+    pub const fn own(model: Model, estimator: Estimator) -> Choice {
+        Choice {
+            model,
+            estimator,
+            evaluations: 1,
+            error: f32::INFINITY,
+            ns: f32::INFINITY,
+        }
+    }
+}
+
+/// Number of rows of the committed table.
+const N_ROWS: usize = ROWS.len();
+
+/// Largest number of rows combined for one lookup.
+const MAX_RELEVANT: usize = 8;
+
+/// Row indices (into [`ROWS`]) in table order.
+#[derive(Clone, Copy)]
+struct RowList {
+    idx: [u8; N_ROWS],
+    len: usize,
+}
+
+impl RowList {
+    /// The rows with facet code `facet` and, when `ndf` is given, NDF code
+    /// `ndf`. Compile time.
+    const fn of(facet: usize, ndf: Option<usize>) -> RowList {
+        assert!(N_ROWS < u8::MAX as usize, "too many rows for u8 indices");
+        let mut out = RowList {
+            idx: [0; N_ROWS],
+            len: 0,
+        };
+        let mut r = 0;
+        while r < N_ROWS {
+            let row = &ROWS[r];
+            let facet_ok = facet_eq(row.facet, FACET_CODES[facet]);
+            let ndf_ok = match ndf {
+                Some(n) => ndf_eq(row.ndf, NDF_CODES[n]),
+                None => true,
+            };
+            if facet_ok && ndf_ok {
+                out.idx[out.len] = r as u8;
+                out.len += 1;
+            }
+            r += 1;
+        }
+        out
+    }
+
+    fn rows(&self) -> impl Iterator<Item = usize> + '_ {
+        self.idx[..self.len].iter().map(|&r| r as usize)
+    }
+}
+
+const fn facet_eq(a: FacetKind, b: FacetKind) -> bool {
+    a as u32 == b as u32
+}
+
+const fn ndf_eq(a: NdfId, b: NdfId) -> bool {
+    a as u32 == b as u32
+}
+
+/// Per (NDF code, facet code) of the table files, its rows.
+static OWN_ROWS: [[RowList; FACET_CODES.len()]; NDF_CODES.len()] = {
+    let empty = RowList {
+        idx: [0; N_ROWS],
+        len: 0,
     };
-    let ndf_rows_exist = same(true).next().is_some();
-    let pick = move |r: &&Row| (r.ndf == d.ndf) == ndf_rows_exist && r.facet == d.facet;
-    let iso = |r: &&Row| r.alpha_x == r.alpha_y;
+    let mut out = [[empty; FACET_CODES.len()]; NDF_CODES.len()];
+    let mut n = 0;
+    while n < NDF_CODES.len() {
+        let mut f = 0;
+        while f < FACET_CODES.len() {
+            out[n][f] = RowList::of(f, Some(n));
+            f += 1;
+        }
+        n += 1;
+    }
+    out
+};
+
+/// Per facet code, every row of that facet (used when the description's
+/// NDF has none).
+static FACET_ROWS: [RowList; FACET_CODES.len()] = {
+    let empty = RowList {
+        idx: [0; N_ROWS],
+        len: 0,
+    };
+    let mut out = [empty; FACET_CODES.len()];
+    let mut f = 0;
+    while f < FACET_CODES.len() {
+        out[f] = RowList::of(f, None);
+        f += 1;
+    }
+    out
+};
+
+/// Number of distinct keys of [`key`].
+const N_KEYS: usize = 11 * 2 * 32;
+
+/// A small integer naming a (model, estimator, evaluations) configuration
+/// whose evaluations are a power of two (every one the harness measures);
+/// `None` for others.
+const fn key(c: &Candidate) -> Option<usize> {
+    if !c.evaluations.is_power_of_two() {
+        return None;
+    }
+    let k = ((c.model as usize) * 2 + c.estimator as usize) * 32
+        + c.evaluations.trailing_zeros() as usize;
+    if k < N_KEYS { Some(k) } else { None }
+}
+
+/// Absent from a row.
+const NO_POS: u8 = u8::MAX;
+
+/// Per row and configuration key, the position of that configuration's
+/// first candidate in the row ([`NO_POS`] when absent): a candidate's
+/// predicted error and cost take one read per row. Compile time.
+static POSITION: [[u8; N_KEYS]; N_ROWS] = {
+    let mut out = [[NO_POS; N_KEYS]; N_ROWS];
+    let mut r = 0;
+    while r < N_ROWS {
+        let c = ROWS[r].candidates;
+        assert!(c.len() < NO_POS as usize, "too many candidates in a row");
+        let mut i = 0;
+        while i < c.len() {
+            if let Some(k) = key(&c[i])
+                && out[r][k] == NO_POS
+            {
+                out[r][k] = i as u8;
+            }
+            i += 1;
+        }
+        r += 1;
+    }
+    out
+};
+
+/// Position of `NDF` / facet `x` in the table's code list.
+fn code_of<T: PartialEq + Copy>(codes: &[T], x: T) -> Option<usize> {
+    codes.iter().position(|&c| c == x)
+}
+
+/// The isotropic rows of a [`RowList`] by increasing alpha (stable: equal
+/// alphas keep the table order), with their alphas, and its anisotropic
+/// rows in table order.
+#[derive(Clone, Copy)]
+struct Sorted {
+    iso: [u8; N_ROWS],
+    iso_alpha: [f32; N_ROWS],
+    n_iso: usize,
+    aniso: [u8; N_ROWS],
+    n_aniso: usize,
+}
+
+impl Sorted {
+    const EMPTY: Sorted = Sorted {
+        iso: [0; N_ROWS],
+        iso_alpha: [0.0; N_ROWS],
+        n_iso: 0,
+        aniso: [0; N_ROWS],
+        n_aniso: 0,
+    };
+
+    /// Compile time.
+    const fn of(list: &RowList) -> Sorted {
+        let mut out = Sorted::EMPTY;
+        let mut i = 0;
+        while i < list.len {
+            let r = list.idx[i];
+            let row = &ROWS[r as usize];
+            if row.alpha_x == row.alpha_y {
+                // Insertion after every row with alpha <= this one.
+                let mut j = out.n_iso;
+                while j > 0 && out.iso_alpha[j - 1] > row.alpha_x {
+                    out.iso[j] = out.iso[j - 1];
+                    out.iso_alpha[j] = out.iso_alpha[j - 1];
+                    j -= 1;
+                }
+                out.iso[j] = r;
+                out.iso_alpha[j] = row.alpha_x;
+                out.n_iso += 1;
+            } else {
+                out.aniso[out.n_aniso] = r;
+                out.n_aniso += 1;
+            }
+            i += 1;
+        }
+        out
+    }
+
+    /// Positions in `iso` of the rows bracketing `a`: the largest alpha
+    /// <= a (the last one on ties) and the smallest alpha >= a (the first
+    /// one on ties), and whether the first of them equals `a`.
+    #[inline]
+    fn bracket(&self, a: f32) -> [Option<usize>; 2] {
+        let n = self.n_iso.min(N_ROWS);
+        // Rows below a, and rows at or below a.
+        let mut below = 0;
+        while below < n && self.iso_alpha[below] < a {
+            below += 1;
+        }
+        let mut at_or_below = below;
+        while at_or_below < n && self.iso_alpha[at_or_below] == a {
+            at_or_below += 1;
+        }
+        let lo = at_or_below.checked_sub(1);
+        let hi = (below < n).then_some(below);
+        [lo, hi]
+    }
+}
+
+/// [`Sorted`] of [`OWN_ROWS`] and [`FACET_ROWS`]. Compile time.
+static OWN_SORTED: [[Sorted; FACET_CODES.len()]; NDF_CODES.len()] = {
+    let mut out = [[Sorted::EMPTY; FACET_CODES.len()]; NDF_CODES.len()];
+    let mut n = 0;
+    while n < NDF_CODES.len() {
+        let mut f = 0;
+        while f < FACET_CODES.len() {
+            out[n][f] = Sorted::of(&OWN_ROWS[n][f]);
+            f += 1;
+        }
+        n += 1;
+    }
+    out
+};
+static FACET_SORTED: [Sorted; FACET_CODES.len()] = {
+    let mut out = [Sorted::EMPTY; FACET_CODES.len()];
+    let mut f = 0;
+    while f < FACET_CODES.len() {
+        out[f] = Sorted::of(&FACET_ROWS[f]);
+        f += 1;
+    }
+    out
+};
+
+/// The rows relevant to `d` (indices into [`ROWS`], at most
+/// [`MAX_RELEVANT`]), how many, and the error scale.
+fn relevant(d: &MaterialDesc) -> ([u8; MAX_RELEVANT], usize, f32) {
+    let mut out = [0u8; MAX_RELEVANT];
+    let Some(fc) = code_of(&FACET_CODES, d.facet) else {
+        return (out, 0, 1.0);
+    };
+    // The rows of (NDF, facet); none: every row of the facet (the rows of
+    // the same facet with another NDF).
+    let (list, sorted) = match code_of(&NDF_CODES, d.ndf) {
+        Some(nc) if OWN_ROWS[nc][fc].len > 0 => (&OWN_ROWS[nc][fc], &OWN_SORTED[nc][fc]),
+        _ => (&FACET_ROWS[fc], &FACET_SORTED[fc]),
+    };
+    let iso_desc = d.alpha_x == d.alpha_y;
     let (lo, hi) = (d.alpha_x.min(d.alpha_y), d.alpha_x.max(d.alpha_y));
-    // One pass: a row measured for exactly this roughness is used alone;
-    // otherwise the isotropic rows bracketing `lo` and `hi` (below: the
-    // largest alpha <= a, the last one on ties; above: the smallest
-    // alpha >= a, the first one on ties).
-    let mut br: [[Option<&'static Row>; 2]; 2] = [[None; 2]; 2];
-    for r in rows.iter().filter(pick) {
-        if r.alpha_x == d.alpha_x && r.alpha_y == d.alpha_y {
-            out[0] = Some(r);
-            return (out, 1.0);
-        }
-        if !iso(&r) {
-            continue;
-        }
-        for (slot, a) in br.iter_mut().zip([lo, hi]) {
-            if r.alpha_x <= a && slot[0].is_none_or(|b| r.alpha_x >= b.alpha_x) {
-                slot[0] = Some(r);
+    let [below, above] = sorted.bracket(lo);
+    // A row measured for exactly this roughness is used alone (the first
+    // one in table order).
+    if iso_desc {
+        if let Some(i) = below
+            && sorted.iso_alpha[i] == lo
+        {
+            // The first of the equal alphas (sorting kept table order).
+            let mut first = i;
+            while first > 0 && sorted.iso_alpha[first - 1] == lo {
+                first -= 1;
             }
-            if r.alpha_x >= a && slot[1].is_none_or(|b| r.alpha_x < b.alpha_x) {
-                slot[1] = Some(r);
+            out[0] = sorted.iso[first];
+            return (out, 1, 1.0);
+        }
+    } else {
+        for ri in list.rows() {
+            let r = &ROWS[ri];
+            if r.alpha_x == d.alpha_x && r.alpha_y == d.alpha_y {
+                out[0] = ri as u8;
+                return (out, 1, 1.0);
             }
         }
     }
+    // Otherwise the isotropic rows bracketing `lo` and `hi`, then the
+    // anisotropic rows when `alpha_x != alpha_y`.
     let mut k = 0;
-    let mut push = |r: &'static Row, out: &mut [Option<&'static Row>; MAX_RELEVANT]| {
-        if k < MAX_RELEVANT
-            && !out[..k]
-                .iter()
-                .any(|x| x.is_some_and(|x| std::ptr::eq(x, r)))
-        {
-            out[k] = Some(r);
-            k += 1;
+    let mut max_alpha = 0.0f32;
+    let mut push = |p: Option<usize>, k: &mut usize| {
+        if let Some(p) = p {
+            let ri = sorted.iso[p];
+            if !out[..*k].contains(&ri) {
+                out[*k] = ri;
+                *k += 1;
+                max_alpha = max_alpha.max(sorted.iso_alpha[p]);
+            }
         }
     };
-    let mut max_alpha = 0.0f32;
-    for r in br.into_iter().flatten().flatten() {
-        push(r, &mut out);
-        max_alpha = max_alpha.max(r.alpha_x);
-    }
-    if d.alpha_x != d.alpha_y {
-        for r in rows.iter().filter(pick).filter(|r| r.alpha_x != r.alpha_y) {
-            push(r, &mut out);
+    push(below, &mut k);
+    push(above, &mut k);
+    if !iso_desc {
+        let [below, above] = sorted.bracket(hi);
+        push(below, &mut k);
+        push(above, &mut k);
+        for &ri in &sorted.aniso[..sorted.n_aniso] {
+            if k < MAX_RELEVANT && !out[..k].contains(&ri) {
+                out[k] = ri;
+                k += 1;
+            }
         }
     }
     let scale = if max_alpha > 0.0 && hi > max_alpha {
@@ -158,35 +414,33 @@ fn relevant(d: &MaterialDesc, rows: &'static [Row]) -> ([Option<&'static Row>; M
     } else {
         1.0
     };
-    (out, scale)
+    (out, k, scale)
 }
 
-/// Predicted (error, ns) of a configuration over the relevant rows; `None`
-/// when a row lacks it. `idx` is its position in the first row: the rows
-/// list the same configurations in the same order, so that position is
-/// tried before a search.
-fn predict(
-    rel: &[Option<&'static Row>; MAX_RELEVANT],
-    scale: f32,
-    idx: usize,
-    c: &Candidate,
-) -> Option<(f32, f32)> {
-    let same = |x: &&Candidate| {
+/// Predicted (error, ns) of candidate `idx` of the first relevant row over
+/// all of them; `None` when a row lacks it.
+fn predict(rel: &[u8], scale: f32, idx: usize, c: &Candidate) -> Option<(f32, f32)> {
+    let same = |x: &Candidate| {
         x.model == c.model && x.estimator == c.estimator && x.evaluations == c.evaluations
     };
+    let key = key(c);
     let mut err = 0.0f32;
     let mut ns = 0.0f32;
-    let mut any = false;
-    for r in rel.iter().flatten() {
-        let m = match r.candidates.get(idx) {
-            Some(x) if same(&x) => x,
-            _ => r.candidates.iter().find(same)?,
+    for &ri in rel {
+        let cands = ROWS[ri as usize].candidates;
+        // The rows mostly list the same configurations in the same order:
+        // that position first, then the key's, then a search.
+        let m = match cands.get(idx) {
+            Some(x) if same(x) => x,
+            _ => match key {
+                Some(k) => cands.get(POSITION[ri as usize][k] as usize)?,
+                None => cands.iter().find(|x| same(x))?,
+            },
         };
         err = err.max(m.error * scale);
-        ns = ns.max(m.cost * super::auto_table::REFERENCE_NS);
-        any = true;
+        ns = ns.max(m.cost * REFERENCE_NS);
     }
-    any.then_some((err, ns))
+    Some((err, ns))
 }
 
 /// The description `d` with AUTO replaced by a concrete model.
@@ -203,12 +457,11 @@ const MAX_CANDIDATES: usize = 128;
 
 /// Per row of the committed table, the candidates' indices by increasing
 /// `cost` (stable: ties keep the table order). Computed at compile time.
-static BY_COST: [[u8; MAX_CANDIDATES]; super::auto_table::ROWS.len()] = {
-    let rows = super::auto_table::ROWS;
-    let mut out = [[0u8; MAX_CANDIDATES]; super::auto_table::ROWS.len()];
+static BY_COST: [[u8; MAX_CANDIDATES]; N_ROWS] = {
+    let mut out = [[0u8; MAX_CANDIDATES]; N_ROWS];
     let mut r = 0;
-    while r < rows.len() {
-        let c = rows[r].candidates;
+    while r < N_ROWS {
+        let c = ROWS[r].candidates;
         assert!(c.len() <= MAX_CANDIDATES, "too many candidates in a row");
         let mut i = 0;
         while i < c.len() {
@@ -226,122 +479,571 @@ static BY_COST: [[u8; MAX_CANDIDATES]; super::auto_table::ROWS.len()] = {
     out
 };
 
-/// Largest number of (model, estimator) pairs `Material::new` may refuse
-/// before the lookup gives up on the table.
+/// Largest number of (model, estimator) pairs refused before the lookup
+/// gives up on the table.
 const MAX_REFUSED: usize = 16;
 
-/// Chooses for `d` from `rows` (the committed table in normal use) and
-/// builds the material chosen.
-///
-/// The best candidate is found from the table alone and then built; only
-/// when `Material::new` refuses it (e.g. NULL_SCATTERING below its smallest
-/// roughness) is its (model, estimator) excluded and the search repeated.
-/// So a lookup builds one material in the common case.
-pub fn build_from(d: &MaterialDesc, rows: &'static [Row]) -> Result<(Choice, Material), Error> {
-    let (rel, scale) = relevant(d, rows);
-    let mut refused = [None::<(Model, Estimator)>; MAX_REFUSED];
-    if let Some(first) = rel[0] {
-        // Candidates by increasing cost in the first row when the table is
-        // the committed one (its order is computed at compile time).
-        let order = if std::ptr::eq(rows, &super::auto_table::ROWS[..]) {
-            rows.iter()
-                .position(|r| std::ptr::eq(r, first))
-                .map(|i| &BY_COST[i])
-        } else {
-            None
-        };
-        let n = first.candidates.len();
-        for n_refused in 0..MAX_REFUSED {
-            // First the cheapest candidate within tolerance; only when
-            // there is none, the one with the smallest error.
-            let mut best: Option<Choice> = None;
-            for within in [true, false] {
-                for k in 0..n {
-                    let idx = order.map_or(k, |o| o[k] as usize);
-                    let c = &first.candidates[idx];
-                    // The predicted error and cost are the largest over the
-                    // rows, so the first row's bound them from below: a
-                    // candidate whose own error is over tolerance cannot
-                    // meet it, and once the cost exceeds the best
-                    // candidate's, none later can win.
-                    if within {
-                        if order.is_some()
-                            && best.is_some_and(|b| c.cost * super::auto_table::REFERENCE_NS > b.ns)
-                        {
-                            break;
-                        }
-                        if c.error * scale > d.tolerance {
-                            continue;
-                        }
-                    }
-                    if refused[..n_refused].contains(&Some((c.model, c.estimator))) {
-                        continue;
-                    }
-                    let Some((err, ns)) = predict(&rel, scale, idx, c) else {
-                        continue;
-                    };
-                    let choice = Choice {
-                        model: c.model,
-                        estimator: c.estimator,
-                        evaluations: c.evaluations.max(1),
-                        error: err,
-                        ns,
-                    };
-                    let better = if within {
-                        err <= d.tolerance
-                            && best.is_none_or(|b| ns < b.ns || (ns == b.ns && err < b.error))
-                    } else {
-                        best.is_none_or(|b| err < b.error || (err == b.error && ns < b.ns))
-                    };
-                    if better {
-                        best = Some(choice);
-                    }
+/// Largest number of isotropic rows of one NDF and facet with precomputed
+/// fronts ([`Fronts`]).
+const MAX_ISO: usize = 8;
+/// Bracket states of a roughness among `n <= MAX_ISO` distinct isotropic
+/// alphas: `2p + 1` for alpha `p` itself, `2p` between alphas `p - 1` and
+/// `p` (0 below the first, `2n` above the last).
+const MAX_STATES: usize = 2 * MAX_ISO + 1;
+/// Front entries of one row list.
+const POOL: usize = 1536;
+
+/// For one [`RowList`] with distinct isotropic alphas, the Pareto front of
+/// predicted (cost, error) of every set of relevant rows a description
+/// without an exactly measured anisotropic row and without error scaling
+/// can have: candidates by increasing predicted cost (ties: smaller error,
+/// then the first by cost in the first row), each with an error below
+/// all before it. The best candidate for a tolerance is then the first
+/// entry within it, or the last entry when none is: exactly what [`best`]
+/// finds, without the per-candidate work. Compile time.
+#[derive(Clone, Copy)]
+struct Fronts {
+    /// False when the list has repeated or too many isotropic alphas (the
+    /// lookup then takes [`best`]).
+    usable: bool,
+    /// The isotropic alphas, padded with infinities.
+    alpha: [f32; MAX_ISO],
+    /// Twice the number of isotropic rows: states from it on (above the
+    /// largest alpha) scale the errors and are left to [`best`].
+    n_states: usize,
+    /// (alpha_x, alpha_y) of the anisotropic rows, and how many: a
+    /// description measured exactly is left to [`best`].
+    aniso_alpha: [(f32, f32); N_ROWS],
+    n_aniso: usize,
+    /// Per bracket state of an isotropic description: (start, length) in
+    /// the pool.
+    iso: [(u16, u8); MAX_STATES],
+    /// Per bracket states of `min(alpha)` and `max(alpha)` of an
+    /// anisotropic description.
+    aniso: [[(u16, u8); MAX_STATES]; MAX_STATES],
+    /// The candidates (predicted error and ns in place of the row's).
+    entry: [Candidate; POOL],
+    used: usize,
+    overflow: bool,
+}
+
+impl Fronts {
+    const EMPTY: Fronts = Fronts {
+        usable: false,
+        alpha: [f32::INFINITY; MAX_ISO],
+        n_states: 0,
+        aniso_alpha: [(f32::NAN, f32::NAN); N_ROWS],
+        n_aniso: 0,
+        iso: [(0, 0); MAX_STATES],
+        aniso: [[(0, 0); MAX_STATES]; MAX_STATES],
+        entry: [Candidate {
+            model: Model::Single,
+            estimator: Estimator::Pt,
+            evaluations: 0,
+            error: 0.0,
+            cost: 0.0,
+        }; POOL],
+        used: 0,
+        overflow: false,
+    };
+
+    /// Compile time.
+    const fn of(sorted: &Sorted) -> Fronts {
+        let mut f = Fronts::EMPTY;
+        let n = sorted.n_iso;
+        if n == 0 || n > MAX_ISO {
+            return f;
+        }
+        let mut i = 1;
+        while i < n {
+            if sorted.iso_alpha[i] == sorted.iso_alpha[i - 1] {
+                return f;
+            }
+            i += 1;
+        }
+        let mut i = 0;
+        while i < n {
+            f.alpha[i] = sorted.iso_alpha[i];
+            i += 1;
+        }
+        let mut i = 0;
+        while i < sorted.n_aniso {
+            let r = &ROWS[sorted.aniso[i] as usize];
+            f.aniso_alpha[i] = (r.alpha_x, r.alpha_y);
+            i += 1;
+        }
+        f.n_aniso = sorted.n_aniso;
+        f.n_states = 2 * n;
+        // State 2n (above the largest alpha) scales the errors: not here.
+        let states = 2 * n;
+        let mut lo = 0;
+        while lo < states {
+            let (rel, k) = rel_of_states(sorted, lo, lo, false);
+            f.iso[lo] = f.push_front(&rel, k);
+            let mut hi = lo;
+            while hi < states {
+                let (rel, k) = rel_of_states(sorted, lo, hi, true);
+                f.aniso[lo][hi] = f.push_front(&rel, k);
+                hi += 1;
+            }
+            lo += 1;
+        }
+        f.usable = !f.overflow;
+        f
+    }
+
+    /// Appends the front of the rows `rel[..k]`; returns its (start,
+    /// length).
+    const fn push_front(&mut self, rel: &[u8; MAX_RELEVANT], k: usize) -> (u16, u8) {
+        let start = self.used;
+        if k == 0 {
+            return (start as u16, 0);
+        }
+        let first = rel[0] as usize;
+        let cands = ROWS[first].candidates;
+        // Predicted (error, ns) per position in the first row's cost order.
+        let mut valid = [false; MAX_CANDIDATES];
+        let mut err = [0.0f32; MAX_CANDIDATES];
+        let mut ns = [0.0f32; MAX_CANDIDATES];
+        let mut q = 0;
+        while q < cands.len() {
+            let idx = BY_COST[first][q] as usize;
+            let c = &cands[idx];
+            if !matches!(c.model, Model::Auto)
+                && let Some((e, t)) = predict_const(rel, k, idx, c)
+            {
+                valid[q] = true;
+                err[q] = e;
+                ns[q] = t;
+            }
+            q += 1;
+        }
+        // Successive minima of (ns, error, position) among the candidates
+        // with an error below the last entry's.
+        let mut bound = f32::INFINITY;
+        let mut any = false;
+        loop {
+            let mut b = usize::MAX;
+            let mut q = 0;
+            while q < cands.len() {
+                if valid[q]
+                    && (!any || err[q] < bound)
+                    && (b == usize::MAX || ns[q] < ns[b] || (ns[q] == ns[b] && err[q] < err[b]))
+                {
+                    b = q;
                 }
-                if best.is_some() {
+                q += 1;
+            }
+            if b == usize::MAX {
+                break;
+            }
+            if self.used == POOL {
+                // Out of room (a larger table): `of` marks the list
+                // unusable and the lookup takes `best`.
+                self.overflow = true;
+                return (start as u16, 0);
+            }
+            let c = &cands[BY_COST[first][b] as usize];
+            self.entry[self.used] = Candidate {
+                model: c.model,
+                estimator: c.estimator,
+                evaluations: if c.evaluations > 1 { c.evaluations } else { 1 },
+                error: err[b],
+                cost: ns[b],
+            };
+            self.used += 1;
+            bound = err[b];
+            any = true;
+        }
+        let len = self.used - start;
+        if len > u8::MAX as usize {
+            self.overflow = true;
+        }
+        (start as u16, len as u8)
+    }
+}
+
+/// The rows of bracket state `s` (see [`MAX_STATES`]): below, above.
+const fn state_rows(sorted: &Sorted, s: usize) -> [Option<usize>; 2] {
+    let p = s / 2;
+    if s % 2 == 1 {
+        [Some(p), Some(p)]
+    } else {
+        [
+            if p >= 1 { Some(p - 1) } else { None },
+            if p < sorted.n_iso { Some(p) } else { None },
+        ]
+    }
+}
+
+/// The relevant rows ([`relevant`]'s order) of a description whose
+/// smallest and largest roughness have bracket states `lo` and `hi`.
+const fn rel_of_states(
+    sorted: &Sorted,
+    lo: usize,
+    hi: usize,
+    aniso: bool,
+) -> ([u8; MAX_RELEVANT], usize) {
+    let mut out = [0u8; MAX_RELEVANT];
+    let mut k = 0;
+    let [a, b] = state_rows(sorted, lo);
+    let [c, d] = state_rows(sorted, hi);
+    let brackets = [a, b, c, d];
+    let mut i = 0;
+    while i < 4 {
+        if let Some(p) = brackets[i] {
+            let ri = sorted.iso[p];
+            if !contains(&out, k, ri) {
+                out[k] = ri;
+                k += 1;
+            }
+        }
+        i += 1;
+    }
+    if aniso {
+        let mut j = 0;
+        while j < sorted.n_aniso {
+            let ri = sorted.aniso[j];
+            if k < MAX_RELEVANT && !contains(&out, k, ri) {
+                out[k] = ri;
+                k += 1;
+            }
+            j += 1;
+        }
+    }
+    (out, k)
+}
+
+const fn contains(v: &[u8; MAX_RELEVANT], k: usize, x: u8) -> bool {
+    let mut i = 0;
+    while i < k {
+        if v[i] == x {
+            return true;
+        }
+        i += 1;
+    }
+    false
+}
+
+/// [`predict`] at compile time (error scale 1).
+const fn predict_const(
+    rel: &[u8; MAX_RELEVANT],
+    k: usize,
+    idx: usize,
+    c: &Candidate,
+) -> Option<(f32, f32)> {
+    let mut err = 0.0f32;
+    let mut ns = 0.0f32;
+    let mut i = 0;
+    while i < k {
+        let ri = rel[i] as usize;
+        let cands = ROWS[ri].candidates;
+        let mut m = usize::MAX;
+        if idx < cands.len() && same_config(&cands[idx], c) {
+            m = idx;
+        } else {
+            let mut j = 0;
+            while j < cands.len() {
+                if same_config(&cands[j], c) {
+                    m = j;
                     break;
                 }
+                j += 1;
             }
-            let Some(c) = best else {
-                break;
-            };
-            match Material::new(&concrete(d, c.model, c.estimator)) {
-                Ok(m) => return Ok((c, m)),
-                Err(_) => refused[n_refused] = Some((c.model, c.estimator)),
-            }
+        }
+        if m == usize::MAX {
+            return None;
+        }
+        err = err.max(cands[m].error * 1.0);
+        ns = ns.max(cands[m].cost * REFERENCE_NS);
+        i += 1;
+    }
+    Some((err, ns))
+}
+
+const fn same_config(x: &Candidate, c: &Candidate) -> bool {
+    x.model as u32 == c.model as u32
+        && x.estimator as u32 == c.estimator as u32
+        && x.evaluations == c.evaluations
+}
+
+/// [`Fronts`] of [`OWN_SORTED`] and [`FACET_SORTED`] (one static per list,
+/// each a separate compile-time evaluation).
+static FRONTS_OWN_00: Fronts = Fronts::of(&OWN_SORTED[0][0]);
+static FRONTS_OWN_01: Fronts = Fronts::of(&OWN_SORTED[0][1]);
+static FRONTS_OWN_10: Fronts = Fronts::of(&OWN_SORTED[1][0]);
+static FRONTS_OWN_11: Fronts = Fronts::of(&OWN_SORTED[1][1]);
+static FRONTS_FACET_0: Fronts = Fronts::of(&FACET_SORTED[0]);
+static FRONTS_FACET_1: Fronts = Fronts::of(&FACET_SORTED[1]);
+
+/// The fronts a description uses, per NDF code (the last slot: an NDF
+/// without rows) and facet code: its own rows', or the facet's when it has
+/// none (as [`relevant`] picks them).
+static FRONTS: [[&Fronts; FACET_CODES.len()]; NDF_CODES.len() + 1] = {
+    const _: () = assert!(NDF_CODES.len() == 2 && FACET_CODES.len() == 2);
+    const fn own(
+        n: usize,
+        f: usize,
+        o: &'static Fronts,
+        facet: &'static Fronts,
+    ) -> &'static Fronts {
+        if OWN_ROWS[n][f].len > 0 { o } else { facet }
+    }
+    [
+        [
+            own(0, 0, &FRONTS_OWN_00, &FRONTS_FACET_0),
+            own(0, 1, &FRONTS_OWN_01, &FRONTS_FACET_1),
+        ],
+        [
+            own(1, 0, &FRONTS_OWN_10, &FRONTS_FACET_0),
+            own(1, 1, &FRONTS_OWN_11, &FRONTS_FACET_1),
+        ],
+        [&FRONTS_FACET_0, &FRONTS_FACET_1],
+    ]
+};
+
+/// Bracket state of `a` among the distinct isotropic alphas `fronts.alpha`.
+#[inline]
+fn state(fronts: &Fronts, a: f32) -> usize {
+    // Padded with infinities: two four-lane comparisons, no branches.
+    let [x0, x1] = [&fronts.alpha[..4], &fronts.alpha[4..]].map(Vec4::from_slice);
+    let a = Vec4::splat(a);
+    let below = x0.cmplt(a).bitmask().count_ones() + x1.cmplt(a).bitmask().count_ones();
+    let equal = x0.cmpeq(a).bitmask().count_ones() + x1.cmpeq(a).bitmask().count_ones();
+    (2 * below + equal) as usize
+}
+
+/// The best candidate for `d` from the precomputed fronts (no refusal
+/// yet); `None` when they do not cover `d` (the lookup then takes
+/// [`best`]). `Some(None)`: no candidate at all.
+fn best_from_fronts(d: &MaterialDesc) -> Option<Option<Choice>> {
+    let fc = code_of(&FACET_CODES, d.facet)?;
+    let nc = code_of(&NDF_CODES, d.ndf).unwrap_or(NDF_CODES.len());
+    let fronts = FRONTS[nc][fc];
+    if !fronts.usable {
+        return None;
+    }
+    let (lo, hi) = (d.alpha_x.min(d.alpha_y), d.alpha_x.max(d.alpha_y));
+    let s_hi = state(fronts, hi);
+    if s_hi >= fronts.n_states {
+        // Above the largest measured roughness: errors are scaled.
+        return None;
+    }
+    let (start, len) = if d.alpha_x == d.alpha_y {
+        fronts.iso[s_hi.min(MAX_STATES - 1)]
+    } else {
+        // An anisotropic row measured for exactly this roughness is used
+        // alone: left to `best`.
+        if fronts.aniso_alpha[..fronts.n_aniso.min(N_ROWS)].contains(&(d.alpha_x, d.alpha_y)) {
+            return None;
+        }
+        let s_lo = state(fronts, lo);
+        fronts.aniso[s_lo.min(MAX_STATES - 1)][s_hi.min(MAX_STATES - 1)]
+    };
+    let (start, len) = (start as usize, len as usize);
+    if len == 0 || start + len > POOL {
+        return Some(None);
+    }
+    let front = &fronts.entry[start..start + len];
+    // The first entry within tolerance, else the smallest error (the last).
+    let c = front
+        .iter()
+        .find(|c| c.error <= d.tolerance)
+        .unwrap_or(&front[len - 1]);
+    Some(Some(Choice {
+        model: c.model,
+        estimator: c.estimator,
+        evaluations: c.evaluations,
+        error: c.error,
+        ns: c.cost,
+    }))
+}
+
+/// The best candidate for `d` over the relevant rows `rel` (scale `scale`)
+/// with the pairs in `refused` excluded: the cheapest whose predicted
+/// error is within tolerance, else the one with the smallest error; `None`
+/// when every candidate is excluded or missing from a row.
+fn best(
+    d: &MaterialDesc,
+    rel: &[u8],
+    scale: f32,
+    refused: &[(Model, Estimator)],
+) -> Option<Choice> {
+    let first = *rel.first()? as usize;
+    let cands = ROWS[first].candidates;
+    let order = &BY_COST[first][..cands.len().min(MAX_CANDIDATES)];
+    let excluded = |c: &Candidate| {
+        // AUTO itself is never a candidate.
+        c.model == Model::Auto || refused.contains(&(c.model, c.estimator))
+    };
+    let choice = |c: &Candidate, (error, ns): (f32, f32)| Choice {
+        model: c.model,
+        estimator: c.estimator,
+        evaluations: c.evaluations.max(1),
+        error,
+        ns,
+    };
+    // The cheapest candidate within tolerance (ties: the smaller error,
+    // then the first by cost). The predicted error and cost are the
+    // largest over the rows, so the first row's bound them from below: a
+    // candidate whose own error is over tolerance cannot meet it, and once
+    // the cost exceeds the best candidate's, none later can win.
+    let mut best: Option<(usize, f32, f32)> = None;
+    for &idx in order {
+        let idx = idx as usize;
+        let c = &cands[idx];
+        if best.is_some_and(|(_, _, ns)| c.cost * REFERENCE_NS > ns) {
+            break;
+        }
+        if c.error * scale > d.tolerance || excluded(c) {
+            continue;
+        }
+        let Some((err, ns)) = predict(rel, scale, idx, c) else {
+            continue;
+        };
+        if err <= d.tolerance
+            && best.is_none_or(|(_, b_err, b_ns)| ns < b_ns || (ns == b_ns && err < b_err))
+        {
+            best = Some((idx, err, ns));
+        }
+    }
+    if let Some((idx, err, ns)) = best {
+        return Some(choice(&cands[idx], (err, ns)));
+    }
+    // None within tolerance: the smallest error (ties: the lower cost, then
+    // the first by cost).
+    for &idx in order {
+        let idx = idx as usize;
+        let c = &cands[idx];
+        if excluded(c) {
+            continue;
+        }
+        let Some((err, ns)) = predict(rel, scale, idx, c) else {
+            continue;
+        };
+        if best.is_none_or(|(_, b_err, b_ns)| err < b_err || (err == b_err && ns < b_ns)) {
+            best = Some((idx, err, ns));
+        }
+    }
+    best.map(|(idx, err, ns)| choice(&cands[idx], (err, ns)))
+}
+
+/// Chooses for `d` from the committed table and builds the model chosen
+/// with `build` (the constructor dispatch), which receives `d` with the
+/// model and estimator replaced and the choice, and returns `Ok` when that
+/// model accepts the description.
+///
+/// The best candidate is found from the table alone and then built; only
+/// when its model refuses it (e.g. NULL_SCATTERING below its smallest
+/// roughness) is its (model, estimator) excluded and the search repeated.
+/// So a lookup builds one model in the common case.
+#[inline(always)]
+pub fn build<T>(
+    d: &MaterialDesc,
+    mut build: impl FnMut(&MaterialDesc, Choice) -> Result<T, Error>,
+) -> Result<T, Error> {
+    // The common case: the precomputed fronts give the best candidate.
+    let fast = best_from_fronts(d);
+    if let Some(Some(c)) = fast {
+        match build(&concrete(d, c.model, c.estimator), c) {
+            Err(_) => {}
+            built => return built,
+        }
+    }
+    let (rel, n_rel, scale) = relevant(d);
+    let rel = &rel[..n_rel];
+    let mut refused = [(Model::Auto, Estimator::Pt); MAX_REFUSED];
+    // The fronts' candidate was refused: exclude it, as `best` would have.
+    let mut n_refused = 0;
+    if let Some(Some(c)) = fast {
+        refused[0] = (c.model, c.estimator);
+        n_refused = 1;
+    }
+    for n_refused in n_refused..MAX_REFUSED {
+        let Some(c) = best(d, rel, scale, &refused[..n_refused]) else {
+            break;
+        };
+        match build(&concrete(d, c.model, c.estimator), c) {
+            Err(_) => refused[n_refused] = (c.model, c.estimator),
+            built => return built,
         }
     }
     // No measured row: the reference walk or, for NDFs it lacks, null scattering.
     for model in [Model::HeitzRandomWalk, Model::NullScattering] {
         let e = Estimator::Pt;
-        match Material::new(&concrete(d, model, e)) {
-            Ok(m) => {
-                let c = Choice {
-                    model,
-                    estimator: e,
-                    evaluations: 1,
-                    error: f32::INFINITY,
-                    ns: f32::INFINITY,
-                };
-                return Ok((c, m));
-            }
+        match build(&concrete(d, model, e), Choice::own(model, e)) {
             Err(Error::InvalidArgument) => return Err(Error::InvalidArgument),
             Err(_) => {}
+            built => return built,
         }
     }
     Err(Error::Unsupported)
 }
 
-/// Chooses for `d` from `rows` (the committed table in normal use).
-pub fn choose_from(d: &MaterialDesc, rows: &'static [Row]) -> Result<Choice, Error> {
-    build_from(d, rows).map(|(c, _)| c)
-}
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
 
-/// Chooses for `d` from the committed table.
-pub fn choose(d: &MaterialDesc) -> Result<Choice, Error> {
-    choose_from(d, &super::auto_table::ROWS)
-}
-
-/// Chooses for `d` from the committed table and builds the material chosen.
-pub fn build(d: &MaterialDesc) -> Result<(Choice, Material), Error> {
-    build_from(d, &super::auto_table::ROWS)
+    /// The precomputed fronts give exactly what the per-candidate search
+    /// gives, wherever they apply, over a grid of roughness pairs (at,
+    /// between, below and above the measured rows), tolerances and
+    /// descriptions of every facet and NDF; and they apply to the common
+    /// cases (isotropic and anisotropic GGX and Beckmann conductors, GGX
+    /// glass).
+    #[test]
+    fn fronts_agree_with_the_candidate_search() {
+        let alphas = [
+            0.001f32, 0.03, 0.05, 0.07, 0.1, 0.2, 0.3, 0.45, 0.5, 0.6, 0.8, 1.0, 1.3,
+        ];
+        let tolerances = [
+            0.0f32, 1e-3, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.3, 1.0, 10.0,
+        ];
+        let (mut compared, mut covered) = (0, [0usize; 3]);
+        for ndf in [NdfId::Beckmann, NdfId::Ggx, NdfId::StudentT] {
+            for facet in [
+                FacetKind::Conductor,
+                FacetKind::Dielectric,
+                FacetKind::Diffuse,
+            ] {
+                for &ax in &alphas {
+                    for &ay in &alphas {
+                        for &tolerance in &tolerances {
+                            let d = MaterialDesc {
+                                model: Model::Auto,
+                                ndf,
+                                facet,
+                                alpha_x: ax,
+                                alpha_y: ay,
+                                eta: Vec3::splat(1.5),
+                                tolerance,
+                                ..MaterialDesc::default()
+                            };
+                            let Some(fast) = best_from_fronts(&d) else {
+                                continue;
+                            };
+                            let (rel, n, scale) = relevant(&d);
+                            let slow = best(&d, &rel[..n], scale, &[]);
+                            assert_eq!(fast, slow, "{d:?}");
+                            compared += 1;
+                            if ndf != NdfId::StudentT && facet == FacetKind::Conductor {
+                                covered[usize::from(ax != ay)] += 1;
+                            }
+                            if ndf == NdfId::Ggx && facet == FacetKind::Dielectric {
+                                covered[2] += 1;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        // Conductors: every isotropic roughness up to the largest measured
+        // (1.0; 12 of the 13 values) for both NDFs and 11 tolerances, and
+        // the anisotropic pairs within it but the measured (0.1, 0.6); GGX
+        // glass: every pair up to its largest row (1.0).
+        assert_eq!(covered[0], 2 * 12 * 11, "{covered:?}");
+        assert_eq!(covered[1], 2 * (12 * 11 - 1) * 11, "{covered:?}");
+        assert_eq!(covered[2], 12 * 12 * 11, "{covered:?}");
+        assert!(compared > 6000, "{compared}");
+    }
 }

@@ -3,9 +3,7 @@
 //! - Conductors: Kulla and Conty 2017 with a walk-derived Fresnel tint. The
 //!   single-scattering lobe plus a multiple-scattering lobe
 //!   `f_ms(wi, wo) = (1 - E(mu_i)) (1 - E(mu_o)) T(mu_i) T(mu_o) / (pi (1 - E_avg) T_avg)`
-//!   (stored per material as one table `g(mu)` with `f_ms = g(mu_i) g(mu_o)`
-//!   for isotropic roughness: one lookup per direction, see [`Tint`]),
-//!   where `E(mu)` is the single-scattering directional albedo with F = 1,
+//!   (see [`Tint`]), where `E(mu)` is the single-scattering directional albedo with F = 1,
 //!   `E_avg = 2 int E mu dmu` its cosine-weighted average, `T(mu)` (per RGB
 //!   channel) the fraction of the multiply scattered energy from `mu` that
 //!   the conductor's Fresnel keeps, and
@@ -26,9 +24,9 @@
 //!   replaced, per channel and cell, by the Schlick curve with the same mean
 //!   over that histogram (Schlick is linear in `F0`), and `T` is read at that
 //!   `F0`; the mean comes from a fit of the Fresnel curve that is linear in
-//!   its parameters (see [`Tint`]), so that a material stores seven numbers
-//!   per channel and `T` is read per direction: creating a material builds
-//!   no table. Against a walk with the exact Fresnel this `T` is within
+//!   its parameters (see [`Tint`]), so that creating a material takes four
+//!   Fresnel evaluations and five table reads (no table built), and `T` is
+//!   read per direction. Against a walk with the exact Fresnel this `T` is within
 //!   about 1% (gold, copper, aluminium, alpha 0.3-1, both NDFs; a plain
 //!   Schlick `F0` fit errs by up to 20% for aluminium).
 //! - Dielectrics: Turquin 2019-style scaling. The single-scattering lobe
@@ -281,10 +279,12 @@ fn lerp(a: f32, b: f32, f: f32) -> f32 {
     a + (b - a) * f
 }
 
-/// Single-scattering albedo of a conductor with F = 1, bilinear in the tables.
-fn conductor_e(ndf: usize, alpha_c: f32, mu: f32) -> f32 {
+/// Single-scattering albedo of a conductor with F = 1, bilinear in the
+/// tables, at alpha coordinate `alpha_c` and mu grid abscissa `x`.
+#[inline]
+fn conductor_e_at(ndf: usize, alpha_c: f32, x: f32) -> f32 {
     let (a0, a1, fa) = split(alpha_c, t::ALPHA_N);
-    let (m0, m1, fm) = split(mu_coord(mu), t::MU_N);
+    let (m0, m1, fm) = split(x, t::MU_N);
     let e = &t::CONDUCTOR_E[ndf];
     lerp(
         lerp(e[a0][m0], e[a0][m1], fm),
@@ -519,22 +519,6 @@ static COARSE_W: [[[f32; COARSE.len()]; t::ALPHA_N]; 2] = {
     out
 };
 
-/// Unpolarised conductor reflectance of one channel at four cosines at
-/// once: the real closed form of `crate::fresnel::conductor_rgb` (Born and
-/// Wolf, Sec. 14.4) on four lanes; a non-finite lane falls back to
-/// `crate::fresnel::conductor_scalar`.
-fn conductor4(c: Vec4, eta: f32, k: f32) -> Vec4 {
-    let c = c.clamp(Vec4::ZERO, Vec4::ONE);
-    let (eta2, k2) = (eta * eta, k * k);
-    let f = fresnel::conductor_closed_form(c, Vec4::splat(eta2 - k2), Vec4::splat(4.0 * eta2 * k2));
-    if f.is_finite() {
-        f.clamp(Vec4::ZERO, Vec4::ONE)
-    } else {
-        let g = |i: usize| fresnel::conductor_scalar(c[i], eta, k);
-        Vec4::new(g(0), g(1), g(2), g(3))
-    }
-}
-
 /// The Fresnel tint `T(mu)` (per RGB channel) of the multiple-scattering
 /// lobe of a conductor, read from the walk-derived tables per direction.
 ///
@@ -547,9 +531,12 @@ fn conductor4(c: Vec4, eta: f32, k: f32) -> Vec4 {
 /// cosines has `F0' = F0 + sum_k a_k kappa_k(cell)` (`KAPPA`; against
 /// the exact Fresnel at the bin centres, the histogram means of gold,
 /// copper, aluminium, chromium and silver are within 0.0035), and `T` is
-/// `CONDUCTOR_MS_TINT` read at `F0'`: a few table reads per direction,
-/// nothing per material but four Fresnel evaluations and the normalisation
-/// `norm` (from `COARSE_W`).
+/// `CONDUCTOR_MS_TINT` read at `F0'`. Per direction `kappa` is bilinear in
+/// (alpha, mu) and the four surrounding cells are read at that one `F0'`
+/// (one table abscissa per direction) and combined bilinearly; a material
+/// stores its Fresnel fit and the normalisation `norm` (from `COARSE_W` and
+/// the tint at the `COARSE` nodes): four Fresnel evaluations and five
+/// table reads per material, no table built.
 ///
 /// The lobe is `f_ms |o.z| = (1 - E(wi)) (1 - E(wo)) T(mu_i) T(mu_o) norm |o.z|`:
 /// for isotropic roughness `norm = 1 / (2 pi int (1 - E) T mu dmu)`, so the
@@ -558,6 +545,13 @@ fn conductor4(c: Vec4, eta: f32, k: f32) -> Vec4 {
 /// roughness, where `E` depends on the azimuth,
 /// `norm = 1 / (pi (1 - E_avg) T_avg)` (Kulla and Conty 2017, with `T_avg`
 /// the `(1 - E) mu`-weighted mean of `T`).
+///
+/// (Storing `T` per material at a few mu nodes instead, linear between
+/// them, makes eval cheaper, 874 instructions against 1,190 in the init
+/// bench, but with seven nodes it put gold's blue albedo at GGX alpha 1
+/// 1.6% above the HEITZ reference at 15-30 degrees, beyond the 1.5% that
+/// `tests/harness_quick.rs` holds it to, and the seven reads made creation
+/// dearer than this.)
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Tint {
     /// `F0` per channel.
@@ -572,6 +566,26 @@ pub struct Tint {
     fa: f32,
 }
 
+/// `KAPPA` padded to four lanes (one vector load per cell). Compile time.
+static KAPPA4: [[[[f32; 4]; t::MU_N]; t::ALPHA_N]; 2] = {
+    let mut out = [[[[0.0f32; 4]; t::MU_N]; t::ALPHA_N]; 2];
+    let mut n = 0;
+    while n < 2 {
+        let mut j = 0;
+        while j < t::ALPHA_N {
+            let mut i = 0;
+            while i < t::MU_N {
+                let k = &KAPPA[n][j][i];
+                out[n][j][i] = [k[0], k[1], k[2], 0.0];
+                i += 1;
+            }
+            j += 1;
+        }
+        n += 1;
+    }
+    out
+};
+
 impl Tint {
     /// No multiple scattering.
     const ZERO: Tint = Tint {
@@ -583,40 +597,56 @@ impl Tint {
         fa: 0.0,
     };
 
-    /// The tint at alpha node `j` and mu node `i` for this material.
-    #[inline]
-    fn node(&self, ndf: usize, j: usize, i: usize) -> Vec3A {
-        let kappa = &KAPPA[ndf][j][i];
-        let x = self.f0 + self.a[0] * kappa[0] + self.a[1] * kappa[1] + self.a[2] * kappa[2];
+    /// `T` from the `N` cells `(alpha node, mu node)` with weights `w`
+    /// (summing to 1), all read at the one `F0'` of the same weights.
+    #[inline(always)]
+    fn read<const N: usize>(&self, cells: [(usize, usize); N], w: [f32; N]) -> Vec3A {
+        let n = self.ndf as usize & 1;
+        let cells = cells.map(|(j, i)| (j.min(t::ALPHA_N - 1), i.min(t::MU_N - 1)));
+        let mut kappa = Vec4::ZERO;
+        for k in 0..N {
+            let (j, i) = cells[k];
+            kappa += Vec4::from_array(KAPPA4[n][j][i]) * w[k];
+        }
+        let x = self.f0 + self.a[0] * kappa.x + self.a[1] * kappa.y + self.a[2] * kappa.z;
         // Table abscissa, clamped (`max`/`min` send NaN to the bound).
         let u = (x * (ms::F0_N - 1) as f32)
             .max(Vec3A::ZERO)
             .min(Vec3A::splat((ms::F0_N - 1) as f32 - 1e-3));
-        let q = u.floor();
-        let f = u - q;
-        let row = &ms::CONDUCTOR_MS_TINT[ndf][j][i];
-        let read = |q: f32| {
-            // q is an integer in [0, F0_N - 2] (clamped above): adding 2^23
-            // puts it in the low mantissa bits (exact, and cheaper than a
-            // saturating cast); `min` keeps the bounds check provably false.
-            let q = (((q + 8_388_608.0).to_bits() & 0xff) as usize).min(ms::F0_N - 2);
-            (row[q], row[q + 1])
-        };
-        let (r0, r1) = (read(q.x), read(q.y));
-        let r2 = read(q.z);
-        let lo = Vec3A::new(r0.0, r1.0, r2.0);
-        let hi = Vec3A::new(r0.1, r1.1, r2.1);
-        lo + (hi - lo) * f
+        // Its floor (or, at an integer, possibly the node below with weight
+        // 1: the same value): `u - 0.5` rounded to the nearest integer by
+        // adding 1.5 * 2^23, which leaves the integer in the low mantissa
+        // bits (no float-to-int conversion).
+        const SHIFT: f32 = 12_582_912.0;
+        let shifted = (u - Vec3A::splat(0.5)) + Vec3A::splat(SHIFT);
+        let f = u - (shifted - Vec3A::splat(SHIFT));
+        let q = shifted.to_array().map(|v| (v.to_bits() & 0xf) as usize);
+        let mut t = Vec3A::ZERO;
+        for k in 0..N {
+            let (j, i) = cells[k];
+            let row = &ms::CONDUCTOR_MS_TINT[n][j][i];
+            let lo = Vec3A::new(row[q[0]], row[q[1]], row[q[2]]);
+            let hi = Vec3A::new(row[q[0] + 1], row[q[1] + 1], row[q[2] + 1]);
+            t += (lo + (hi - lo) * f) * w[k];
+        }
+        t
     }
 
-    /// `T(mu)`: bilinear in (alpha, mu) between the nodes.
+    /// `T` at mu grid abscissa `x` (in `[0, MU_N - 1]`, see
+    /// [`clamped_mu_coord`]): bilinear in (alpha, mu).
     #[inline]
-    fn at(&self, mu: f32) -> Vec3A {
-        let (n, a0, fa) = (self.ndf as usize, self.a0 as usize, self.fa);
-        let (m0, m1, fm) = split(mu_coord(mu), t::MU_N);
-        let t0 = self.node(n, a0, m0).lerp(self.node(n, a0, m1), fm);
-        let t1 = self.node(n, a0 + 1, m0).lerp(self.node(n, a0 + 1, m1), fm);
-        t0.lerp(t1, fa)
+    fn at(&self, x: f32) -> Vec3A {
+        let (m0, m1, fm) = split(x, t::MU_N);
+        let (a0, fa) = (self.a0 as usize, self.fa);
+        self.read(
+            [(a0, m0), (a0, m1), (a0 + 1, m0), (a0 + 1, m1)],
+            [
+                (1.0 - fa) * (1.0 - fm),
+                (1.0 - fa) * fm,
+                fa * (1.0 - fm),
+                fa * fm,
+            ],
+        )
     }
 
     /// Builds the tint of a conductor (complex index `eta + i k` per
@@ -624,28 +654,36 @@ impl Tint {
     /// anisotropic roughness `e_avg` is the hemispherical average of its
     /// albedo with F = 1 (`None` for isotropic roughness).
     fn conductor(ndf: usize, alpha_c: f32, eta: Vec3, k: Vec3, e_avg: Option<f32>) -> Tint {
-        // Per channel, F at (1, KNOTS) at once, then the residuals of
-        // Schlick's curve at the knots and the weights.
-        let c = Vec4::new(1.0, KNOTS[0], KNOTS[1], KNOTS[2]);
-        let s5 = Vec4::new(
-            0.0,
-            one_minus_pow(KNOTS[0], 5),
-            one_minus_pow(KNOTS[1], 5),
-            one_minus_pow(KNOTS[2], 5),
-        );
-        let fit = |eta: f32, k: f32| {
-            let f = conductor4(c, eta, k);
-            let f0 = f.x;
-            let r = f - (Vec4::splat(f0) + (1.0 - f0) * s5);
-            let w = KNOT_INV.map(|row| r.y * row[0] + r.z * row[1] + r.w * row[2]);
-            (f0, w)
-        };
-        let (fx, wx) = fit(eta.x, k.x);
-        let (fy, wy) = fit(eta.y, k.y);
-        let (fz, wz) = fit(eta.z, k.z);
-        let f0 = Vec3A::new(fx, fy, fz);
-        let a: [Vec3A; N_CORR] = std::array::from_fn(|q| Vec3A::new(wx[q], wy[q], wz[q]));
+        // The three channels in the lanes: F at normal incidence and at the
+        // knots, the residuals of Schlick's curve there, and the weights.
+        let (eta, k) = (Vec3A::from(eta), Vec3A::from(k));
+        let (eta2, k2) = (eta * eta, k * k);
+        let (e2mk2, four) = (eta2 - k2, 4.0 * eta2 * k2);
+        let mut f = [Vec3A::ZERO; 4];
+        for (fi, c) in f.iter_mut().zip([1.0, KNOTS[0], KNOTS[1], KNOTS[2]]) {
+            *fi = fresnel::conductor_closed_form(Vec3A::splat(c), e2mk2, four);
+        }
+        if !(f[0] + f[1] + f[2] + f[3]).is_finite() {
+            // 0 / 0 or overflow in the closed form: the complex form.
+            for (fi, c) in f.iter_mut().zip([1.0, KNOTS[0], KNOTS[1], KNOTS[2]]) {
+                *fi = Vec3A::new(
+                    fresnel::conductor_scalar(c, eta.x, k.x),
+                    fresnel::conductor_scalar(c, eta.y, k.y),
+                    fresnel::conductor_scalar(c, eta.z, k.z),
+                );
+            }
+        }
+        let [f0, fk0, fk1, fk2] = f.map(|v| v.clamp(Vec3A::ZERO, Vec3A::ONE));
+        let schlick = |c: f32| f0 + (Vec3A::ONE - f0) * one_minus_pow(c, 5);
+        let r = [
+            fk0 - schlick(KNOTS[0]),
+            fk1 - schlick(KNOTS[1]),
+            fk2 - schlick(KNOTS[2]),
+        ];
+        let w = |row: &[f32; N_CORR]| r[0] * row[0] + r[1] * row[1] + r[2] * row[2];
+        let a = [w(&KNOT_INV[0]), w(&KNOT_INV[1]), w(&KNOT_INV[2])];
         let (a0, a1, fa) = split(alpha_c, t::ALPHA_N);
+        let ndf = ndf & 1;
         let mut tint = Tint {
             f0,
             a,
@@ -659,7 +697,7 @@ impl Tint {
         let (mut z, mut z1) = (Vec3A::ZERO, 0.0f32);
         for (c, &i) in COARSE.iter().enumerate() {
             let w = lerp(COARSE_W[ndf][a0][c], COARSE_W[ndf][a1][c], fa);
-            z += w * tint.node(ndf, a0, i).lerp(tint.node(ndf, a1, i), fa);
+            z += w * tint.read([(a0, i), (a1, i)], [1.0 - fa, fa]);
             z1 += w;
         }
         let z = match e_avg {
@@ -671,6 +709,12 @@ impl Tint {
         tint.norm = Vec3A::select(safe, Vec3A::ONE / z.max(Vec3A::splat(1e-12)), Vec3A::ZERO);
         tint
     }
+}
+
+/// Table abscissa of `mu`, clamped to the grid.
+#[inline]
+fn clamped_mu_coord(mu: f32) -> f32 {
+    mu_coord(mu).clamp(0.0, (t::MU_N - 1) as f32)
 }
 
 impl Compensated {
@@ -706,12 +750,13 @@ impl Compensated {
         }
     }
 
-    /// Single-scattering albedo with F = 1 seen from `w`.
+    /// Single-scattering albedo with F = 1 seen from `w`, whose `|w.z|` has
+    /// the clamped table abscissa `x`.
     #[inline]
-    fn e_dir(&self, w: Vec3) -> f32 {
+    fn e_dir(&self, w: Vec3, x: f32) -> f32 {
         match &self.aniso {
             Some(a) => a.e(w),
-            None => conductor_e(self.ndf_index, self.alpha_rms_coord, w.z.abs()),
+            None => conductor_e_at(self.ndf_index, self.alpha_rms_coord, x),
         }
     }
 
@@ -719,8 +764,8 @@ impl Compensated {
     /// `(1 - E(w)) T(mu)`.
     #[inline]
     fn ms_factor(&self, w: Vec3, tint: &Tint) -> Vec3A {
-        let e = self.e_dir(w);
-        tint.at(w.z.abs()) * (1.0 - e).max(0.0)
+        let x = clamped_mu_coord(w.z.abs());
+        tint.at(x) * (1.0 - self.e_dir(w, x)).max(0.0)
     }
 
     /// Multiple-scattering lobe times |cos theta_o| for two directions on the
@@ -736,14 +781,15 @@ impl Compensated {
     /// Probability of sampling the single-scattering lobe from `wi`.
     #[inline]
     fn p_single(&self, wi: Vec3, tint: &Tint) -> f32 {
-        let e = self.e_dir(wi);
+        let x = clamped_mu_coord(wi.z.abs());
+        let e = self.e_dir(wi, x);
         // The multiply scattered albedo, (1 - E(mu_i)) T(mu_i) (exactly so
         // for isotropic roughness; close enough for a sampling weight
         // otherwise).
         let ms = if tint.norm == Vec3A::ZERO {
             0.0
         } else {
-            tint.at(wi.z.abs()).element_sum() / 3.0 * (1.0 - e).max(0.0)
+            tint.at(x).element_sum() / 3.0 * (1.0 - e).max(0.0)
         };
         let ss = e.max(1e-4);
         ss / (ss + ms)
