@@ -93,7 +93,9 @@
 
 /**
  * Exact single scattering plus the HEITZ walk's orders >= 2 from compact
- * precomputed tables: the accurate production tier (conductors; Beckmann, GGX).
+ * precomputed tables: the accurate production tier (Beckmann, GGX;
+ * conductors, and dielectrics with eta or 1 / eta in [1.05, 3], reflection
+ * and transmission from both sides; other dielectrics are UNSUPPORTED).
  */
 #define MSBSDF_MODEL_TABULATED 10
 

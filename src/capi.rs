@@ -66,7 +66,9 @@ pub const MSBSDF_MODEL_NULL_SCATTERING: u32 = 8;
 /// Picks the cheapest model meeting `tolerance`.
 pub const MSBSDF_MODEL_AUTO: u32 = 9;
 /// Exact single scattering plus the HEITZ walk's orders >= 2 from compact
-/// precomputed tables: the accurate production tier (conductors; Beckmann, GGX).
+/// precomputed tables: the accurate production tier (Beckmann, GGX;
+/// conductors, and dielectrics with eta or 1 / eta in [1.05, 3], reflection
+/// and transmission from both sides; other dielectrics are UNSUPPORTED).
 pub const MSBSDF_MODEL_TABULATED: u32 = 10;
 
 /// Unidirectional path tracing with next-event estimation (default).

@@ -14,6 +14,7 @@ use crate::multiple::heitz::Heitz;
 use crate::multiple::invariance::Invariance;
 use crate::multiple::position_free::PositionFree;
 use crate::multiple::tabulated::Tabulated;
+use crate::multiple::tabulated_dielectric::TabulatedDielectric;
 use crate::multiple::vgroove::VGroove;
 use crate::rng::Rng;
 use crate::single::Single;
@@ -46,6 +47,8 @@ pub enum BaseModel {
     VGroove(VGroove),
     /// `MSBSDF_MODEL_TABULATED`.
     Tabulated(Tabulated),
+    /// `MSBSDF_MODEL_TABULATED` with dielectric facets.
+    TabulatedDielectric(TabulatedDielectric),
 }
 
 macro_rules! base_dispatch {
@@ -60,6 +63,7 @@ macro_rules! base_dispatch {
             BaseModel::BitterliDeon($m) => $body,
             BaseModel::VGroove($m) => $body,
             BaseModel::Tabulated($m) => $body,
+            BaseModel::TabulatedDielectric($m) => $body,
         }
     };
 }

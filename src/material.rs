@@ -19,6 +19,7 @@ use crate::multiple::invariance::{self, Invariance};
 use crate::multiple::null_scattering::{self, NullNdf, NullNdfKind, NullScattering};
 use crate::multiple::position_free::PositionFree;
 use crate::multiple::tabulated::{self, Tabulated};
+use crate::multiple::tabulated_dielectric::{self, TabulatedDielectric};
 use crate::multiple::vgroove::{VGroove, dist::Family};
 use crate::ndf::{Ndf, NdfKind};
 use crate::rng::Rng;
@@ -317,14 +318,25 @@ impl Material {
             Model::Tabulated => {
                 // Tables for Beckmann and GGX conductors up to tabulated::MAX_ALPHA.
                 let kind = ndf_kind.ok_or(Error::Unsupported)?;
-                if tabulated::ndf_index(kind).is_none() || !matches!(facet, Facet::Conductor { .. })
-                {
+                if tabulated::ndf_index(kind).is_none() {
                     return Err(Error::Unsupported);
                 }
                 if d.alpha_x > tabulated::MAX_ALPHA || d.alpha_y > tabulated::MAX_ALPHA {
                     return Err(Error::InvalidArgument);
                 }
-                ModelImpl::Base(BaseModel::Tabulated(Tabulated::new(smith_ndf(kind), facet)))
+                match facet {
+                    Facet::Conductor { .. } => ModelImpl::Base(BaseModel::Tabulated(
+                        Tabulated::new(smith_ndf(kind), facet),
+                    )),
+                    // Dielectric tables cover E = max(eta, 1 / eta) in [1.05, 3].
+                    Facet::Dielectric { eta } if tabulated_dielectric::covers_eta(eta) => {
+                        ModelImpl::Base(BaseModel::TabulatedDielectric(TabulatedDielectric::new(
+                            smith_ndf(kind),
+                            facet,
+                        )))
+                    }
+                    _ => return Err(Error::Unsupported),
+                }
             }
             Model::HeitzRandomWalk => {
                 let kind = ndf_kind.ok_or(Error::Unsupported)?;

@@ -83,6 +83,75 @@ struct Sums {
     gram_bb: Vec<f64>,
 }
 
+/// Gram entries of the peaked basis function `f_ss1` (SINGLE with F = 1)
+/// on the hat functions of `mu_o` times `cos(k phi)`, by sampling SINGLE
+/// from `wi` (visible normals: `f_ss1 |wo.z| / pdf = G2 / G1 <= 1`): per
+/// node, `int hat_j cos(k phi) f_ss1 mu dw` and `int hat_j f_ss1^2 mu dw`.
+fn gram_entries(
+    single: &Single,
+    wi: Vec3,
+    gram: u64,
+    grng: &mut Rng,
+) -> (Vec<[f64; K_FIT]>, Vec<f64>) {
+    let mut zero = Rng::new(0, 0);
+    let (mut gram_kb, mut gram_bb) = (vec![[0.0; K_FIT]; MU_N], vec![0.0; MU_N]);
+    for _ in 0..gram {
+        let smp = single.sample(wi, grng);
+        if smp.wo.z <= 0.0 || smp.pdf <= 0.0 {
+            continue;
+        }
+        let ss1 = single.eval(wi, smp.wo, &mut zero).x as f64;
+        let mut mom = [[0.0f64; K_FIT]; MU_N];
+        project_exit(smp.wo, ss1 / smp.pdf as f64 / gram as f64, &mut mom);
+        let f1 = ss1 / smp.wo.z as f64;
+        for ((g, bb), m) in gram_kb.iter_mut().zip(gram_bb.iter_mut()).zip(&mom) {
+            for (gk, mk) in g.iter_mut().zip(m) {
+                *gk += mk;
+            }
+            *bb += m[0] * f1;
+        }
+    }
+    (gram_kb, gram_bb)
+}
+
+/// Local least squares at one `mu_o` node `j` (inner product weighted by
+/// `hat_j mu_o`): cosine terms (orthogonal, Gram `H_j * norm_k`) and the
+/// peaked function `f_ss1`, eliminated by its Schur complement, from the
+/// projected sums `moments` of `walks` walks, the peaked right-hand side
+/// `peak` and the Gram entries. Returns the cosine coefficients and `B`
+/// (ridge [`RIDGE`], capped so the azimuth-averaged smooth part stays >= 0:
+/// eval clamps the sum at 0, and a negative smooth part far from the peak
+/// would be clamped away and break the normalisation).
+fn fit_node(
+    moments: &[f64; K_FIT],
+    walks: f64,
+    peak: f64,
+    gram_kb: &[f64; K_FIT],
+    gram_bb: f64,
+    h_j: f64,
+) -> ([f64; K_FIT], f64) {
+    let gkk = |k: usize| h_j * if k == 0 { 2.0 * PI } else { PI };
+    let (mut num, mut den) = (peak / walks, gram_bb);
+    for k in 0..K_FIT {
+        num -= gram_kb[k] * (moments[k] / walks) / gkk(k);
+        den -= gram_kb[k] * gram_kb[k] / gkk(k);
+    }
+    let cap = if gram_kb[0] > 0.0 {
+        (moments[0] / walks / gram_kb[0]).max(0.0)
+    } else {
+        0.0
+    };
+    let bpk = if gram_bb > 0.0 {
+        (num / (den.max(0.0) + RIDGE * gram_bb)).clamp(0.0, cap)
+    } else {
+        0.0
+    };
+    (
+        std::array::from_fn(|k| (moments[k] / walks - gram_kb[k] * bpk) / gkk(k)),
+        bpk,
+    )
+}
+
 fn lobe_job(kind: NdfKind, alpha: f32, mu_i: f32, walks: u64, gram: u64, stream: u64) -> Sums {
     let ndf = Ndf::new(kind, alpha, alpha);
     let walk = Heitz::new(ndf, CONDUCTOR_F1, 0);
@@ -99,25 +168,8 @@ fn lobe_job(kind: NdfKind, alpha: f32, mu_i: f32, walks: u64, gram: u64, stream:
         gram_bb: vec![0.0; MU_N],
     };
     let mut zero = Rng::new(0, 0);
-    // Gram entries of the peaked basis function f_ss1 by sampling SINGLE
-    // (visible normals, F = 1): f_ss1 |wo.z| / pdf = G2 / G1 <= 1.
     let mut grng = Rng::new(SEED_GRAM, stream);
-    for _ in 0..gram {
-        let smp = single.sample(wi, &mut grng);
-        if smp.wo.z <= 0.0 || smp.pdf <= 0.0 {
-            continue;
-        }
-        let ss1 = single.eval(wi, smp.wo, &mut zero).x as f64;
-        let mut mom = [[0.0f64; K_FIT]; MU_N];
-        project_exit(smp.wo, ss1 / smp.pdf as f64 / gram as f64, &mut mom);
-        let f1 = ss1 / smp.wo.z as f64;
-        for ((g, bb), m) in s.gram_kb.iter_mut().zip(s.gram_bb.iter_mut()).zip(&mom) {
-            for (gk, mk) in g.iter_mut().zip(m) {
-                *gk += mk;
-            }
-            *bb += m[0] * f1;
-        }
-    }
+    (s.gram_kb, s.gram_bb) = gram_entries(&single, wi, gram, &mut grng);
     for _ in 0..walks {
         let (smp, bounces) = walk.sample_with_bounces(wi, &mut rng);
         if bounces < 2 || smp.wo.z <= 0.0 {
@@ -550,6 +602,22 @@ fn scale_main(args: &[String]) {
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
+    if args.iter().any(|a| a == "--dielectric-ir") {
+        dielectric::ir(&args);
+        return;
+    }
+    if args.iter().any(|a| a == "--dielectric-scale") {
+        dielectric::scale_main(&args);
+        return;
+    }
+    if args.iter().any(|a| a == "--dielectric-check") {
+        dielectric::check(&args);
+        return;
+    }
+    if args.iter().any(|a| a == "--dielectric") {
+        dielectric::main(&args);
+        return;
+    }
     if args.iter().any(|a| a == "--scale") {
         scale_main(&args);
         return;
@@ -700,6 +768,26 @@ fn load_dump(path: &str, jobs: usize) -> (Vec<Sums>, Vec<[f32; FRESNEL_Q]>, Vec<
     (sums, fq, ess)
 }
 
+/// Symmetric (Sinkhorn) scaling: factors `s` with
+/// `s_i sum_j m(i, j) s_j = target_i` for every node `i` whose target and
+/// row are positive (200 sweeps of `s_i *= sqrt(target_i / row_i)`).
+/// `m(i, j)` is the albedo contribution of node `j` to row `i`; scaling the
+/// lobe by `s_i s_j` keeps any reciprocity of the form
+/// `f(i, j) c_j = f(j, i) c_i`.
+fn sinkhorn(target: &[f64], m: impl Fn(usize, usize) -> f64) -> Vec<f64> {
+    let n = target.len();
+    let mut sc = vec![1.0f64; n];
+    for _ in 0..200 {
+        for i in 0..n {
+            let cur: f64 = (0..n).map(|j| m(i, j) * sc[i] * sc[j]).sum();
+            if cur > 0.0 && target[i] > 0.0 {
+                sc[i] *= (target[i] / cur).sqrt();
+            }
+        }
+    }
+    sc
+}
+
 /// Post-processing: coefficients, symmetrisation, normalisation, file.
 #[allow(clippy::too_many_arguments)]
 fn finish(
@@ -736,31 +824,15 @@ fn finish(
             let b = lobe_index(n, a, i, j);
             let m0 = s.moments[j][0];
             let nw = s.walks as f64;
-            // Local least squares per mu_o node (inner product weighted by
-            // hat_j mu_o): cosine terms (orthogonal, Gram H_j * norm_k) and
-            // the peaked function f_ss1, eliminated by its Schur complement.
-            let gkk = |k: usize| h[j] * if k == 0 { 2.0 * PI } else { PI };
-            let (mut num, mut den) = (s.peak[j] / nw, s.gram_bb[j]);
-            for k in 0..K_FIT {
-                num -= s.gram_kb[j][k] * (s.moments[j][k] / nw) / gkk(k);
-                den -= s.gram_kb[j][k] * s.gram_kb[j][k] / gkk(k);
-            }
-            // Capped so that the azimuth-averaged smooth part stays >= 0:
-            // eval clamps the sum at 0, and a negative smooth part far from
-            // the peak would be clamped away and break the normalisation.
-            let cap = if s.gram_kb[j][0] > 0.0 {
-                (s.moments[j][0] / nw / s.gram_kb[j][0]).max(0.0)
-            } else {
-                0.0
-            };
-            let bpk = if s.gram_bb[j] > 0.0 {
-                (num / (den.max(0.0) + RIDGE * s.gram_bb[j])).clamp(0.0, cap)
-            } else {
-                0.0
-            };
-            for k in 0..K_STORED {
-                lobe[b + k] = (s.moments[j][k] / nw - s.gram_kb[j][k] * bpk) / gkk(k);
-            }
+            let (coef, bpk) = fit_node(
+                &s.moments[j],
+                nw,
+                s.peak[j],
+                &s.gram_kb[j],
+                s.gram_bb[j],
+                h[j],
+            );
+            lobe[b..b + K_STORED].copy_from_slice(&coef[..K_STORED]);
             // At mu = 1 (either side) the lobe does not depend on the
             // azimuth (which is undefined there): no cosine terms k >= 1.
             if i == MU_N - 1 || j == MU_N - 1 {
@@ -832,17 +904,7 @@ fn finish(
                     mc_worst = mc_worst.max((r / t - 1.0).abs());
                 }
             }
-            let mut sc = [1.0f64; MU_N];
-            for _ in 0..200 {
-                for i in 0..MU_N {
-                    let cur: f64 = (0..MU_N)
-                        .map(|j| cell_albedo(&lobe, i, j) * sc[i] * sc[j])
-                        .sum();
-                    if cur > 0.0 && target[i] > 0.0 {
-                        sc[i] *= (target[i] / cur).sqrt();
-                    }
-                }
-            }
+            let sc = sinkhorn(&target, |i, j| cell_albedo(&lobe, i, j));
             for i in 0..MU_N {
                 for j in 0..MU_N {
                     let b = lobe_index(n, a, i, j);
@@ -905,4 +967,979 @@ fn finish(
     let mut f = std::fs::File::create(out).expect("create output");
     f.write_all(&bytes).expect("write output");
     eprintln!("wrote {out} ({} bytes)", bytes.len());
+}
+
+/// `--dielectric`: the dielectric table `data/tabulated_dielectric.bin`
+/// (layout and grids: `src/multiple/tabulated_dielectric.rs`). For every
+/// NDF, roughness node, relative index node `E`, side (thin: the walk sees
+/// `E`; dense: `1 / E`) and incident cosine node, the library's
+/// HEITZ_RANDOM_WALK (`Heitz::sample_with_bounces`, dielectric facets) runs
+/// from `wi`; the exits of walks that scattered twice or more are projected
+/// (`project_exit`) per lobe (reflection, transmission). SINGLE's reflected
+/// plus transmitted albedo `E_ss` by quadrature gives the furnace targets.
+mod dielectric {
+    use super::{
+        CONDUCTOR_F1, K_FIT, NDFS, RIDGE, arg, dir, fit_node, git_commit, gram_entries, node_mu,
+        parallel, sinkhorn,
+    };
+    use glam::Vec3;
+    use msbsdf::Rng;
+    use msbsdf::bsdf::ScatterModel;
+    use msbsdf::facet::Facet;
+    use msbsdf::multiple::compensation::single_albedo;
+    use msbsdf::multiple::heitz::Heitz;
+    use msbsdf::multiple::tabulated::{MU_N, hat_moment, project_exit};
+    use msbsdf::multiple::tabulated_dielectric::{
+        ALBEDO_LEN, ALPHA_N, ETA_N, FILE_BYTES, HEADER_BYTES, K, LOBE_LEN, MAGIC, NDF_N, PEAK,
+        R_CELL, R_DENSE, R_TERMS, R_THIN, T_THIN, albedo_index, grid_alpha, grid_eta, lobe_index,
+    };
+    use msbsdf::ndf::Ndf;
+    use msbsdf::single::{G2Form, Single};
+    use std::f64::consts::PI;
+
+    const SEED: u64 = 20261201;
+    const SEED_GRAM: u64 = 20261202;
+
+    /// Raw sums of one (ndf, alpha, eta, side, mu_i) job.
+    struct Sums {
+        walks: u64,
+        /// Per mu_o node, the cosine moments of reflected and transmitted
+        /// multiply scattered exits.
+        r: [[f64; K_FIT]; MU_N],
+        t: [[f64; K]; MU_N],
+        /// Per mu_o node: sum of `hat_j f_ss1` over the reflected exits
+        /// (right-hand side of the peaked part of the reflection lobe).
+        peak: [[f64; 1]; MU_N],
+        /// Gram entries of `f_ss1` (see `gram_entries`).
+        gram_kb: Vec<[f64; K_FIT]>,
+        gram_bb: Vec<f64>,
+        /// Summed weights of the multiply scattered exits (R, T).
+        ms: [f64; 2],
+        /// SINGLE's reflected plus transmitted albedo from this node.
+        ess: f64,
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn job(
+        n: usize,
+        alpha: f32,
+        eta: f32,
+        dense: bool,
+        mu_i: f32,
+        walks: u64,
+        quad: usize,
+        gram: u64,
+        stream: u64,
+    ) -> Sums {
+        let kind = NDFS[n];
+        let ndf = Ndf::new(kind, alpha, alpha);
+        let walk = Heitz::new(ndf, Facet::Dielectric { eta }, 0);
+        let up = dir(mu_i);
+        let wi = if dense {
+            Vec3::new(up.x, up.y, -up.z)
+        } else {
+            up
+        };
+        let mut rng = Rng::new(SEED, stream);
+        // The peaked basis function of the reflection lobes: SINGLE's
+        // reflection with F = 1 in the frame where wi is up.
+        let single1 = Single::new(ndf, CONDUCTOR_F1, G2Form::HeightCorrelated);
+        let (gram_kb, gram_bb) = gram_entries(&single1, up, gram, &mut Rng::new(SEED_GRAM, stream));
+        let mut zero = Rng::new(0, 0);
+        let mut s = Sums {
+            walks,
+            r: [[0.0; K_FIT]; MU_N],
+            t: [[0.0; K]; MU_N],
+            peak: [[0.0; 1]; MU_N],
+            gram_kb,
+            gram_bb,
+            ms: [0.0; 2],
+            ess: 0.0,
+        };
+        for _ in 0..walks {
+            let (smp, bounces) = walk.sample_with_bounces(wi, &mut rng);
+            if bounces < 2 || smp.wo.z == 0.0 {
+                continue;
+            }
+            let w = smp.weight.x as f64;
+            if w <= 0.0 || !w.is_finite() {
+                continue;
+            }
+            // In the frame where wi is up; the azimuth is unchanged.
+            let wo = smp.wo;
+            let out = Vec3::new(wo.x, wo.y, wo.z.abs());
+            if (wo.z > 0.0) == (wi.z > 0.0) {
+                project_exit(out, w, &mut s.r);
+                let f1 = single1.eval(up, out, &mut zero).x as f64 / out.z as f64;
+                project_exit(out, w * f1, &mut s.peak);
+                s.ms[0] += w;
+            } else {
+                project_exit(out, w, &mut s.t);
+                s.ms[1] += w;
+            }
+        }
+        let eta_rel = if dense { 1.0 / eta } else { eta };
+        let single = Single::new(
+            ndf,
+            Facet::Dielectric { eta: eta_rel },
+            G2Form::HeightCorrelated,
+        );
+        s.ess = single_albedo(
+            |x, y| single.eval(x, y, &mut Rng::new(0, 0)).x,
+            alpha,
+            alpha,
+            up,
+            Some(eta_rel),
+            quad,
+        );
+        s
+    }
+
+    /// The raw sums as little-endian f64, job after job.
+    fn save_dump(path: &str, sums: &[Sums]) {
+        let mut v: Vec<f64> = Vec::new();
+        for s in sums {
+            v.push(s.walks as f64);
+            v.extend(s.r.iter().flatten());
+            v.extend(s.t.iter().flatten());
+            v.extend(s.peak.iter().flatten());
+            v.extend(s.gram_kb.iter().flatten());
+            v.extend(&s.gram_bb);
+            v.extend(s.ms);
+            v.push(s.ess);
+        }
+        let bytes: Vec<u8> = v.iter().flat_map(|x| x.to_le_bytes()).collect();
+        std::fs::write(path, bytes).expect("write dump");
+    }
+
+    /// Reads [`save_dump`]'s file.
+    fn load_dump(path: &str, jobs: usize) -> Vec<Sums> {
+        let raw = std::fs::read(path).expect("read dump");
+        let mut it = raw
+            .chunks_exact(8)
+            .map(|b| f64::from_le_bytes([b[0], b[1], b[2], b[3], b[4], b[5], b[6], b[7]]));
+        let mut next = || it.next().unwrap_or(0.0);
+        (0..jobs)
+            .map(|_| {
+                let walks = next() as u64;
+                let r = std::array::from_fn(|_| std::array::from_fn(|_| next()));
+                let t = std::array::from_fn(|_| std::array::from_fn(|_| next()));
+                let peak = std::array::from_fn(|_| [next()]);
+                let gram_kb = (0..MU_N).map(|_| std::array::from_fn(|_| next())).collect();
+                let gram_bb = (0..MU_N).map(|_| next()).collect();
+                let ms = [next(), next()];
+                let ess = next();
+                Sums {
+                    walks,
+                    r,
+                    t,
+                    peak,
+                    gram_kb,
+                    gram_bb,
+                    ms,
+                    ess,
+                }
+            })
+            .collect()
+    }
+
+    /// `--dielectric-ir MODEL NDF OP CALLS` (MODEL `single` or `tabulated`,
+    /// NDF `ggx` or `beckmann`, OP `eval`, `sample`, `pdf` or `init`): CALLS
+    /// calls through `Material` on glass 1.5 at alpha 0.5 with 1024 fixed
+    /// pairs (`wi` on both sides up to 80 degrees, `wo` anywhere), for
+    /// callgrind: `(Ir(CALLS) - Ir(0)) / CALLS` is the cost per call
+    /// (`init`: `Material::new` with the roughness changing on every call).
+    pub fn ir(args: &[String]) {
+        use msbsdf::{Material, MaterialDesc, Model, NdfId};
+        let p = args
+            .iter()
+            .position(|a| a == "--dielectric-ir")
+            .unwrap_or(0);
+        let get = |i: usize| args.get(p + i).map(String::as_str).unwrap_or("");
+        let model = if get(1) == "tabulated" {
+            Model::Tabulated
+        } else {
+            Model::Single
+        };
+        let ndf = if get(2) == "beckmann" {
+            NdfId::Beckmann
+        } else {
+            NdfId::Ggx
+        };
+        let op = get(3);
+        let calls: usize = get(4).parse().unwrap_or(0);
+        let d = MaterialDesc {
+            model,
+            ndf,
+            facet: msbsdf::FacetKind::Dielectric,
+            alpha_x: 0.5,
+            alpha_y: 0.5,
+            eta: Vec3::splat(1.5),
+            ..Default::default()
+        };
+        let m = Material::new(&d).expect("material");
+        let mut r = Rng::new(3, 9);
+        let mut dir = |max_z: f32, both: bool| {
+            let z = (1.0 - r.next_f32() * (1.0 - max_z)).max(1e-3);
+            let ph = r.next_f32() * std::f32::consts::TAU;
+            let s = (1.0 - z * z).max(0.0).sqrt();
+            let z = if both && r.next_f32() < 0.5 { -z } else { z };
+            Vec3::new(s * ph.cos(), s * ph.sin(), z)
+        };
+        let pairs: Vec<(Vec3, Vec3)> = (0..1024)
+            .map(|_| (dir(0.17, true), dir(0.0, true)))
+            .collect();
+        let mut rng = Rng::new(5, 5);
+        let mut acc = Vec3::ZERO;
+        for j in 0..calls {
+            let (a, b) = pairs[j & 1023];
+            match op {
+                "sample" => acc += m.sample(a, &mut rng).weight,
+                "pdf" => acc.x += m.pdf(a, b),
+                "init" => {
+                    let alpha = 0.2 + (j & 63) as f32 * 0.01;
+                    let dd = MaterialDesc {
+                        alpha_x: alpha,
+                        alpha_y: alpha,
+                        ..d
+                    };
+                    std::hint::black_box(Material::new(&dd).ok());
+                }
+                _ => acc += m.eval(a, b, &mut rng),
+            }
+        }
+        std::hint::black_box(acc);
+    }
+
+    /// `--dielectric-scale`: the furnace scale table
+    /// `data/tabulated_dielectric_scale.bin` from the committed lobe table
+    /// (compiled into the library). Per NDF, scale-grid roughness and index
+    /// and source node `x = (side, mu)`, the library's unscaled multiply
+    /// scattered eval (`TabulatedDielectric::multiple_unscaled`: the clamped,
+    /// interpolated table exactly as eval reads it) is integrated over `wo`
+    /// and split onto the scale grid's hat functions of `wo`'s side and
+    /// cosine: `M(x, y)`. Reflection: two stratified 48 x 48 point sets, the
+    /// visible normals of SINGLE with F = 1 (they follow the peaked part)
+    /// and a cosine lobe, combined by the balance heuristic; transmission: a
+    /// 48 x 96 grid in `(sqrt(1 - |z|), phi)`. The scales solve
+    /// `s_x sum_y M(x, y) s_y = 1 - E_ss(x)` (Sinkhorn), and eval multiplies
+    /// the lobe by `s(wi) s(wo)` interpolated linearly in `sqrt(mu)`, so the
+    /// scaled albedo is the target at every node; a product keeps both
+    /// reciprocity rules.
+    pub fn scale_main(args: &[String]) {
+        use msbsdf::multiple::tabulated_dielectric::{
+            SCALE_ALPHA_N, SCALE_ETA_N, SCALE_FILE_BYTES, SCALE_LEN, SCALE_MAGIC, SCALE_MU_N,
+            TabulatedDielectric, header, scale_grid_alpha, scale_grid_eta, scale_grid_mu,
+            scale_index,
+        };
+        let quad: usize = arg(args, "--quad", 128);
+        let threads: usize = arg(args, "--threads", 2);
+        let out: String = arg(
+            args,
+            "--out",
+            "data/tabulated_dielectric_scale.bin".to_string(),
+        );
+        let t0 = std::time::Instant::now();
+        let fm = SCALE_MU_N;
+        let fine_x = |mu: f32| (mu.clamp(0.0, 1.0).sqrt() * (fm - 1) as f32) as f64;
+        let jobs: Vec<(usize, usize, usize)> = (0..NDF_N)
+            .flat_map(|n| {
+                (1..SCALE_ALPHA_N).flat_map(move |a| (0..SCALE_ETA_N).map(move |e| (n, a, e)))
+            })
+            .collect();
+        let res = parallel(&jobs, "dielectric scale", threads, |_, &(n, a, e)| {
+            let (alpha, eta) = (scale_grid_alpha(a), scale_grid_eta(e));
+            let ndf = Ndf::new(NDFS[n], alpha, alpha);
+            let tab = TabulatedDielectric::new(ndf, Facet::Dielectric { eta });
+            let single1 = Single::new(ndf, CONDUCTOR_F1, G2Form::HeightCorrelated);
+            let mut m = vec![vec![0.0f64; 2 * fm]; 2 * fm];
+            let mut target = vec![0.0f64; 2 * fm];
+            let add = |row: &mut Vec<f64>, side: usize, mu: f32, v: f64| {
+                let x = fine_x(mu);
+                let y0 = (x as usize).min(fm - 2);
+                let fr = x - y0 as f64;
+                row[side * fm + y0] += v * (1.0 - fr);
+                row[side * fm + y0 + 1] += v * fr;
+            };
+            let ng = 48usize;
+            for sd in 0..2 {
+                let flip = |v: Vec3| {
+                    if sd == 1 {
+                        Vec3::new(v.x, v.y, -v.z)
+                    } else {
+                        v
+                    }
+                };
+                for i in 0..fm {
+                    let mu = scale_grid_mu(i).max(1e-3);
+                    let up = dir(mu);
+                    let wi = flip(up);
+                    let row = &mut m[sd * fm + i];
+                    // Reflection: visible normals (F = 1) and cosine lobe.
+                    for strategy in 0..2 {
+                        for p in 0..ng {
+                            for q in 0..ng {
+                                let u1 = (p as f32 + 0.5) / ng as f32;
+                                let u2 = (q as f32 + 0.5) / ng as f32;
+                                let wo = if strategy == 0 {
+                                    let h = ndf.sample_visible(up, u1, u2);
+                                    msbsdf::frame::reflect(up, h)
+                                } else {
+                                    let r = u1.sqrt();
+                                    let ph = 2.0 * std::f32::consts::PI * u2;
+                                    Vec3::new(
+                                        r * ph.cos(),
+                                        r * ph.sin(),
+                                        (1.0 - u1).max(0.0).sqrt(),
+                                    )
+                                };
+                                if wo.z <= 0.0 {
+                                    continue;
+                                }
+                                let pv = single1.pdf(up, wo) as f64;
+                                let pc = wo.z as f64 / PI;
+                                let g = tab.multiple_unscaled(wi, flip(wo)) as f64;
+                                if pv + pc > 0.0 {
+                                    add(row, sd, wo.z, g / ((ng * ng) as f64 * (pv + pc)));
+                                }
+                            }
+                        }
+                    }
+                    // Transmission: grid over the other hemisphere.
+                    let (nz, np) = (ng, 2 * ng);
+                    for p in 0..nz {
+                        let u = (p as f64 + 0.5) / nz as f64;
+                        let z = 1.0 - u * u;
+                        let dz = 2.0 * u / nz as f64;
+                        let r = (1.0 - z * z).max(0.0).sqrt();
+                        for q in 0..np {
+                            let ph = 2.0 * PI * (q as f64 + 0.5) / np as f64;
+                            let wo = Vec3::new(
+                                (r * ph.cos()) as f32,
+                                (r * ph.sin()) as f32,
+                                -(z as f32),
+                            );
+                            let g = tab.multiple_unscaled(wi, flip(wo)) as f64;
+                            add(row, 1 - sd, z as f32, g * dz * 2.0 * PI / np as f64);
+                        }
+                    }
+                    let eta_rel = if sd == 1 { 1.0 / eta } else { eta };
+                    let single = Single::new(
+                        ndf,
+                        Facet::Dielectric { eta: eta_rel },
+                        G2Form::HeightCorrelated,
+                    );
+                    let ess = single_albedo(
+                        |x, y| single.eval(x, y, &mut Rng::new(0, 0)).x,
+                        alpha,
+                        alpha,
+                        up,
+                        Some(eta_rel),
+                        quad,
+                    );
+                    target[sd * fm + i] = (1.0 - ess).max(0.0);
+                }
+            }
+            let before = (0..2 * fm)
+                .filter(|&x| target[x] > 1e-3)
+                .map(|x| (m[x].iter().sum::<f64>() / target[x] - 1.0).abs())
+                .fold(0.0f64, f64::max);
+            // Scales are kept in [0.25, 4]: a node whose unscaled lobe is
+            // (nearly) empty is left as it is rather than blown up.
+            let sc: Vec<f64> = sinkhorn(&target, |x, y| m[x][y])
+                .into_iter()
+                .map(|v| v.clamp(0.25, 4.0))
+                .collect();
+            let after = (0..2 * fm)
+                .filter(|&x| target[x] > 1e-4 && m[x].iter().sum::<f64>() > 0.0)
+                .map(|x| {
+                    let r: f64 = (0..2 * fm).map(|y| sc[x] * m[x][y] * sc[y]).sum();
+                    (r / target[x] - 1.0).abs()
+                })
+                .fold(0.0f64, f64::max);
+            (sc, before, after)
+        });
+        let mut scale = vec![1.0f32; SCALE_LEN];
+        let (mut before, mut after) = (0.0f64, 0.0f64);
+        let (mut smin, mut smax) = (f64::INFINITY, 0.0f64);
+        for (&(n, a, e), (sc, b, af)) in jobs.iter().zip(&res) {
+            before = before.max(*b);
+            after = after.max(*af);
+            for sd in 0..2 {
+                for i in 0..fm {
+                    let v = sc[sd * fm + i];
+                    smin = smin.min(v);
+                    smax = smax.max(v);
+                    scale[scale_index(n, a, e, sd, i)] = v as f32;
+                }
+            }
+        }
+        let table_commit = header()
+            .lines()
+            .find(|l| l.starts_with("commit:"))
+            .unwrap_or("commit: ?")
+            .to_string();
+        let head = format!(
+            "MSBSDF-TABULATED-DIELECTRIC-SCALE-v1\n\
+             MSBSDF_MODEL_TABULATED dielectric furnace scales (layout: src/multiple/tabulated_dielectric.rs)\n\
+             command: cargo run --release --example gen_tabulated -- {}\n\
+             commit: {}\n\
+             lobe table: data/tabulated_dielectric.bin, {table_commit}\n\
+             quadrature: reflection 2 x 48 x 48 (visible normals with F = 1 and cosine, balance heuristic), transmission 48 x 96; deterministic, no seeds\n\
+             E_ss: SINGLE reflection + transmission quadrature {quad} x {quad} (compensation::single_albedo)\n\
+             albedo of the unscaled lobe vs 1 - E_ss: worst relative deviation {before:.3e} (targets > 1e-3); after scaling: {after:.3e} (targets > 1e-4, rows not empty; scales clamped to [0.25, 4])\n\
+             scales between {smin:.4} and {smax:.4}\n\
+             grid: ndf {NDF_N} x alpha {SCALE_ALPHA_N} x eta {SCALE_ETA_N} x side 2 x mu {SCALE_MU_N}\n\
+             wall time: {:.0} s on {threads} threads\n",
+            args[1..].join(" "),
+            git_commit(),
+            t0.elapsed().as_secs_f64(),
+        );
+        eprint!("{head}");
+        let mut bytes = Vec::with_capacity(SCALE_FILE_BYTES);
+        bytes.extend_from_slice(head.as_bytes());
+        assert!(bytes.len() <= HEADER_BYTES, "header too long");
+        assert!(bytes.starts_with(SCALE_MAGIC));
+        bytes.resize(HEADER_BYTES, 0);
+        for v in &scale {
+            bytes.extend_from_slice(&v.to_le_bytes());
+        }
+        assert_eq!(bytes.len(), SCALE_FILE_BYTES);
+        std::fs::write(&out, &bytes).expect("write output");
+        eprintln!("wrote {out} ({} bytes)", bytes.len());
+    }
+
+    /// Mean of two estimates weighted by the (hat-weighted) numbers of
+    /// exits behind them (their inverse variances, up to a common factor).
+    fn mean_by_counts(x: f64, cx: f64, y: f64, cy: f64) -> f64 {
+        if cx + cy > 0.0 {
+            (x * cx + y * cy) / (cx + cy)
+        } else {
+            0.5 * (x + y)
+        }
+    }
+
+    pub fn main(args: &[String]) {
+        let walks: u64 = arg(args, "--walks", 200_000);
+        let quad: usize = arg(args, "--quad", 192);
+        let gram: u64 = arg(args, "--gram-samples", 100_000);
+        let threads: usize = arg(args, "--threads", 2);
+        let out: String = arg(args, "--out", "data/tabulated_dielectric.bin".to_string());
+        let t0 = std::time::Instant::now();
+        // Jobs: (ndf, alpha node >= 1, eta node, side, mu_i node).
+        // `--only-ndf N --only-alpha A` restrict the jobs (pilots).
+        let only_ndf: usize = arg(args, "--only-ndf", usize::MAX);
+        let only_alpha: usize = arg(args, "--only-alpha", usize::MAX);
+        let verbose = args.iter().any(|a| a == "--verbose");
+        let jobs: Vec<(usize, usize, usize, usize, usize)> = (0..NDF_N)
+            .filter(|&n| only_ndf == usize::MAX || n == only_ndf)
+            .flat_map(|n| {
+                (1..ALPHA_N)
+                    .filter(move |&a| only_alpha == usize::MAX || a == only_alpha)
+                    .flat_map(move |a| {
+                        (0..ETA_N).flat_map(move |e| {
+                            (0..2).flat_map(move |sd| (0..MU_N).map(move |i| (n, a, e, sd, i)))
+                        })
+                    })
+            })
+            .collect();
+        // `--dump PATH` saves the raw sums, `--from-dump PATH` redoes the
+        // post-processing from them without the walks (same job arguments).
+        let opt = |name: &str| {
+            args.iter()
+                .position(|a| a == name)
+                .and_then(|p| args.get(p + 1).cloned())
+        };
+        let sums = match opt("--from-dump") {
+            Some(path) => load_dump(&path, jobs.len()),
+            None => parallel(
+                &jobs,
+                "dielectric walks",
+                threads,
+                |idx, &(n, a, e, sd, i)| {
+                    job(
+                        n,
+                        grid_alpha(a),
+                        grid_eta(e),
+                        sd == 1,
+                        node_mu(i),
+                        walks,
+                        quad,
+                        gram,
+                        idx as u64,
+                    )
+                },
+            ),
+        };
+        if let Some(path) = opt("--dump") {
+            save_dump(&path, &sums);
+        }
+        let empty = Sums {
+            walks: 1,
+            r: [[0.0; K_FIT]; MU_N],
+            t: [[0.0; K]; MU_N],
+            peak: [[0.0; 1]; MU_N],
+            gram_kb: vec![[0.0; K_FIT]; MU_N],
+            gram_bb: vec![0.0; MU_N],
+            ms: [0.0; 2],
+            ess: 1.0,
+        };
+        let find = |n, a, e, sd, i| match jobs.iter().position(|&x| x == (n, a, e, sd, i)) {
+            Some(p) => &sums[p],
+            None => &empty,
+        };
+        let h: Vec<f64> = (0..MU_N).map(hat_moment).collect();
+        let gkk = |j: usize, k: usize| h[j] * if k == 0 { 2.0 * PI } else { PI };
+        let w: Vec<f64> = h.iter().map(|x| 2.0 * PI * x).collect();
+        let mut lobe = vec![0.0f64; LOBE_LEN];
+        let mut albedo = vec![0.0f64; ALBEDO_LEN];
+        let (mut sym_num, mut sym_den) = (0.0f64, 0.0f64);
+        let (mut t_num, mut t_den) = (0.0f64, 0.0f64);
+        let (mut mc_worst, mut norm_worst, mut walk_worst) = (0.0f64, 0.0f64, 0.0f64);
+        let mut total_walks = 0u64;
+        for n in 0..NDF_N {
+            for a in 1..ALPHA_N {
+                for e in 0..ETA_N {
+                    let e2 = (grid_eta(e) as f64).powi(2);
+                    let li = |l: usize, i: usize, j: usize| lobe_index(n, a, e, l, i, j);
+                    for i in 0..MU_N {
+                        let (thin, dense) = (find(n, a, e, 0, i), find(n, a, e, 1, i));
+                        total_walks += thin.walks + dense.walks;
+                        for j in 0..MU_N {
+                            // Reflection: R_TERMS cosine terms and the peaked weight.
+                            for (l, sm) in [(R_THIN, thin), (R_DENSE, dense)] {
+                                let (coef, bpk) = fit_node(
+                                    &sm.r[j],
+                                    sm.walks as f64,
+                                    sm.peak[j][0],
+                                    &sm.gram_kb[j],
+                                    sm.gram_bb[j],
+                                    h[j],
+                                );
+                                let b = li(l, i, j);
+                                lobe[b..b + R_TERMS].copy_from_slice(&coef[..R_TERMS]);
+                                lobe[b + PEAK] = bpk;
+                            }
+                            for k in 0..K {
+                                let nt = thin.walks as f64;
+                                // T(thin i -> dense j): directly, and from the
+                                // dense walks at j by f(i, j) = E^2 f(j -> i).
+                                let direct = thin.t[j][k] / (nt * gkk(j, k));
+                                let dj = find(n, a, e, 1, j);
+                                let rev = e2 * dj.t[i][k] / (dj.walks as f64 * gkk(i, k));
+                                if k == 0 {
+                                    t_num += (direct - rev).powi(2);
+                                    t_den += (0.5 * (direct + rev)).powi(2);
+                                }
+                                // Inverse-variance weights: the hat-weighted
+                                // counts of exits behind each estimate.
+                                lobe[li(T_THIN, i, j) + k] =
+                                    mean_by_counts(direct, thin.t[j][0], rev, dj.t[i][0]);
+                            }
+                            // At mu = 1 the azimuth is undefined: no cosine
+                            // terms k >= 1 (the peaked weight stays).
+                            if i == MU_N - 1 || j == MU_N - 1 {
+                                for (l, terms) in
+                                    [(R_THIN, R_TERMS), (R_DENSE, R_TERMS), (T_THIN, K)]
+                                {
+                                    for k in 1..terms {
+                                        lobe[li(l, i, j) + k] = 0.0;
+                                    }
+                                }
+                            }
+                        }
+                        for (sd, s) in [(0, thin), (1, dense)] {
+                            let got = (s.ms[0] + s.ms[1]) / s.walks as f64;
+                            let want = 1.0 - s.ess;
+                            if want > 1e-3 {
+                                walk_worst = walk_worst.max((got / want - 1.0).abs());
+                            }
+                            if verbose && s.walks > 1 {
+                                eprintln!(
+                                    "ndf {n} alpha {:.3} eta {:.3} side {sd} mu {:.4}: walk MS albedo R {:.5} T {:.5} sum {:.5} vs 1 - E_ss {:.5}",
+                                    grid_alpha(a),
+                                    grid_eta(e),
+                                    node_mu(i),
+                                    s.ms[0] / s.walks as f64,
+                                    s.ms[1] / s.walks as f64,
+                                    got,
+                                    want
+                                );
+                            }
+                        }
+                    }
+                    // Reflection lobes: average with the transposes.
+                    for l in [R_THIN, R_DENSE] {
+                        for i in 0..MU_N {
+                            for j in i + 1..MU_N {
+                                let (x, y) = (lobe[li(l, i, j)], lobe[li(l, j, i)]);
+                                sym_num += (x - y).powi(2);
+                                sym_den += (0.5 * (x + y)).powi(2);
+                                let sd = (l == R_DENSE) as usize;
+                                let (ci, cj) =
+                                    (find(n, a, e, sd, i).r[j][0], find(n, a, e, sd, j).r[i][0]);
+                                for k in 0..R_CELL {
+                                    let v = mean_by_counts(
+                                        lobe[li(l, i, j) + k],
+                                        ci,
+                                        lobe[li(l, j, i) + k],
+                                        cj,
+                                    );
+                                    lobe[li(l, i, j) + k] = v;
+                                    lobe[li(l, j, i) + k] = v;
+                                }
+                            }
+                        }
+                    }
+                    // Furnace: nodes 0..MU_N thin, MU_N..2 MU_N dense. The
+                    // albedo of a cell: c_0 w_j, plus B Q_ij for reflection
+                    // (Q_ij = int hat_j f_ss1 mu dw from wi = mu_i).
+                    let m = |lobe: &[f64], x: usize, y: usize| -> f64 {
+                        let (xi, yi) = (x % MU_N, y % MU_N);
+                        let refl = |l: usize, sd: usize| {
+                            let b = li(l, xi, yi);
+                            let q = find(n, a, e, sd, xi).gram_kb[yi][0];
+                            lobe[b] * w[yi] + lobe[b + PEAK] * q
+                        };
+                        match (x < MU_N, y < MU_N) {
+                            (true, true) => refl(R_THIN, 0),
+                            (false, false) => refl(R_DENSE, 1),
+                            (true, false) => lobe[li(T_THIN, xi, yi)] * w[yi],
+                            (false, true) => lobe[li(T_THIN, yi, xi)] / e2 * w[yi],
+                        }
+                    };
+                    let target: Vec<f64> = (0..2 * MU_N)
+                        .map(|x| (1.0 - find(n, a, e, x / MU_N, x % MU_N).ess).max(0.0))
+                        .collect();
+                    for (x, t) in target.iter().enumerate() {
+                        let r: f64 = (0..2 * MU_N).map(|y| m(&lobe, x, y)).sum();
+                        if *t > 1e-3 {
+                            mc_worst = mc_worst.max((r / t - 1.0).abs());
+                        }
+                    }
+                    let sc = sinkhorn(&target, |x, y| m(&lobe, x, y));
+                    for i in 0..MU_N {
+                        for j in 0..MU_N {
+                            let fac = [
+                                (R_THIN, sc[i] * sc[j]),
+                                (R_DENSE, sc[MU_N + i] * sc[MU_N + j]),
+                                (T_THIN, sc[i] * sc[MU_N + j]),
+                            ];
+                            for (l, f) in fac {
+                                let width = if l == T_THIN { K } else { R_CELL };
+                                for k in 0..width {
+                                    lobe[li(l, i, j) + k] *= f;
+                                }
+                            }
+                        }
+                    }
+                    for (x, t) in target.iter().enumerate() {
+                        let (sd, i) = (x / MU_N, x % MU_N);
+                        let rr: f64 = (0..MU_N).map(|y| m(&lobe, x, sd * MU_N + y)).sum();
+                        let tt: f64 = (0..MU_N).map(|y| m(&lobe, x, (1 - sd) * MU_N + y)).sum();
+                        albedo[albedo_index(n, a, e, sd, 0, i)] = rr;
+                        albedo[albedo_index(n, a, e, sd, 1, i)] = tt;
+                        if *t > 1e-4 {
+                            norm_worst = norm_worst.max(((rr + tt) / t - 1.0).abs());
+                        }
+                    }
+                }
+            }
+        }
+        let header = format!(
+            "MSBSDF-TABULATED-DIELECTRIC-v1\n\
+             MSBSDF_MODEL_TABULATED dielectric table (layout: src/multiple/tabulated_dielectric.rs)\n\
+             command: cargo run --release --example gen_tabulated -- {}\n\
+             commit: {}\n\
+             walks: HEITZ_RANDOM_WALK (library, default bounce limit, dielectric facets) {walks} per (ndf, alpha, eta, side, mu_i) node, {total_walks} in total; seed Rng::new({SEED}, stream = job index)\n\
+             E_ss: SINGLE reflection + transmission quadrature {quad} x {quad} (compensation::single_albedo)\n\
+             walk multiply scattered albedo vs 1 - E_ss: worst relative deviation {walk_worst:.3e} (targets > 1e-3)\n\
+             reflection symmetrisation: RMS relative difference of f(i, j) and f(j, i) {:.3e}\n\
+             transmission from both sides (f(thin i -> dense j) vs E^2 f(dense j -> thin i)): RMS relative difference {:.3e}\n\
+             albedo before rescaling vs 1 - E_ss: worst relative deviation {mc_worst:.3e} (targets > 1e-3); after: {norm_worst:.3e}\n\
+             peaked part of the reflection lobes: Gram entries by {gram} SINGLE (F = 1) samples per node (seed Rng::new({SEED_GRAM}, stream = job index)), ridge {RIDGE} x G_BB\n\
+             {}grid: ndf {NDF_N} x alpha {ALPHA_N} x eta {ETA_N} x lobe 3 x mu_i {MU_N} x mu_o {MU_N} (reflection: {R_TERMS} cosine terms of a {K_FIT}-term fit and the peaked weight; transmission: {K} cosine terms); albedos ndf x alpha x eta x side 2 x lobe 2 x mu_i\n\
+             wall time: {:.0} s on {threads} threads\n",
+            args[1..].join(" "),
+            git_commit(),
+            (sym_num / sym_den.max(1e-300)).sqrt(),
+            (t_num / t_den.max(1e-300)).sqrt(),
+            match opt("--from-dump") {
+                Some(p) => format!(
+                    "walk sums: loaded from {p} (written with --dump by a run with the same walk arguments; that run took 1378 s of walks on 2 threads at commit 603e4846, whose walk and fitting code this commit keeps)\n"
+                ),
+                None => String::new(),
+            },
+            t0.elapsed().as_secs_f64(),
+        );
+        eprint!("{header}");
+        let mut bytes = Vec::with_capacity(FILE_BYTES);
+        bytes.extend_from_slice(header.as_bytes());
+        assert!(bytes.len() <= HEADER_BYTES, "header too long");
+        assert!(bytes.starts_with(MAGIC));
+        bytes.resize(HEADER_BYTES, 0);
+        for v in lobe.iter().chain(albedo.iter()) {
+            bytes.extend_from_slice(&(*v as f32).to_le_bytes());
+        }
+        assert_eq!(bytes.len(), FILE_BYTES);
+        std::fs::write(&out, &bytes).expect("write output");
+        eprintln!("wrote {out} ({} bytes)", bytes.len());
+    }
+
+    /// A suite material: name, NDF, roughness, index and its pairs
+    /// `(wi, wo, reference)`.
+    type SuiteGlass = (String, msbsdf::NdfId, f32, f32, f32, Vec<(Vec3, Vec3, f64)>);
+
+    /// Relative RMS error `sqrt(sum (v - ref)^2 / sum ref^2)` of a list of
+    /// `(value, reference)`.
+    fn rel_rms(v: &[(f64, f64)]) -> f64 {
+        let num: f64 = v.iter().map(|(x, r)| (x - r) * (x - r)).sum();
+        let den: f64 = v.iter().map(|(_, r)| r * r).sum();
+        (num / den.max(1e-300)).sqrt()
+    }
+
+    fn material(
+        model: msbsdf::Model,
+        ndf: msbsdf::NdfId,
+        ax: f32,
+        ay: f32,
+        eta: f32,
+    ) -> msbsdf::Material {
+        let d = msbsdf::MaterialDesc {
+            model,
+            ndf,
+            facet: msbsdf::FacetKind::Dielectric,
+            alpha_x: ax,
+            alpha_y: ay,
+            eta: Vec3::splat(eta),
+            ..Default::default()
+        };
+        msbsdf::Material::new(&d).expect("material")
+    }
+
+    /// `--dielectric-check`: the TABULATED dielectric against the suite's
+    /// reference (`data/reference_values.csv`, class dielectric) and, outside
+    /// the suite, against the library's HEITZ_RANDOM_WALK eval averaged over
+    /// `--evals` evaluations (glass from inside, water, diamond, Beckmann,
+    /// anisotropic roughness), relative RMS per lobe.
+    pub fn check(args: &[String]) {
+        use msbsdf::{Model, NdfId};
+        let evals: u32 = arg(args, "--evals", 4000);
+        let verbose = args.iter().any(|a| a == "--verbose");
+        let only: String = arg(args, "--only", "inside".to_string());
+        let only = only.as_str();
+        let text = std::fs::read_to_string("data/reference_values.csv").expect("reference");
+        // material -> (ndf, alpha, eta, pairs (wi, wo, ref))
+        let mut mats: Vec<SuiteGlass> = Vec::new();
+        for line in text.lines() {
+            let c: Vec<&str> = line.split(',').collect();
+            if line.starts_with('#') || c.len() != 25 || c[1] != "dielectric" {
+                continue;
+            }
+            let f = |i: usize| c[i].parse::<f32>().unwrap_or(0.0);
+            let ndf = if c[2] == "ggx" {
+                NdfId::Ggx
+            } else {
+                NdfId::Beckmann
+            };
+            let pair = (
+                Vec3::new(f(12), f(13), f(14)),
+                Vec3::new(f(15), f(16), f(17)),
+                c[18].parse::<f64>().unwrap_or(0.0),
+            );
+            match mats.last_mut() {
+                Some(m) if m.0 == c[0] => m.5.push(pair),
+                _ => mats.push((c[0].to_string(), ndf, f(3), f(4), f(5), vec![pair])),
+            }
+        }
+        let mut rng = Rng::new(1, 1);
+        let mut class = (0.0, 0.0, 0usize);
+        for (name, ndf, ax, ay, eta, pairs) in &mats {
+            let mut line = format!("suite {name}:");
+            for model in [Model::Tabulated, Model::Single] {
+                let m = material(model, *ndf, *ax, *ay, *eta);
+                let mut all = Vec::new();
+                let (mut r, mut t) = (Vec::new(), Vec::new());
+                for &(wi, wo, rf) in pairs {
+                    let v = m.eval(wi, wo, &mut rng).x as f64;
+                    all.push((v, rf));
+                    if wo.z > 0.0 {
+                        r.push((v, rf))
+                    } else {
+                        t.push((v, rf))
+                    }
+                }
+                let e = rel_rms(&all);
+                if model == Model::Tabulated {
+                    class.0 += e * e;
+                    class.2 += 1;
+                } else {
+                    class.1 += e * e;
+                }
+                line += &format!(
+                    " {model:?} {e:.4} (R {:.4}, T {:.4})",
+                    rel_rms(&r),
+                    rel_rms(&t)
+                );
+            }
+            println!("{line}");
+        }
+        let k = class.2.max(1) as f64;
+        println!(
+            "suite dielectric class error (RMS over materials): TABULATED {:.4}, SINGLE {:.4}",
+            (class.0 / k).sqrt(),
+            (class.1 / k).sqrt()
+        );
+        // Outside the suite: (label, ndf, alpha_x, alpha_y, eta, from inside).
+        let extra: f32 = arg(args, "--extra-eta", 0.0);
+        let extra_label = format!("GGX eta {extra} a0.5 inside");
+        let mut cases: Vec<(&str, NdfId, f32, f32, f32, bool)> = vec![
+            ("GGX glass 1.5 a0.5 inside", NdfId::Ggx, 0.5, 0.5, 1.5, true),
+            ("GGX glass 1.5 a1.0 inside", NdfId::Ggx, 1.0, 1.0, 1.5, true),
+            ("GGX glass 1.5 a0.2 inside", NdfId::Ggx, 0.2, 0.2, 1.5, true),
+            ("GGX water 1.33 a0.5", NdfId::Ggx, 0.5, 0.5, 1.33, false),
+            (
+                "GGX water 1.33 a0.5 inside",
+                NdfId::Ggx,
+                0.5,
+                0.5,
+                1.33,
+                true,
+            ),
+            ("GGX diamond 2.42 a0.5", NdfId::Ggx, 0.5, 0.5, 2.42, false),
+            (
+                "GGX diamond 2.42 a0.5 inside",
+                NdfId::Ggx,
+                0.5,
+                0.5,
+                2.42,
+                true,
+            ),
+            ("GGX glass 1.5 a0.3", NdfId::Ggx, 0.3, 0.3, 1.5, false),
+            (
+                "Beckmann glass 1.5 a0.5",
+                NdfId::Beckmann,
+                0.5,
+                0.5,
+                1.5,
+                false,
+            ),
+            (
+                "Beckmann glass 1.5 a1.0 inside",
+                NdfId::Beckmann,
+                1.0,
+                1.0,
+                1.5,
+                true,
+            ),
+            (
+                "GGX glass 1.5 aniso (0.1, 0.6)",
+                NdfId::Ggx,
+                0.1,
+                0.6,
+                1.5,
+                false,
+            ),
+            (
+                "GGX glass 1.5 aniso (0.3, 1.0) inside",
+                NdfId::Ggx,
+                0.3,
+                1.0,
+                1.5,
+                true,
+            ),
+        ];
+        if extra > 0.0 {
+            cases.insert(0, (&extra_label, NdfId::Ggx, 0.5, 0.5, extra, true));
+        }
+        let only_cases = args.iter().any(|a| a == "--only-cases");
+        println!(
+            "outside the suite, against HEITZ_RANDOM_WALK x{evals} (relative RMS per lobe; SINGLE for comparison):"
+        );
+        for (label, ndf, ax, ay, eta, inside) in cases {
+            if only_cases && !label.contains(only) {
+                continue;
+            }
+            let tab = material(Model::Tabulated, ndf, ax, ay, eta);
+            let single = material(Model::Single, ndf, ax, ay, eta);
+            let walk = material(Model::HeitzRandomWalk, ndf, ax, ay, eta);
+            let eta_rel = if inside { 1.0 / eta } else { eta };
+            let (mut tr, mut tt, mut sr, mut st) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+            let mut se_max = 0.0f64;
+            // Reference noise per lobe: sum se^2 (R, T).
+            let mut noise = [0.0f64; 2];
+            for (a, ti) in [0.0f32, 20.0, 40.0, 55.0, 70.0, 80.0, 85.0, 89.0]
+                .iter()
+                .enumerate()
+            {
+                let pi = 37.0 * a as f32;
+                let sph = |t: f32, p: f32, up: bool| {
+                    let (t, p) = (t.to_radians(), p.to_radians());
+                    let z = t.cos();
+                    Vec3::new(
+                        t.sin() * p.cos(),
+                        t.sin() * p.sin(),
+                        if up { z } else { -z },
+                    )
+                };
+                let flip = |v: Vec3| if inside { Vec3::new(v.x, v.y, -v.z) } else { v };
+                let wi = flip(sph(*ti, pi, true));
+                let back = pi + 180.0;
+                let s = ti.to_radians().sin() / eta_rel;
+                let tt_deg = if s < 1.0 { s.asin().to_degrees() } else { 75.0 };
+                let outs = [
+                    (sph(*ti, back, true), true),
+                    (sph(50.0, pi + 90.0, true), true),
+                    (sph(20.0, back + 10.0, true), true),
+                    (sph(88.0, back, true), true),
+                    (sph(tt_deg, back, false), false),
+                    (sph((tt_deg + 12.0).min(89.0), back + 6.0, false), false),
+                    (sph(60.0, pi, false), false),
+                    (sph(87.0, back, false), false),
+                ];
+                for (wo, refl) in outs {
+                    let wo = flip(wo);
+                    let mut sum = 0.0f64;
+                    let mut sum2 = 0.0f64;
+                    for _ in 0..evals {
+                        let v = walk.eval(wi, wo, &mut rng).x as f64;
+                        sum += v;
+                        sum2 += v * v;
+                    }
+                    let mean = sum / evals as f64;
+                    let se = ((sum2 / evals as f64 - mean * mean).max(0.0) / evals as f64).sqrt();
+                    if mean > 0.0 {
+                        se_max = se_max.max(se / mean);
+                    }
+                    let vt = tab.eval(wi, wo, &mut rng).x as f64;
+                    let vs = single.eval(wi, wo, &mut rng).x as f64;
+                    noise[!refl as usize] += se * se;
+                    if verbose && label.contains(only) {
+                        eprintln!(
+                            "    theta_i {ti} wo ({:.3}, {:.3}, {:.3}): walk {mean:.5} +- {se:.1e}, TABULATED {vt:.5}, SINGLE {vs:.5}",
+                            wo.x, wo.y, wo.z
+                        );
+                    }
+                    if refl {
+                        tr.push((vt, mean));
+                        sr.push((vs, mean));
+                    } else {
+                        tt.push((vt, mean));
+                        st.push((vs, mean));
+                    }
+                }
+            }
+            let den = |v: &[(f64, f64)]| v.iter().map(|(_, r)| r * r).sum::<f64>().max(1e-300);
+            println!(
+                "  {label}: TABULATED R {:.4} T {:.4}; SINGLE R {:.4} T {:.4} (reference noise, relative RMS: R {:.4} T {:.4}; worst relative SE of one value {:.3})",
+                rel_rms(&tr),
+                rel_rms(&tt),
+                rel_rms(&sr),
+                rel_rms(&st),
+                (noise[0] / den(&tr)).sqrt(),
+                (noise[1] / den(&tt)).sqrt(),
+                se_max
+            );
+        }
+    }
 }

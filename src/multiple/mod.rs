@@ -17,4 +17,5 @@ pub mod microsurface;
 pub mod null_scattering;
 pub mod position_free;
 pub mod tabulated;
+pub mod tabulated_dielectric;
 pub mod vgroove;

@@ -278,7 +278,7 @@ pub static FIRST: [f32; FIRST_LEN] = decode(RAW_SCALE, HEADER_BYTES + 4 * SCALE_
 /// The all-facets Schlick block (see [`SBAR_LEN`]), `[ndf * ALPHA_N + a]`.
 pub static SBAR: [f32; SBAR_LEN] = decode(RAW_SCALE, HEADER_BYTES + 4 * (SCALE_LEN + FIRST_LEN));
 
-fn text_header(raw: &'static [u8]) -> &'static str {
+pub(crate) fn text_header(raw: &'static [u8]) -> &'static str {
     let h = &raw[..HEADER_BYTES];
     let end = h.iter().position(|&b| b == 0).unwrap_or(HEADER_BYTES);
     std::str::from_utf8(&h[..end]).unwrap_or("")
@@ -417,7 +417,7 @@ pub fn ms_albedo(ndf: usize, alpha: (usize, usize, f32), mu_i: f32) -> f32 {
 /// Cosine of the azimuth difference of two directions (1 when either is
 /// along the normal).
 #[inline]
-fn cos_phi(wi: Vec3, wo: Vec3) -> f32 {
+pub(crate) fn cos_phi(wi: Vec3, wo: Vec3) -> f32 {
     let d = (wi.x * wi.x + wi.y * wi.y) * (wo.x * wo.x + wo.y * wo.y);
     if d <= 1e-20 {
         return 1.0;
@@ -427,7 +427,7 @@ fn cos_phi(wi: Vec3, wo: Vec3) -> f32 {
 
 /// Squared projected roughness of a direction's azimuth (Heitz 2016).
 #[inline]
-fn alpha_proj2(ax2: f32, ay2: f32, w: Vec3) -> f32 {
+pub(crate) fn alpha_proj2(ax2: f32, ay2: f32, w: Vec3) -> f32 {
     let s2 = w.x * w.x + w.y * w.y;
     if s2 <= 1e-20 {
         0.5 * (ax2 + ay2)
@@ -666,7 +666,7 @@ fn upper(wi: Vec3, wo: Vec3) -> (Vec3, Vec3, bool) {
 
 /// A cosine-distributed direction about +z.
 #[inline]
-fn cosine_sample(u1: f32, u2: f32) -> Vec3 {
+pub(crate) fn cosine_sample(u1: f32, u2: f32) -> Vec3 {
     let r = u1.sqrt();
     let (s, c) = (2.0 * PI * u2).sin_cos();
     Vec3::new(r * c, r * s, (1.0 - u1).max(0.0).sqrt())

@@ -1,0 +1,625 @@
+//! MSBSDF_MODEL_TABULATED with dielectric facets: white furnace from both
+//! sides (eval quadrature and sample weights), sample against pdf
+//! (chi-square), reflection reciprocity and the eta-weighted transmission
+//! reciprocity, accuracy on the project suite, re-estimation of random table
+//! cells with the library's walk, refusals, and a stability sweep.
+
+mod common;
+use common::*;
+use glam::Vec3;
+use msbsdf::bsdf::ScatterModel;
+use msbsdf::facet::Facet;
+use msbsdf::multiple::compensation::single_albedo;
+use msbsdf::multiple::heitz::Heitz;
+use msbsdf::multiple::tabulated::{MU_N, grid_mu, hat_moment, project_exit};
+use msbsdf::multiple::tabulated_dielectric::{
+    self, PEAK, R_DENSE, R_THIN, T_THIN, grid_alpha, grid_eta, lobe_index, lobe_value,
+};
+use msbsdf::ndf::{Ndf, NdfKind};
+use msbsdf::single::{G2Form, Single};
+use msbsdf::{Error, FacetKind, Material, MaterialDesc, Model, NdfId, Rng};
+use std::f64::consts::PI;
+
+const NDFS: [NdfId; 2] = [NdfId::Beckmann, NdfId::Ggx];
+
+fn desc(model: Model, ndf: NdfId, ax: f32, ay: f32, eta: f32) -> MaterialDesc {
+    MaterialDesc {
+        model,
+        ndf,
+        facet: FacetKind::Dielectric,
+        alpha_x: ax,
+        alpha_y: ay,
+        eta: Vec3::splat(eta),
+        ..MaterialDesc::default()
+    }
+}
+
+fn tab(ndf: NdfId, ax: f32, ay: f32, eta: f32) -> Material {
+    Material::new(&desc(Model::Tabulated, ndf, ax, ay, eta)).expect("valid")
+}
+
+/// `wi` at `theta` degrees on the outside (`side = 1`) or inside (`-1`).
+fn incident(theta: f64, side: f32) -> Vec3 {
+    let d = dir_deg(theta);
+    Vec3::new(d.x, 0.0, side * d.z)
+}
+
+/// Relative index seen from `wi`'s side.
+fn eta_seen(eta: f32, side: f32) -> f32 {
+    if side > 0.0 { eta } else { 1.0 / eta }
+}
+
+/// Directional albedo (reflection + transmission) of TABULATED by
+/// deterministic quadrature, in the frame where `wi` is up: SINGLE's
+/// albedo and the multiply scattered reflection (which holds the peaked
+/// part `B f_ss1`) over microfacet normals (`single_albedo`, 400 x 400),
+/// and the multiply scattered transmission (smooth, but not confined to the
+/// directions a refraction reaches) over a 128 x 256 grid of `wo` in
+/// `(sqrt(1 - |z|), phi)`. The multiply scattered part is TABULATED's eval
+/// minus SINGLE's.
+fn albedo_quadrature(t: &Material, s: &Material, wi: Vec3, ax: f32, ay: f32, eta: f32) -> f64 {
+    let mut rng = Rng::new(0, 0);
+    let side = wi.z.signum();
+    let (up, eta_l) = (Vec3::new(wi.x, wi.y, wi.z.abs()), eta_seen(eta, side));
+    let world = |v: Vec3| Vec3::new(v.x, v.y, v.z * side);
+    let e_ss = single_albedo(
+        |a, b| s.eval(world(a), world(b), &mut Rng::new(0, 0)).x,
+        ax,
+        ay,
+        up,
+        Some(eta_l),
+        400,
+    );
+    let r_ms = single_albedo(
+        |a, b| {
+            let (a, b) = (world(a), world(b));
+            t.eval(a, b, &mut Rng::new(0, 0)).x - s.eval(a, b, &mut Rng::new(0, 0)).x
+        },
+        ax,
+        ay,
+        up,
+        None,
+        400,
+    );
+    let (nz, np) = (128usize, 256usize);
+    let mut t_ms = 0.0;
+    for a in 0..nz {
+        // |z| = 1 - u^2 crowds points towards the horizon.
+        let u = (a as f64 + 0.5) / nz as f64;
+        let z = 1.0 - u * u;
+        let dz = 2.0 * u / nz as f64;
+        let sz = (1.0 - z * z).max(0.0).sqrt();
+        for b in 0..np {
+            let phi = 2.0 * PI * (b as f64 + 0.5) / np as f64;
+            let wo = Vec3::new(
+                (sz * phi.cos()) as f32,
+                (sz * phi.sin()) as f32,
+                -(z as f32),
+            );
+            let (a, b) = (world(up), world(wo));
+            let v = t.eval(a, b, &mut rng).x - s.eval(a, b, &mut rng).x;
+            t_ms += v as f64 * dz * 2.0 * PI / np as f64;
+        }
+    }
+    e_ss + r_ms + t_ms
+}
+
+/// White furnace to 89 degrees from both sides: a lossless dielectric
+/// keeps all the energy (reflected plus transmitted albedo 1). Alpha 0.1,
+/// 0.5 and 1: the quadrature of eval is within 0.5% of 1 (measured worst
+/// 0.35%), and the mean of 100,000 sample weights within 0.5% plus 3
+/// standard errors. The sample weights are heavier than the conductor's
+/// (relative standard deviation up to 1.2 for rough glass at grazing
+/// angles): the standard error is asserted below 4e-3, so the sample half
+/// detects a 1.6% loss (4 of them) and the quadrature carries the 0.5%.
+/// Alpha 1.9 (rough surfaces seen from inside, where the furnace scale
+/// reaches its clamp): measured worst quadrature error 1.8% (Beckmann glass
+/// from inside at 80 degrees), bounded at 2.5%, sample standard error below
+/// 1e-2 (a 4% loss at 4 of them).
+#[test]
+fn white_furnace_both_sides_eval_and_sample() {
+    let mut report = String::new();
+    // (quadrature, sample mean - 3 se, standard error) worst, per regime.
+    let mut worst = [[0.0f64; 3]; 2];
+    let mut cases = 0;
+    for ndf in NDFS {
+        for alpha in [0.1f32, 0.5, 1.0, 1.9] {
+            let rough = (alpha > 1.0) as usize;
+            for (eta, side) in [(1.5f32, 1.0f32), (1.5, -1.0), (1.33, 1.0), (2.42, -1.0)] {
+                let t = tab(ndf, alpha, alpha, eta);
+                let s = Material::new(&desc(Model::Single, ndf, alpha, alpha, eta)).expect("valid");
+                for (k, theta) in [0.0, 30.0, 60.0, 80.0, 85.0, 89.0].into_iter().enumerate() {
+                    let wi = incident(theta, side);
+                    let q = albedo_quadrature(&t, &s, wi, alpha, alpha, eta);
+                    let mut rng = Rng::new(1601, cases * 8 + k as u64);
+                    let (mean, se) = mean_and_error(
+                        (0..100_000).map(|_| t.sample(wi, &mut rng).weight.x as f64),
+                    );
+                    report += &format!(
+                        "{ndf:?} {alpha} eta {eta} side {side} {theta}: quad {q:.4} sample {mean:.4} +- {se:.1e}\n"
+                    );
+                    let w = &mut worst[rough];
+                    w[0] = w[0].max((q - 1.0).abs());
+                    w[1] = w[1].max((mean - 1.0).abs() - 3.0 * se);
+                    w[2] = w[2].max(se);
+                }
+                cases += 1;
+            }
+        }
+    }
+    println!(
+        "{report}alpha <= 1: worst |quadrature - 1| = {:.2e}; worst |sample mean - 1| - 3 se = {:.2e}; worst standard error {:.2e}\nalpha 1.9: {:.2e}, {:.2e}, {:.2e}",
+        worst[0][0], worst[0][1], worst[0][2], worst[1][0], worst[1][1], worst[1][2]
+    );
+    assert!(worst[0][2] < 4e-3, "{report}");
+    assert!(worst[0][0] < 5e-3, "{report}");
+    assert!(worst[0][1] < 5e-3, "{report}");
+    assert!(worst[1][2] < 1e-2, "{report}");
+    assert!(worst[1][0] < 2.5e-2, "{report}");
+    assert!(worst[1][1] < 2.5e-2, "{report}");
+}
+
+/// Anisotropic roughness reads the table at an effective roughness; its
+/// furnace error is measured (printed) and bounded apart from the
+/// isotropic 0.5% (a regression bound).
+#[test]
+fn white_furnace_anisotropic() {
+    let mut report = String::new();
+    let mut worst: f64 = 0.0;
+    for ndf in NDFS {
+        for (ax, ay) in [(0.1f32, 0.6f32), (0.3, 1.0)] {
+            let t = tab(ndf, ax, ay, 1.5);
+            let s = Material::new(&desc(Model::Single, ndf, ax, ay, 1.5)).expect("valid");
+            for side in [1.0f32, -1.0] {
+                for theta in [0.0, 60.0, 85.0] {
+                    for phi in [0.0f32, 90.0] {
+                        let d = incident(theta, side);
+                        let (sn, c) = phi.to_radians().sin_cos();
+                        let wi = Vec3::new(d.x * c, d.x * sn, d.z);
+                        let q = albedo_quadrature(&t, &s, wi, ax, ay, 1.5);
+                        report +=
+                            &format!("{ndf:?} ({ax},{ay}) side {side} {theta} {phi}: {q:.4}\n");
+                        worst = worst.max((q - 1.0).abs());
+                    }
+                }
+            }
+        }
+    }
+    println!("{report}worst |albedo - 1| = {worst:.4}");
+    assert!(worst < ANISO_FURNACE, "{report}");
+}
+
+/// Bound on the anisotropic furnace error (see `white_furnace_anisotropic`):
+/// the multiply scattered part is read at an effective roughness and the
+/// furnace scale of that roughness, which normalise the isotropic table
+/// only; measured worst 0.152 (a regression bound, far from the isotropic
+/// 0.5%).
+const ANISO_FURNACE: f64 = 0.17;
+
+/// Chi-square of sampled directions against `pdf`, binned directly in
+/// direction (the cosine lobes of the mixture reach transmitted directions
+/// no refraction reaches, so the normal-space binning of the common helper
+/// does not apply): per hemisphere 24 bands uniform in `|z|` (equal solid
+/// angle) by 48 in azimuth; expected counts by a 6 x 6 midpoint rule per
+/// cell, refined to 24 x 24 where the pdf varies by more than 1.5x across
+/// the cell. Also asserts per sample that `pdf() > 0`, that sample's pdf is
+/// `pdf()` and its weight `eval / pdf`. Sidak-corrected 1% level.
+fn chi2_directions(m: &Material, wi: Vec3, n: usize, seed: u64) -> Chi2 {
+    let (nz, np) = (24usize, 48usize);
+    let cells = nz * np;
+    let index = |w: Vec3| {
+        let a = ((w.z.abs() as f64 * nz as f64) as usize).min(nz - 1);
+        let phi = (w.y as f64).atan2(w.x as f64).rem_euclid(2.0 * PI);
+        let b = ((phi / (2.0 * PI) * np as f64) as usize).min(np - 1);
+        (if w.z > 0.0 { 0 } else { cells }) + a * np + b
+    };
+    let mut observed = vec![0.0; 2 * cells];
+    let mut rng = Rng::new(seed, 3);
+    let mut zero = Rng::new(0, 0);
+    for _ in 0..n {
+        let s = m.sample(wi, &mut rng);
+        if s.flags == msbsdf::SAMPLE_ABSORBED {
+            continue;
+        }
+        let p = m.pdf(wi, s.wo);
+        assert!(p > 0.0, "sample went where pdf is 0: {s:?}");
+        // As in the common helper: pdf() recomputes the refraction half
+        // vector from the f32 `wo` the material returns, and
+        // (wi.h + eta wo.h)^2 cancels near the refraction peak: 5e-3.
+        assert!((s.pdf - p).abs() <= 5e-3 * p, "pdf {} vs {p}", s.pdf);
+        let f = m.eval(wi, s.wo, &mut zero);
+        assert!(
+            (f.x / p - s.weight.x).abs() <= 5e-3 * s.weight.x.max(1e-3),
+            "weight {} vs eval/pdf {}",
+            s.weight.x,
+            f.x / p
+        );
+        observed[index(s.wo)] += 1.0;
+    }
+    let mut expected = vec![0.0; 2 * cells];
+    let mut total = 0.0;
+    for (h, sign) in [(0usize, 1.0f64), (1, -1.0)] {
+        for a in 0..nz {
+            for b in 0..np {
+                let mut sub = 6usize;
+                let mut acc = 0.0;
+                for pass in 0..2 {
+                    acc = 0.0;
+                    let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
+                    for x in 0..sub {
+                        for y in 0..sub {
+                            let z = (a as f64 + (x as f64 + 0.5) / sub as f64) / nz as f64;
+                            let phi =
+                                2.0 * PI * (b as f64 + (y as f64 + 0.5) / sub as f64) / np as f64;
+                            let r = (1.0 - z * z).max(0.0).sqrt();
+                            let wo = Vec3::new(
+                                (r * phi.cos()) as f32,
+                                (r * phi.sin()) as f32,
+                                (sign * z) as f32,
+                            );
+                            let v = m.pdf(wi, wo) as f64;
+                            acc += v;
+                            (lo, hi) = (lo.min(v), hi.max(v));
+                        }
+                    }
+                    if pass == 0 && hi > 1.5 * lo {
+                        sub = 24;
+                    } else {
+                        break;
+                    }
+                }
+                // Cell solid angle: (1 / nz) * (2 pi / np).
+                let e = acc / (sub * sub) as f64 * (2.0 * PI / (nz * np) as f64);
+                total += e;
+                expected[h * cells + a * np + b] = e * n as f64;
+            }
+        }
+    }
+    assert!(total <= 1.0 + 5e-3, "pdf integrates to {total} > 1");
+    chi2_test(&observed, &expected, 5.0)
+}
+
+#[test]
+fn chi_square_sample_against_pdf() {
+    let cases: Vec<(NdfId, f32, f32, f32, f64, f32)> = NDFS
+        .iter()
+        .flat_map(|&n| {
+            [
+                (0.3f32, 0.3f32, 1.5f32),
+                (0.7, 0.7, 1.33),
+                (1.0, 1.0, 2.42),
+                (0.2, 0.6, 1.5),
+            ]
+            .into_iter()
+            .flat_map(move |(ax, ay, eta)| {
+                [
+                    (0.0, 1.0f32),
+                    (50.0, 1.0),
+                    (85.0, 1.0),
+                    (50.0, -1.0),
+                    (85.0, -1.0),
+                ]
+                .map(|(t, side)| (n, ax, ay, eta, t, side))
+            })
+        })
+        .collect();
+    let level = sidak(0.01, cases.len());
+    let mut report = String::new();
+    for (idx, &(ndf, ax, ay, eta, theta, side)) in cases.iter().enumerate() {
+        let m = tab(ndf, ax, ay, eta);
+        let r = chi2_directions(&m, incident(theta, side), 200_000, 700 + idx as u64);
+        report += &format!(
+            "{ndf:?} ({ax},{ay}) eta {eta} theta {theta} side {side}: chi2 {:.1} dof {} p {:.3}\n",
+            r.chi2, r.dof, r.p
+        );
+        assert!(r.p > level, "{report}");
+    }
+    println!("{report}");
+}
+
+/// Reflection: `f(wi, wo) = f(wo, wi)`; transmission: the flux-conserving
+/// rule `f(wi, wo) / eta_o^2 = f(wo, wi) / eta_i^2` (`eta_x` the absolute
+/// index on the side of `x`; `f = eval / |wo.z|`). The reflection lobes are
+/// symmetric tables read the same way both ways, and dense-side
+/// transmission is derived from the thin side's by the rule, so only f32
+/// rounding remains (SINGLE's term is reciprocal to ~1e-6): bounded at
+/// 1e-4 relative, for materials with `eta` above and below 1.
+#[test]
+fn reciprocity_reflection_and_eta_weighted_transmission() {
+    let mut rng = Rng::new(5, 7);
+    let (mut worst_r, mut worst_t): (f32, f32) = (0.0, 0.0);
+    let mut counts = [0usize; 2];
+    for ndf in NDFS {
+        for (ax, ay) in [(0.05f32, 0.05f32), (0.3, 0.3), (1.0, 1.0), (0.1, 0.6)] {
+            for eta in [1.5f32, 2.42, 1.0 / 1.33] {
+                let m = tab(ndf, ax, ay, eta);
+                for _ in 0..2000 {
+                    let d = |rng: &mut Rng| {
+                        let mu = rng.next_f32().max(1e-3);
+                        let phi = 2.0 * std::f32::consts::PI * rng.next_f32();
+                        let s = (1.0 - mu * mu).sqrt();
+                        let z = if rng.next_f32() < 0.5 { mu } else { -mu };
+                        Vec3::new(s * phi.cos(), s * phi.sin(), z)
+                    };
+                    let (wi, wo) = (d(&mut rng), d(&mut rng));
+                    let a = m.eval(wi, wo, &mut rng).x / wo.z.abs();
+                    let b = m.eval(wo, wi, &mut rng).x / wi.z.abs();
+                    let index = |w: Vec3| if w.z > 0.0 { 1.0 } else { eta };
+                    let (ni, no) = (index(wi), index(wo));
+                    let (x, y) = (a / (no * no), b / (ni * ni));
+                    let e = (x - y).abs() / x.abs().max(y.abs()).max(1e-3);
+                    let transmission = (wi.z > 0.0) != (wo.z > 0.0);
+                    counts[transmission as usize] += 1;
+                    if transmission {
+                        worst_t = worst_t.max(e);
+                    } else {
+                        worst_r = worst_r.max(e);
+                    }
+                    assert!(
+                        e < 1e-4,
+                        "{ndf:?} ({ax},{ay}) eta {eta} {wi} {wo}: {x} vs {y}"
+                    );
+                }
+            }
+        }
+    }
+    println!(
+        "worst relative reciprocity error: reflection {worst_r:.2e} ({} pairs), transmission {worst_t:.2e} ({} pairs)",
+        counts[0], counts[1]
+    );
+    assert!(counts[0] > 10_000 && counts[1] > 10_000);
+}
+
+/// The project suite's glass (`data/reference_values.csv`, converged HEITZ
+/// walks, class dielectric: GGX glass 1.5 at alpha 0.1, 0.5, 1): relative
+/// RMS error `sqrt(sum (f - ref)^2 / sum ref^2)` per material, class error
+/// (RMS over the materials) at most 0.025 (the target); the
+/// reference's own relative standard error is ~1e-3.
+#[test]
+fn suite_error_against_reference_values() {
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/data/reference_values.csv"
+    ))
+    .expect("reference values");
+    let mut header: Vec<&str> = Vec::new();
+    let mut mats: Vec<(String, MaterialDesc, f64, f64)> = Vec::new();
+    for line in text.lines().filter(|l| !l.starts_with('#')) {
+        if header.is_empty() {
+            header = line.split(',').collect();
+            continue;
+        }
+        let f: Vec<&str> = line.split(',').collect();
+        let col = |name: &str| f[header.iter().position(|h| *h == name).expect("column")];
+        let num = |name: &str| col(name).parse::<f32>().expect("number");
+        if col("class") != "dielectric" {
+            continue;
+        }
+        let ndf = if col("ndf") == "ggx" {
+            NdfId::Ggx
+        } else {
+            NdfId::Beckmann
+        };
+        let name = col("material").to_string();
+        if mats.last().map(|m| &m.0) != Some(&name) {
+            let d = desc(
+                Model::Tabulated,
+                ndf,
+                num("alpha_x"),
+                num("alpha_y"),
+                num("eta_r"),
+            );
+            mats.push((name, d, 0.0, 0.0));
+        }
+        let m = Material::new(&mats.last().expect("material").1).expect("valid");
+        let wi = Vec3::new(num("wi_x"), num("wi_y"), num("wi_z"));
+        let wo = Vec3::new(num("wo_x"), num("wo_y"), num("wo_z"));
+        let v = m.eval(wi, wo, &mut Rng::new(0, 0));
+        let last = mats.last_mut().expect("material");
+        for (c, r) in ["ref_r", "ref_g", "ref_b"].iter().enumerate() {
+            let r = num(r) as f64;
+            last.2 += (v[c] as f64 - r).powi(2);
+            last.3 += r * r;
+        }
+    }
+    assert_eq!(mats.len(), 3, "dielectric materials of the suite");
+    let mut report = String::new();
+    let mut class = 0.0;
+    for (name, _, num, den) in &mats {
+        let e = (num / den).sqrt();
+        class += e * e;
+        report += &format!("{name}: {e:.4}\n");
+    }
+    let class = (class / mats.len() as f64).sqrt();
+    println!("{report}class relative RMS error {class:.4}");
+    assert!(class <= 0.025, "{report}class {class}");
+}
+
+/// Random table cells re-estimated with the library's walk (other seeds
+/// than the generator's). A reflection cell's hat-weighted azimuth average
+/// from `wi = mu_i` is `c_0 + B Q_ij / (2 pi H_j)` with
+/// `Q_ij = int hat_j f_ss1 mu dw` (here from 50,000 SINGLE samples with
+/// F = 1); the table keeps the count-weighted mean of `(i, j)` and `(j, i)`,
+/// compared with the mean of fresh projections from both sides. A
+/// transmission cell `c_0(i, j)` (thin `mu_i`, dense `mu_o`) is compared
+/// with fresh projections from the thin side at `i` and, by the
+/// eta-weighted reciprocity, `E^2` times those from the dense side at `j`.
+/// Within 4 combined standard errors (fresh walks, the table's walks scaled
+/// from the fresh variance, the Q samples) plus 3% for the generator's
+/// furnace scaling `s_i s_j` (it moves cells by the albedo's Monte Carlo
+/// noise and the hat smoothing).
+#[test]
+fn table_cells_reestimated_with_the_library_walk() {
+    let header = tabulated_dielectric::header();
+    assert!(header.starts_with("MSBSDF-TABULATED-DIELECTRIC-v1"));
+    let walks_table: f64 = header
+        .lines()
+        .find_map(|l| l.strip_prefix("walks: "))
+        .and_then(|l| l.split(" per ").next())
+        .and_then(|l| l.rsplit(' ').next())
+        .and_then(|n| n.parse().ok())
+        .expect("walk count in the header");
+    let n = 60_000u64;
+    let nq = 50_000u64;
+    let mut pick = Rng::new(4711, 2);
+    let mut report = String::new();
+    // Nine cells whose stored value is not 0 (a transmission cell the
+    // refracted lobe does not reach is 0 in the table and in every walk).
+    let mut compared = 0;
+    for cell in 0..60u64 {
+        if compared == 9 {
+            break;
+        }
+        let nd = (pick.next_u32() % 2) as usize;
+        let a = 3 + (pick.next_u32() % 6) as usize;
+        let e = (pick.next_u32() % tabulated_dielectric::ETA_N as u32) as usize;
+        let lobe = [R_THIN, R_DENSE, T_THIN][(cell % 3) as usize];
+        let i = 4 + (pick.next_u32() % (MU_N as u32 - 5)) as usize;
+        let j = 4 + (pick.next_u32() % (MU_N as u32 - 5)) as usize;
+        if lobe_value(lobe_index(nd, a, e, lobe, i, j)) <= 0.0 {
+            continue;
+        }
+        compared += 1;
+        let kind = [NdfKind::Beckmann, NdfKind::Ggx][nd];
+        let (alpha, eta) = (grid_alpha(a), grid_eta(e));
+        let ndf = Ndf::new(kind, alpha, alpha);
+        let walk = Heitz::new(ndf, Facet::Dielectric { eta }, 0);
+        let white = Facet::Conductor {
+            eta: Vec3::ZERO,
+            k: Vec3::ONE,
+        };
+        let single1 = Single::new(ndf, white, G2Form::HeightCorrelated);
+        let two_pi = 2.0 * PI;
+        // (dense side, incident node, exit node, weight, reflection?)
+        let legs: Vec<(bool, usize, usize, f64, bool)> = match lobe {
+            R_THIN => vec![(false, i, j, 0.5, true), (false, j, i, 0.5, true)],
+            R_DENSE => vec![(true, i, j, 0.5, true), (true, j, i, 0.5, true)],
+            _ => vec![
+                (false, i, j, 0.5, false),
+                (true, j, i, 0.5 * (eta as f64).powi(2), false),
+            ],
+        };
+        let (mut fresh, mut var, mut stored, mut var_q) = (0.0, 0.0, 0.0, 0.0);
+        for (leg, &(dense, x, y, wgt, refl)) in legs.iter().enumerate() {
+            let mu = grid_mu(x);
+            let up = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
+            let wi = if dense { Vec3::new(up.x, 0.0, -mu) } else { up };
+            let stream = cell * 2 + leg as u64;
+            let norm = hat_moment(y) * two_pi;
+            let mut rng = Rng::new(8080, stream);
+            let (mut s1, mut s2) = (0.0f64, 0.0f64);
+            for _ in 0..n {
+                let (smp, b) = walk.sample_with_bounces(wi, &mut rng);
+                let mut mom = [[0.0f64; 1]; MU_N];
+                let same = (smp.wo.z > 0.0) == (wi.z > 0.0);
+                if b >= 2 && smp.wo.z != 0.0 && same == refl {
+                    let out = Vec3::new(smp.wo.x, smp.wo.y, smp.wo.z.abs());
+                    project_exit(out, smp.weight.x as f64, &mut mom);
+                }
+                let v = wgt * mom[y][0] / norm;
+                s1 += v;
+                s2 += v * v;
+            }
+            let mean = s1 / n as f64;
+            fresh += mean;
+            var += s2 / n as f64 - mean * mean;
+            if refl {
+                // Q_xy / (2 pi H_y) by SINGLE's (F = 1) samples.
+                let mut qrng = Rng::new(8081, stream);
+                let (mut q1, mut q2) = (0.0f64, 0.0f64);
+                for _ in 0..nq {
+                    let smp = single1.sample(up, &mut qrng);
+                    let mut mom = [[0.0f64; 1]; MU_N];
+                    if smp.wo.z > 0.0 && smp.pdf > 0.0 {
+                        let ss1 = single1.eval(up, smp.wo, &mut qrng).x as f64;
+                        project_exit(smp.wo, ss1 / smp.pdf as f64, &mut mom);
+                    }
+                    let v = mom[y][0] / norm;
+                    q1 += v;
+                    q2 += v * v;
+                }
+                let q = q1 / nq as f64;
+                let b = lobe_index(nd, a, e, lobe, x, y);
+                stored += wgt * (lobe_value(b) as f64 + lobe_value(b + PEAK) as f64 * q);
+                var_q += (wgt * lobe_value(b + PEAK) as f64).powi(2) * (q2 / nq as f64 - q * q)
+                    / nq as f64;
+            }
+        }
+        if lobe == T_THIN {
+            stored = lobe_value(lobe_index(nd, a, e, T_THIN, i, j)) as f64;
+        }
+        let se = (var / n as f64 + var / walks_table + var_q).sqrt();
+        report += &format!(
+            "ndf {nd} alpha {alpha:.3} eta {eta:.3} lobe {lobe} mu ({:.3}, {:.3}): table {stored:.5}, fresh {fresh:.5} +- {se:.1e}\n",
+            grid_mu(i),
+            grid_mu(j)
+        );
+        assert!(
+            (stored - fresh).abs() <= 4.0 * se + 0.03 * fresh,
+            "{report}"
+        );
+    }
+    println!("{report}");
+    assert_eq!(compared, 9, "{report}");
+}
+
+/// TABULATED refuses dielectrics outside the tabulated index range
+/// (`E = max(eta, 1 / eta)` in [1.05, 3]) and Student-T.
+#[test]
+fn refusals() {
+    for eta in [1.0f32, 1.02, 1.0 / 1.02, 3.2, 0.3] {
+        assert_eq!(
+            Material::new(&desc(Model::Tabulated, NdfId::Ggx, 0.5, 0.5, eta)).err(),
+            Some(Error::Unsupported),
+            "eta {eta}"
+        );
+    }
+    for eta in [1.05f32, 3.0, 1.0 / 1.05, 1.0 / 3.0] {
+        assert!(Material::new(&desc(Model::Tabulated, NdfId::Ggx, 0.5, 0.5, eta)).is_ok());
+    }
+    assert_eq!(
+        Material::new(&desc(Model::Tabulated, NdfId::StudentT, 0.5, 0.5, 1.5)).err(),
+        Some(Error::Unsupported)
+    );
+}
+
+/// Stability sweep: grazing angles to 89.99 degrees, roughness from 1e-3
+/// to 2, both NDFs, indices at both ends of the table and below 1, both
+/// sides: eval, pdf and sample weights finite and non-negative.
+#[test]
+fn stability_sweep() {
+    let mut rng = Rng::new(99, 3);
+    for ndf in NDFS {
+        for alpha in [1e-3f32, 0.01, 0.1, 0.5, 1.0, 2.0] {
+            for (ax, ay) in [(alpha, alpha), (alpha, (alpha * 3.0).min(2.0))] {
+                for eta in [1.05f32, 1.5, 3.0, 1.0 / 1.5, 1.0 / 3.0] {
+                    let m = tab(ndf, ax, ay, eta);
+                    for theta in [0.0, 30.0, 70.0, 89.0, 89.9, 89.99] {
+                        for side in [1.0f32, -1.0] {
+                            let d = dir_deg(theta);
+                            let wi = Vec3::new(d.x, 0.3 * d.x, side * d.z).normalize();
+                            for _ in 0..100 {
+                                let s = m.sample(wi, &mut rng);
+                                assert!(s.weight.is_finite() && s.weight.min_element() >= 0.0);
+                                assert!(s.pdf.is_finite() && s.pdf >= 0.0);
+                                let wo = Vec3::new(
+                                    rng.next_f32() - 0.5,
+                                    rng.next_f32() - 0.5,
+                                    rng.next_f32() - 0.5,
+                                )
+                                .normalize_or_zero();
+                                if wo == Vec3::ZERO {
+                                    continue;
+                                }
+                                let f = m.eval(wi, wo, &mut rng);
+                                assert!(f.is_finite() && f.min_element() >= 0.0, "{f}");
+                                let p = m.pdf(wi, wo);
+                                assert!(p.is_finite() && p >= 0.0);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
