@@ -21,10 +21,11 @@ use msbsdf::{FacetKind, Material, MaterialDesc, Model, NdfId, Rng};
 const NDFS: [NdfId; 2] = [NdfId::Beckmann, NdfId::Ggx];
 
 /// Bound on the anisotropic furnace error: the multiply scattered part is
-/// read from the isotropic table at an effective roughness and is not
-/// normalised per direction (measured worst 0.203, GGX (0.3, 1) at 80
-/// degrees along x; (0.05, 1) reaches 0.29 and is not tested).
-const ANISO_FURNACE: f64 = 0.21;
+/// read from the isotropic table at an effective roughness plus the
+/// energy-split peaked lobe, and is not normalised per direction (measured
+/// worst 0.143, GGX (0.3, 1) at 45 degrees along x; 0.203 before the peaked
+/// lobe).
+const ANISO_FURNACE: f64 = 0.16;
 
 /// Complex IOR (eta, k) per RGB channel (about 650, 550, 450 nm).
 const METALS: [(&str, [f32; 3], [f32; 3]); 5] = [
@@ -305,6 +306,7 @@ fn suite_error_against_reference_values() {
     let mut report = String::new();
     let (mut class, mut iso, mut n_iso) = (0.0, 0.0, 0usize);
     let (mut worst_iso, mut worst_aniso): (f64, f64) = (0.0, 0.0);
+    let mut worst_aniso_ggx: f64 = 0.0;
     for (name, d, num, den) in &mats {
         let e = (num / den).sqrt();
         class += e * e;
@@ -315,6 +317,9 @@ fn suite_error_against_reference_values() {
             n_iso += 1;
         } else {
             worst_aniso = worst_aniso.max(e);
+            if d.ndf == NdfId::Ggx {
+                worst_aniso_ggx = worst_aniso_ggx.max(e);
+            }
         }
     }
     let class = (class / mats.len() as f64).sqrt();
@@ -324,9 +329,12 @@ fn suite_error_against_reference_values() {
     );
     assert!(worst_iso < 0.02, "{report}");
     assert!(iso <= 0.015, "{report}isotropic {iso}");
-    // Anisotropic roughness reads the isotropic table at an effective
-    // roughness (module docs): measured 0.076-0.090, bounded at 0.1.
-    assert!(worst_aniso < 0.1, "{report}");
+    // Anisotropic roughness (module docs): the isotropic table at an
+    // effective roughness plus the energy-split peaked lobe. Measured GGX
+    // 0.029-0.033 (0.078-0.080 without the peaked lobe), Beckmann
+    // 0.075-0.077 (0.079-0.080).
+    assert!(worst_aniso_ggx < 0.04, "{report}");
+    assert!(worst_aniso < 0.085, "{report}");
 }
 
 /// Random table cells re-estimated with the library's walk (other seeds).

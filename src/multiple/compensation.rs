@@ -130,8 +130,9 @@ pub fn aniso_grid_alpha(j: usize) -> f32 {
 /// Anisotropic roughness: the single-scattering albedo with F = 1 read from
 /// the 4D table `compensation_aniso_tables` (bilinear in the two alphas,
 /// fixed per material, and in azimuth and mu per direction).
+/// Also read by `MSBSDF_MODEL_TABULATED` for anisotropic conductors.
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct Aniso {
+pub(crate) struct Aniso {
     ndf: usize,
     /// Lower alpha nodes and weights along x and y.
     jx: usize,
@@ -141,7 +142,8 @@ struct Aniso {
 }
 
 impl Aniso {
-    fn new(ndf: usize, ax: f32, ay: f32) -> Aniso {
+    /// The table for NDF index `ndf` (0 Beckmann, 1 GGX) at `(ax, ay)`.
+    pub(crate) fn new(ndf: usize, ax: f32, ay: f32) -> Aniso {
         let (jx, _, fx) = split(aniso_alpha_coord(ax), an::AN_A);
         let (jy, _, fy) = split(aniso_alpha_coord(ay), an::AN_A);
         Aniso {
@@ -171,7 +173,7 @@ impl Aniso {
 
     /// Albedo seen from `w` (the table is even in `w.x` and `w.y`).
     #[inline]
-    fn e(&self, w: Vec3) -> f32 {
+    pub(crate) fn e(&self, w: Vec3) -> f32 {
         let phi = w.y.abs().atan2(w.x.abs());
         let (k0, k1, fk) = split(
             phi / std::f32::consts::FRAC_PI_2 * (an::AN_PHI - 1) as f32,

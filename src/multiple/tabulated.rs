@@ -70,12 +70,29 @@
 //!
 //! ## Anisotropic roughness
 //!
-//! The single-scattering term is exact. The multiply scattered term is read
-//! from the isotropic table at the effective roughness
-//! `alpha_eff = sqrt((alpha_wi^2 + alpha_wo^2) / 2)`, `alpha_w` the projected
-//! roughness of each direction's azimuth (Heitz 2016's `alpha_w`), which is
-//! symmetric in `wi` and `wo`, so the lobe stays reciprocal. Its error is
-//! reported separately in `docs/tabulated.md`.
+//! The single-scattering term is exact. The multiply scattered lobe of a
+//! strongly anisotropic surface is not the isotropic one under any map of
+//! directions: at (0.1, 0.6) it is peaked like the anisotropic
+//! single-scattering lobe (the walk's orders >= 2 are 10-16% of `f_ss1`
+//! over its peak, narrow across the smooth axis, wide along the rough one:
+//! double bounces across the rough axis keep the component along the
+//! smooth one), where the isotropic table has a broad lobe. It is
+//! therefore a blend, with the weight
+//! `beta = ANISO_PEAK (1 - (alpha_min / alpha_max)^2)` (0 when isotropic):
+//!
+//! `f_ms = (1 - beta) f_table + beta sqrt(b(wi) b(wo)) f_ss1(wi, wo)`,
+//! `b(w) = (1 - E(w)) / E(w)`,
+//!
+//! where `f_table` is the isotropic table read at the effective roughness
+//! `alpha_eff = sqrt((alpha_wi^2 + alpha_wo^2) / 2)` (`alpha_w` the
+//! projected roughness of each direction's azimuth, Heitz 2016's
+//! `alpha_w`) with its furnace scales at that roughness, and `E(w)` is
+//! SINGLE's anisotropic albedo with F = 1, read from ENERGY_COMPENSATED's
+//! 4D table (`compensation::Aniso`). The peaked part has the albedo
+//! `1 - E(wi)` where `E(wo) = E(wi)` (over the peak of `f_ss1`, whose albedo
+//! is `E(wi)`). Both parts are symmetric in `wi` and `wo`, so the lobe stays
+//! reciprocal; it is not normalised per direction. Errors are reported
+//! separately in `docs/tabulated.md`.
 //!
 //! ## Sampling
 //!
@@ -84,6 +101,7 @@
 //! albedo (clamped to `[0.02, 0.95]`). `pdf` returns exactly the mixture's
 //! density and the weight is `eval / pdf`.
 
+use super::compensation::Aniso;
 use crate::bsdf::{Sample, ScatterModel};
 use crate::facet::Facet;
 use crate::frame::{flip_z, reflect};
@@ -128,6 +146,13 @@ pub const ALBEDO_LEN: usize = NDF_N * ALPHA_N * MU_N;
 pub const FRESNEL_LEN: usize = NDF_N * ALPHA_N * FRESNEL_Q;
 /// Total size of the table file in bytes.
 pub const FILE_BYTES: usize = HEADER_BYTES + 4 * (LOBE_LEN + ALBEDO_LEN + FRESNEL_LEN);
+
+/// Largest weight of the energy-split peaked lobe of anisotropic roughness
+/// (module docs): the weight is `ANISO_PEAK (1 - (alpha_min / alpha_max)^2)`,
+/// 0 for isotropic roughness. Fitted on the suite's (0.1, 0.6) materials
+/// (0.25: GGX 0.037, 0.35: 0.027, 0.45: 0.029) and checked against HEITZ
+/// walks at (0.2, 0.8), (0.05, 0.3) and (0.6, 0.1) (`docs/tabulated.md`).
+pub const ANISO_PEAK: f32 = 0.35;
 
 /// Roughness nodes of the furnace scale table (uniform in
 /// `sqrt(alpha / MAX_ALPHA)`, the first is 0).
@@ -447,7 +472,9 @@ pub struct Tabulated {
     alpha: (usize, usize, f32),
     /// Scale-table roughness nodes and weight (isotropic materials).
     scale_alpha: (usize, usize, f32),
-    anisotropic: bool,
+    /// Anisotropic roughness: SINGLE's albedo table and the weight of the
+    /// energy-split peaked lobe (see [`ANISO_PEAK`]).
+    aniso: Option<(Aniso, f32)>,
     /// Effective Fresnel reflectance of inter-reflections per channel.
     fbar: Vec3,
     /// The reflectance against the Schlick weight, for the first and last
@@ -523,7 +550,17 @@ impl Tabulated {
             }
         }
         let fbar = (curve[0].1 + curve[1].1 + curve[2].1) * (1.0 / FRESNEL_Q as f32);
-        let anisotropic = ndf.alpha_x != ndf.alpha_y;
+        let aniso = (ndf.alpha_x != ndf.alpha_y).then(|| {
+            let (lo, hi) = (
+                ndf.alpha_x.min(ndf.alpha_y),
+                ndf.alpha_x.max(ndf.alpha_y),
+            );
+            let r = lo / hi;
+            (
+                Aniso::new(ndf_index, ndf.alpha_x, ndf.alpha_y),
+                ANISO_PEAK * (1.0 - r * r),
+            )
+        });
         let sbar = SBAR[ndf_index * ALPHA_N + alpha.0] * (1.0 - alpha.2)
             + SBAR[ndf_index * ALPHA_N + alpha.1] * alpha.2;
         let fresnel_curve = FresnelCurve::new(curve, fbar, sbar);
@@ -534,7 +571,7 @@ impl Tabulated {
             alpha,
             fresnel_curve,
             scale_alpha: split(scale_alpha_coord(alpha_rms), SCALE_ALPHA_N),
-            anisotropic,
+            aniso,
             fbar,
         }
     }
@@ -548,7 +585,7 @@ impl Tabulated {
     /// pair of directions.
     #[inline]
     fn alpha_and_scale(&self, wi: Vec3, wo: Vec3, ri: f32, ro: f32) -> ((usize, usize, f32), f32) {
-        if !self.anisotropic {
+        if self.aniso.is_none() {
             let (s0, s1, fs) = self.scale_alpha;
             let (r0, r1) = (
                 scale_index(self.ndf_index, s0, 0),
@@ -599,7 +636,21 @@ impl Tabulated {
         // The smooth part is clamped at 0 (its cosine series can dip below 0
         // next to a strong peaked part); the scale table integrates the
         // clamped series, so the furnace holds with the clamp.
-        Vec3::from(tint * ((f.max(0.0) * wo.z + peak * ss1) * s))
+        let table = (f.max(0.0) * wo.z + peak * ss1) * s;
+        let value = match &self.aniso {
+            None => table,
+            Some((e, beta)) => {
+                // Energy-split peaked lobe: sqrt(b_i b_o) f_ss1 with
+                // b = (1 - E) / E has the albedo 1 - E(wi) where E(wo)
+                // is close to E(wi) (the peak of f_ss1); symmetric.
+                let b = |w: Vec3| {
+                    let e = e.e(w).clamp(0.05, 1.0);
+                    (1.0 - e) / e
+                };
+                (1.0 - beta) * table + beta * (b(wi) * b(wo)).sqrt() * ss1
+            }
+        };
+        Vec3::from(tint * value)
     }
 
     /// Weight of the cosine lobe in the sampling mixture for `mu_i`.
