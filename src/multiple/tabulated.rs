@@ -221,8 +221,21 @@ pub fn alpha_coord(alpha: f32) -> f32 {
 #[inline]
 pub fn split(x: f32, n: usize) -> (usize, usize, f32) {
     let x = x.clamp(0.0, (n - 1) as f32);
-    let i = (x as usize).min(n - 2);
+    // x >= 0 (or NaN, which casts to 0): truncation is the floor, and an
+    // i32 cast is cheaper than a saturating usize one.
+    let i = ((x as i32) as usize).min(n - 2);
     (i, i + 1, x - i as f32)
+}
+
+/// Two adjacent table values from index `i` (one bounds check; zeros
+/// outside the table, which the grid splits never reach).
+#[inline]
+fn pair(table: &[f32], i: usize) -> [f32; 2] {
+    table
+        .get(i..)
+        .and_then(|s| s.first_chunk::<2>())
+        .copied()
+        .unwrap_or([0.0; 2])
 }
 
 /// Index of the first float of a lobe cell.
@@ -368,14 +381,21 @@ pub fn lookup(
     let (i0, i1, fi) = split(root_mu_i * (MU_N - 1) as f32, MU_N);
     let (j0, j1, fj) = split(root_mu_o * (MU_N - 1) as f32, MU_N);
     let (mut lo, mut hi) = (Vec4::ZERO, Vec4::ZERO);
+    debug_assert!(j1 == j0 + 1);
     for (a, wa) in [(a0, 1.0 - fa), (a1, fa)] {
         for (i, wi) in [(i0, 1.0 - fi), (i1, fi)] {
-            let (b0, b1) = (lobe_index(ndf, a, i, j0), lobe_index(ndf, a, i, j1));
+            // Cells j0 and j1 = j0 + 1 are adjacent: one bounds check for
+            // the 16 floats (a cell outside the table reads as 0).
+            let Some(c) = LOBE
+                .get(lobe_index(ndf, a, i, j0)..)
+                .and_then(|s| s.first_chunk::<{ 2 * CELL }>())
+            else {
+                continue;
+            };
             let (w0, w1) = (wa * wi * (1.0 - fj), wa * wi * fj);
-            lo +=
-                Vec4::from_slice(&LOBE[b0..b0 + 4]) * w0 + Vec4::from_slice(&LOBE[b1..b1 + 4]) * w1;
-            hi += Vec4::from_slice(&LOBE[b0 + 4..b0 + 8]) * w0
-                + Vec4::from_slice(&LOBE[b1 + 4..b1 + 8]) * w1;
+            let v = |k: usize| Vec4::new(c[k], c[k + 1], c[k + 2], c[k + 3]);
+            lo += v(0) * w0 + v(8) * w1;
+            hi += v(4) * w0 + v(12) * w1;
         }
     }
     // sum_k c_k cos(k phi): cos 2 phi = 2 c^2 - 1, cos 3 phi = (4 c^2 - 3) c.
@@ -533,28 +553,36 @@ impl Tabulated {
     pub fn new(ndf: Ndf, facet: Facet) -> Self {
         let ndf_index = ndf_index(ndf.kind).unwrap_or(1);
         let alpha_rms = (0.5 * (ndf.alpha_x * ndf.alpha_x + ndf.alpha_y * ndf.alpha_y)).sqrt();
-        let alpha_c = alpha_coord(alpha_rms);
-        let alpha = split(alpha_c, ALPHA_N);
+        // sqrt(alpha / MAX_ALPHA), the coordinate of both tables (one root
+        // for alpha_coord and scale_alpha_coord).
+        let root = (alpha_rms / MAX_ALPHA).clamp(0.0, 1.0).sqrt();
+        let alpha = split(root * (ALPHA_N - 1) as f32, ALPHA_N);
         // The exact Fresnel at the three quantile cosines of the facets of
         // multiply scattered paths, against the Schlick weight w = (1 - c)^5.
         let mut curve = [(0.0f32, Vec3::ONE); FRESNEL_Q];
         if let Facet::Conductor { eta, k } = facet {
             let (a0, a1, fa) = alpha;
             let (q0, q1) = (fresnel_index(ndf_index, a0), fresnel_index(ndf_index, a1));
+            // The three channels in one SIMD lane vector per cosine.
+            let (eta2, k2) = (Vec3A::from(eta * eta), Vec3A::from(k * k));
+            let (e2k2, four_e2k2) = (eta2 - k2, 4.0 * eta2 * k2);
             for (q, point) in curve.iter_mut().enumerate() {
-                let c = FRESNEL_COS[q0 + q] * (1.0 - fa) + FRESNEL_COS[q1 + q] * fa;
-                *point = (
-                    (1.0 - c).max(0.0).powi(5),
-                    fresnel::conductor_rgb(c, eta, k),
-                );
+                let c =
+                    (FRESNEL_COS[q0 + q] * (1.0 - fa) + FRESNEL_COS[q1 + q] * fa).clamp(0.0, 1.0);
+                let f = fresnel::conductor_closed_form(Vec3A::splat(c), e2k2, four_e2k2);
+                let f = if f.is_finite() {
+                    Vec3::from(f.clamp(Vec3A::ZERO, Vec3A::ONE))
+                } else {
+                    fresnel::conductor_rgb(c, eta, k)
+                };
+                let w = 1.0 - c;
+                let w2 = w * w;
+                *point = (w2 * w2 * w, f);
             }
         }
         let fbar = (curve[0].1 + curve[1].1 + curve[2].1) * (1.0 / FRESNEL_Q as f32);
         let aniso = (ndf.alpha_x != ndf.alpha_y).then(|| {
-            let (lo, hi) = (
-                ndf.alpha_x.min(ndf.alpha_y),
-                ndf.alpha_x.max(ndf.alpha_y),
-            );
+            let (lo, hi) = (ndf.alpha_x.min(ndf.alpha_y), ndf.alpha_x.max(ndf.alpha_y));
             let r = lo / hi;
             (
                 Aniso::new(ndf_index, ndf.alpha_x, ndf.alpha_y),
@@ -570,7 +598,7 @@ impl Tabulated {
             ndf_index,
             alpha,
             fresnel_curve,
-            scale_alpha: split(scale_alpha_coord(alpha_rms), SCALE_ALPHA_N),
+            scale_alpha: split(root * (SCALE_ALPHA_N - 1) as f32, SCALE_ALPHA_N),
             aniso,
             fbar,
         }
@@ -592,10 +620,10 @@ impl Tabulated {
                 scale_index(self.ndf_index, s1, 0),
             );
             let row = |r: f32| {
-                let (i0, i1, f) = split(r * (SCALE_MU_N - 1) as f32, SCALE_MU_N);
-                let v0 = SCALE[r0 + i0] * (1.0 - f) + SCALE[r0 + i1] * f;
-                let v1 = SCALE[r1 + i0] * (1.0 - f) + SCALE[r1 + i1] * f;
-                v0 * (1.0 - fs) + v1 * fs
+                let (i0, _, f) = split(r * (SCALE_MU_N - 1) as f32, SCALE_MU_N);
+                let ([a0, a1], [b0, b1]) = (pair(&SCALE, r0 + i0), pair(&SCALE, r1 + i0));
+                let (v0, v1) = (a0 + (a1 - a0) * f, b0 + (b1 - b0) * f);
+                v0 + (v1 - v0) * fs
             };
             return (self.alpha, row(ri) * row(ro));
         }
@@ -622,13 +650,14 @@ impl Tabulated {
         // First and last facets: the reflectance at the cosines seen from
         // mu_i and mu_o (Schlick-shaped deviation from fbar).
         let fe = |r: f32| {
-            let (i0, i1, fi) = split(r * (MU_N - 1) as f32, MU_N);
+            let (i0, _, fi) = split(r * (MU_N - 1) as f32, MU_N);
             let (a0, a1, fa) = alpha;
             let at = |a| {
-                let base = albedo_index(self.ndf_index, a, 0);
-                FIRST[base + i0] * (1.0 - fi) + FIRST[base + i1] * fi
+                let [v0, v1] = pair(&FIRST, albedo_index(self.ndf_index, a, i0));
+                v0 + (v1 - v0) * fi
             };
-            let sf = at(a0) * (1.0 - fa) + at(a1) * fa;
+            let (s0, s1) = (at(a0), at(a1));
+            let sf = s0 + (s1 - s0) * fa;
             self.fresnel_curve.at(sf).clamp(Vec3A::ZERO, Vec3A::ONE)
         };
         let r5 = (1.0 - r[0] - r[1] - r[2]).max(0.0);
