@@ -500,6 +500,10 @@ pub struct Tabulated {
     /// The reflectance against the Schlick weight, for the first and last
     /// facets.
     fresnel_curve: FresnelCurve,
+    /// `(eta^2 - k^2, 4 eta^2 k^2)` per channel for the closed-form
+    /// Fresnel factor of the single-scattering term in SIMD lanes (`None`:
+    /// the perfect reflector, F = 1).
+    fresnel_lanes: Option<(Vec3A, Vec3A)>,
 }
 
 /// The exact Fresnel reflectance of a conductor as a piecewise linear
@@ -560,12 +564,16 @@ impl Tabulated {
         // The exact Fresnel at the three quantile cosines of the facets of
         // multiply scattered paths, against the Schlick weight w = (1 - c)^5.
         let mut curve = [(0.0f32, Vec3::ONE); FRESNEL_Q];
+        let mut fresnel_lanes = None;
         if let Facet::Conductor { eta, k } = facet {
             let (a0, a1, fa) = alpha;
             let (q0, q1) = (fresnel_index(ndf_index, a0), fresnel_index(ndf_index, a1));
             // The three channels in one SIMD lane vector per cosine.
             let (eta2, k2) = (Vec3A::from(eta * eta), Vec3A::from(k * k));
             let (e2k2, four_e2k2) = (eta2 - k2, 4.0 * eta2 * k2);
+            if !(eta == Vec3::ZERO && k == Vec3::ONE) {
+                fresnel_lanes = Some((e2k2, four_e2k2));
+            }
             for (q, point) in curve.iter_mut().enumerate() {
                 let c =
                     (FRESNEL_COS[q0 + q] * (1.0 - fa) + FRESNEL_COS[q1 + q] * fa).clamp(0.0, 1.0);
@@ -601,6 +609,24 @@ impl Tabulated {
             scale_alpha: split(root * (SCALE_ALPHA_N - 1) as f32, SCALE_ALPHA_N),
             aniso,
             fbar,
+            fresnel_lanes,
+        }
+    }
+
+    /// The conductor's Fresnel factor at the cosine `c` ([`Facet::conductor_fresnel`]
+    /// through the shared closed form in SIMD lanes, with the squares of
+    /// the index precomputed).
+    #[inline]
+    fn fresnel(&self, c: f32) -> Vec3 {
+        let Some((e2k2, four_e2k2)) = self.fresnel_lanes else {
+            return Vec3::ONE;
+        };
+        let c = c.clamp(0.0, 1.0);
+        let f = fresnel::conductor_closed_form(Vec3A::splat(c), e2k2, four_e2k2);
+        if f.is_finite() {
+            Vec3::from(f.clamp(Vec3A::ZERO, Vec3A::ONE))
+        } else {
+            self.facet.conductor_fresnel(c)
         }
     }
 
@@ -703,11 +729,7 @@ impl Tabulated {
         let li = self.ndf.lambda(wi);
         let lo = self.ndf.lambda(wo);
         let base = d / (4.0 * wi.z);
-        (
-            base / (1.0 + li + lo),
-            self.facet.conductor_fresnel(ci),
-            base / (1.0 + li),
-        )
+        (base / (1.0 + li + lo), self.fresnel(ci), base / (1.0 + li))
     }
 
     /// The visible-normal pdf of `wo` alone (what [`Self::single_terms`]
