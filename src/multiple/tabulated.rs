@@ -227,15 +227,16 @@ pub fn split(x: f32, n: usize) -> (usize, usize, f32) {
     (i, i + 1, x - i as f32)
 }
 
-/// Two adjacent table values from index `i` (one bounds check; zeros
-/// outside the table, which the grid splits never reach).
+/// The table values at `i`, `i + 1`, `i + ROW` and `i + ROW + 1` (two
+/// adjacent nodes in two adjacent rows) with one bounds check; `SPAN` must
+/// be `ROW + 2` (a smaller one does not compile). Zeros outside the table,
+/// which the grid splits never reach.
 #[inline]
-fn pair(table: &[f32], i: usize) -> [f32; 2] {
-    table
-        .get(i..)
-        .and_then(|s| s.first_chunk::<2>())
-        .copied()
-        .unwrap_or([0.0; 2])
+fn square<const ROW: usize, const SPAN: usize>(table: &[f32], i: usize) -> [f32; 4] {
+    match table.get(i..).and_then(|s| s.first_chunk::<SPAN>()) {
+        Some(c) => [c[0], c[1], c[ROW], c[ROW + 1]],
+        None => [0.0; 4],
+    }
 }
 
 /// Index of the first float of a lobe cell.
@@ -360,7 +361,8 @@ pub fn ndf_index(kind: NdfKind) -> Option<usize> {
     }
 }
 
-/// The multiply scattered lobe with F = 1 at a table point given
+/// The multiply scattered lobe with F = 1 at a table point given the
+/// roughness nodes and weight from [`split`] (upper node = lower + 1),
 /// `sqrt(mu_i)` and `sqrt(mu_o)` (in `[0, 1]`):
 /// `(smooth part, B, [r2, r3, r4])`; the lobe is
 /// `smooth + B f_ss1` with `f_ss1` the single-scattering BSDF with F = 1
@@ -373,29 +375,46 @@ pub fn lookup(
     root_mu_o: f32,
     cos_phi: f32,
 ) -> (f32, f32, [f32; 3]) {
+    let (i0, _, fi) = split(root_mu_i * (MU_N - 1) as f32, MU_N);
+    let (j0, _, fj) = split(root_mu_o * (MU_N - 1) as f32, MU_N);
+    lookup_nodes(ndf, alpha, (i0, fi), (j0, fj), cos_phi)
+}
+
+/// [`lookup`] given the lower cosine nodes and weights from [`split`].
+#[inline]
+fn lookup_nodes(
+    ndf: usize,
+    alpha: (usize, usize, f32),
+    (i0, fi): (usize, f32),
+    (j0, fj): (usize, f32),
+    cos_phi: f32,
+) -> (f32, f32, [f32; 3]) {
     const _: () = assert!(
         CELL == 8 && K_STORED == 4,
         "lookup reads a cell as two Vec4"
     );
+    // split gives upper nodes one above the lower ones, so the eight cells
+    // (a0 + da, i0 + di, j0 + dj) lie at constant offsets from the first:
+    // one bounds check for all of them.
+    const SPAN: usize = lobe_index(0, 1, 1, 2);
+    const DA: usize = lobe_index(0, 1, 0, 0);
+    const DI: usize = lobe_index(0, 0, 1, 0);
     let (a0, a1, fa) = alpha;
-    let (i0, i1, fi) = split(root_mu_i * (MU_N - 1) as f32, MU_N);
-    let (j0, j1, fj) = split(root_mu_o * (MU_N - 1) as f32, MU_N);
+    debug_assert!(a1 == a0 + 1);
+    let Some(c) = LOBE
+        .get(lobe_index(ndf, a0, i0, j0)..)
+        .and_then(|s| s.first_chunk::<SPAN>())
+    else {
+        return (0.0, 0.0, [0.0; 3]);
+    };
     let (mut lo, mut hi) = (Vec4::ZERO, Vec4::ZERO);
-    debug_assert!(j1 == j0 + 1);
-    for (a, wa) in [(a0, 1.0 - fa), (a1, fa)] {
-        for (i, wi) in [(i0, 1.0 - fi), (i1, fi)] {
-            // Cells j0 and j1 = j0 + 1 are adjacent: one bounds check for
-            // the 16 floats (a cell outside the table reads as 0).
-            let Some(c) = LOBE
-                .get(lobe_index(ndf, a, i, j0)..)
-                .and_then(|s| s.first_chunk::<{ 2 * CELL }>())
-            else {
-                continue;
-            };
+    for (oa, wa) in [(0, 1.0 - fa), (DA, fa)] {
+        for (oi, wi) in [(0, 1.0 - fi), (DI, fi)] {
+            let o = oa + oi;
             let (w0, w1) = (wa * wi * (1.0 - fj), wa * wi * fj);
-            let v = |k: usize| Vec4::new(c[k], c[k + 1], c[k + 2], c[k + 3]);
-            lo += v(0) * w0 + v(8) * w1;
-            hi += v(4) * w0 + v(12) * w1;
+            let v = |k: usize| Vec4::new(c[o + k], c[o + k + 1], c[o + k + 2], c[o + k + 3]);
+            lo += v(0) * w0 + v(CELL) * w1;
+            hi += v(4) * w0 + v(CELL + 4) * w1;
         }
     }
     // sum_k c_k cos(k phi): cos 2 phi = 2 c^2 - 1, cos 3 phi = (4 c^2 - 3) c.
@@ -574,18 +593,30 @@ impl Tabulated {
             if !(eta == Vec3::ZERO && k == Vec3::ONE) {
                 fresnel_lanes = Some((e2k2, four_e2k2));
             }
+            let cells = |q: usize| {
+                FRESNEL_COS
+                    .get(q..)
+                    .and_then(|s| s.first_chunk::<FRESNEL_Q>())
+                    .copied()
+                    .unwrap_or([1.0; FRESNEL_Q])
+            };
+            let (c0, c1) = (cells(q0), cells(q1));
+            let mut sum = Vec3A::ZERO;
             for (q, point) in curve.iter_mut().enumerate() {
-                let c =
-                    (FRESNEL_COS[q0 + q] * (1.0 - fa) + FRESNEL_COS[q1 + q] * fa).clamp(0.0, 1.0);
+                let c = (c0[q] + (c1[q] - c0[q]) * fa).clamp(0.0, 1.0);
                 let f = fresnel::conductor_closed_form(Vec3A::splat(c), e2k2, four_e2k2);
-                let f = if f.is_finite() {
-                    Vec3::from(f.clamp(Vec3A::ZERO, Vec3A::ONE))
-                } else {
-                    fresnel::conductor_rgb(c, eta, k)
-                };
+                sum += f;
                 let w = 1.0 - c;
                 let w2 = w * w;
-                *point = (w2 * w2 * w, f);
+                *point = (w2 * w2 * w, Vec3::from(f.clamp(Vec3A::ZERO, Vec3A::ONE)));
+            }
+            // One finiteness test for the three; the complex form where
+            // the closed form is 0 / 0 (c = 0 with k = 0).
+            if !sum.is_finite() {
+                for (q, point) in curve.iter_mut().enumerate() {
+                    let c = (c0[q] + (c1[q] - c0[q]) * fa).clamp(0.0, 1.0);
+                    point.1 = fresnel::conductor_rgb(c, eta, k);
+                }
             }
         }
         let fbar = (curve[0].1 + curve[1].1 + curve[2].1) * (1.0 / FRESNEL_Q as f32);
@@ -641,13 +672,12 @@ impl Tabulated {
     fn alpha_and_scale(&self, wi: Vec3, wo: Vec3, ri: f32, ro: f32) -> ((usize, usize, f32), f32) {
         if self.aniso.is_none() {
             let (s0, s1, fs) = self.scale_alpha;
-            let (r0, r1) = (
-                scale_index(self.ndf_index, s0, 0),
-                scale_index(self.ndf_index, s1, 0),
-            );
+            // split: s1 = s0 + 1, the next row of the table.
+            debug_assert!(s1 == s0 + 1);
+            let r0 = scale_index(self.ndf_index, s0, 0);
             let row = |r: f32| {
                 let (i0, _, f) = split(r * (SCALE_MU_N - 1) as f32, SCALE_MU_N);
-                let ([a0, a1], [b0, b1]) = (pair(&SCALE, r0 + i0), pair(&SCALE, r1 + i0));
+                let [a0, a1, b0, b1] = square::<SCALE_MU_N, { SCALE_MU_N + 2 }>(&SCALE, r0 + i0);
                 let (v0, v1) = (a0 + (a1 - a0) * f, b0 + (b1 - b0) * f);
                 v0 + (v1 - v0) * fs
             };
@@ -671,23 +701,25 @@ impl Tabulated {
     fn multiple(&self, wi: Vec3, wo: Vec3, ss1: f32) -> Vec3 {
         let (ri, ro) = (wi.z.min(1.0).sqrt(), wo.z.min(1.0).sqrt());
         let (alpha, s) = self.alpha_and_scale(wi, wo, ri, ro);
-        let (f, peak, r) = lookup(self.ndf_index, alpha, ri, ro, cos_phi(wi, wo));
+        let nodes = |r: f32| {
+            let (n0, _, f) = split(r * (MU_N - 1) as f32, MU_N);
+            (n0, f)
+        };
+        let (ni, no) = (nodes(ri), nodes(ro));
+        let (f, peak, r) = lookup_nodes(self.ndf_index, alpha, ni, no, cos_phi(wi, wo));
         let b = Vec3A::from(self.fbar);
         // First and last facets: the reflectance at the cosines seen from
         // mu_i and mu_o (Schlick-shaped deviation from fbar).
-        let fe = |r: f32| {
-            let (i0, _, fi) = split(r * (MU_N - 1) as f32, MU_N);
-            let (a0, a1, fa) = alpha;
-            let at = |a| {
-                let [v0, v1] = pair(&FIRST, albedo_index(self.ndf_index, a, i0));
-                v0 + (v1 - v0) * fi
-            };
-            let (s0, s1) = (at(a0), at(a1));
+        let fe = |(i0, fi): (usize, f32)| {
+            let (a0, _, fa) = alpha;
+            let [u0, u1, v0, v1] =
+                square::<MU_N, { MU_N + 2 }>(&FIRST, albedo_index(self.ndf_index, a0, i0));
+            let (s0, s1) = (u0 + (u1 - u0) * fi, v0 + (v1 - v0) * fi);
             let sf = s0 + (s1 - s0) * fa;
             self.fresnel_curve.at(sf).clamp(Vec3A::ZERO, Vec3A::ONE)
         };
         let r5 = (1.0 - r[0] - r[1] - r[2]).max(0.0);
-        let tint = fe(ri) * fe(ro) * (b * (b * (b * r5 + r[2]) + r[1]) + r[0]);
+        let tint = fe(ni) * fe(no) * (b * (b * (b * r5 + r[2]) + r[1]) + r[0]);
         // The smooth part is clamped at 0 (its cosine series can dip below 0
         // next to a strong peaked part); the scale table integrates the
         // clamped series, so the furnace holds with the clamp.
