@@ -21,11 +21,12 @@ use msbsdf::{FacetKind, Material, MaterialDesc, Model, NdfId, Rng};
 const NDFS: [NdfId; 2] = [NdfId::Beckmann, NdfId::Ggx];
 
 /// Bound on the anisotropic furnace error: the multiply scattered part is
-/// read from the isotropic table at an effective roughness plus the
-/// energy-split peaked lobe, and is not normalised per direction (measured
-/// worst 0.143, GGX (0.3, 1) at 45 degrees along x; 0.203 before the peaked
-/// lobe).
-const ANISO_FURNACE: f64 = 0.16;
+/// the isotropic table at an effective roughness, rescaled per direction by
+/// the ratio of the anisotropic to the isotropic multiply scattered albedo,
+/// plus the energy-split peaked lobe; it is not normalised exactly
+/// (measured worst 0.081, GGX (0.3, 1) at 80 degrees along y; 0.203 before
+/// the peaked lobe and the rescaling).
+const ANISO_FURNACE: f64 = 0.09;
 
 /// Complex IOR (eta, k) per RGB channel (about 650, 550, 450 nm).
 const METALS: [(&str, [f32; 3], [f32; 3]); 5] = [
@@ -329,12 +330,12 @@ fn suite_error_against_reference_values() {
     );
     assert!(worst_iso < 0.02, "{report}");
     assert!(iso <= 0.015, "{report}isotropic {iso}");
-    // Anisotropic roughness (module docs): the isotropic table at an
-    // effective roughness plus the energy-split peaked lobe. Measured GGX
-    // 0.029-0.033 (0.078-0.080 without the peaked lobe), Beckmann
-    // 0.075-0.077 (0.079-0.080).
-    assert!(worst_aniso_ggx < 0.04, "{report}");
-    assert!(worst_aniso < 0.085, "{report}");
+    // Anisotropic roughness (module docs): the rescaled isotropic table at
+    // an effective roughness plus the energy-split peaked lobe. Measured
+    // GGX 0.024-0.028 (0.078-0.080 before), Beckmann 0.055-0.060
+    // (0.079-0.080 before).
+    assert!(worst_aniso_ggx < 0.035, "{report}");
+    assert!(worst_aniso < 0.07, "{report}");
 }
 
 /// Random table cells re-estimated with the library's walk (other seeds).

@@ -84,7 +84,7 @@ fn mu_coord(mu: f32) -> f32 {
 
 /// Table abscissa of alpha (the grid is uniform in sqrt(alpha / MAX_ALPHA)).
 #[inline]
-fn alpha_coord(alpha: f32) -> f32 {
+pub(crate) fn alpha_coord(alpha: f32) -> f32 {
     (alpha / MAX_ALPHA).clamp(0.0, 1.0).sqrt() * (t::ALPHA_N - 1) as f32
 }
 
@@ -283,8 +283,9 @@ fn lerp(a: f32, b: f32, f: f32) -> f32 {
     a + (b - a) * f
 }
 
-/// Single-scattering albedo of a conductor with F = 1, bilinear in the tables.
-fn conductor_e(ndf: usize, alpha_c: f32, mu: f32) -> f32 {
+/// Single-scattering albedo of a conductor with F = 1, bilinear in the tables
+/// (`alpha_c` from [`alpha_coord`]); also read by `MSBSDF_MODEL_TABULATED`.
+pub(crate) fn conductor_e(ndf: usize, alpha_c: f32, mu: f32) -> f32 {
     let (a0, a1, fa) = split(alpha_c, t::ALPHA_N);
     let (m0, m1, fm) = split(mu_coord(mu), t::MU_N);
     let e = &t::CONDUCTOR_E[ndf];

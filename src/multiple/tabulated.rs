@@ -80,19 +80,21 @@
 //! therefore a blend, with the weight
 //! `beta = ANISO_PEAK (1 - (alpha_min / alpha_max)^2)` (0 when isotropic):
 //!
-//! `f_ms = (1 - beta) f_table + beta sqrt(b(wi) b(wo)) f_ss1(wi, wo)`,
-//! `b(w) = (1 - E(w)) / E(w)`,
+//! `f_ms = (1 - beta) f_table sqrt(t(wi) t(wo)) + beta sqrt(b(wi) b(wo)) f_ss1(wi, wo)`,
+//! `b(w) = (1 - E(w)) / E(w)`, `t(w) = (1 - E(w)) / (1 - E_iso(alpha_w, mu_w))`,
 //!
 //! where `f_table` is the isotropic table read at the effective roughness
 //! `alpha_eff = sqrt((alpha_wi^2 + alpha_wo^2) / 2)` (`alpha_w` the
 //! projected roughness of each direction's azimuth, Heitz 2016's
-//! `alpha_w`) with its furnace scales at that roughness, and `E(w)` is
-//! SINGLE's anisotropic albedo with F = 1, read from ENERGY_COMPENSATED's
-//! 4D table (`compensation::Aniso`). The peaked part has the albedo
-//! `1 - E(wi)` where `E(wo) = E(wi)` (over the peak of `f_ss1`, whose albedo
-//! is `E(wi)`). Both parts are symmetric in `wi` and `wo`, so the lobe stays
-//! reciprocal; it is not normalised per direction. Errors are reported
-//! separately in `docs/tabulated.md`.
+//! `alpha_w`) with its furnace scales at that roughness, `E(w)` is SINGLE's
+//! anisotropic albedo with F = 1 read from ENERGY_COMPENSATED's 4D table
+//! (`compensation::Aniso`) and `E_iso(alpha, mu)` its isotropic albedo
+//! table. The isotropic lobe at roughness `alpha_w` has the albedo
+//! `1 - E_iso(alpha_w, mu_w)`, so `t` moves each direction's energy to the
+//! anisotropic `1 - E(w)`; the peaked part has the albedo `1 - E(wi)` where
+//! `E(wo) = E(wi)` (over the peak of `f_ss1`, whose albedo is `E(wi)`). Both
+//! parts are symmetric in `wi` and `wo`, so the lobe stays reciprocal; the
+//! furnace holds to a few percent, not exactly (`docs/tabulated.md`).
 //!
 //! ## Sampling
 //!
@@ -101,7 +103,7 @@
 //! albedo (clamped to `[0.02, 0.95]`). `pdf` returns exactly the mixture's
 //! density and the weight is `eval / pdf`.
 
-use super::compensation::Aniso;
+use super::compensation::{self, Aniso};
 use crate::bsdf::{Sample, ScatterModel};
 use crate::facet::Facet;
 use crate::frame::{flip_z, reflect};
@@ -730,11 +732,23 @@ impl Tabulated {
                 // Energy-split peaked lobe: sqrt(b_i b_o) f_ss1 with
                 // b = (1 - E) / E has the albedo 1 - E(wi) where E(wo)
                 // is close to E(wi) (the peak of f_ss1); symmetric.
-                let b = |w: Vec3| {
+                let (ax2, ay2) = (
+                    self.ndf.alpha_x * self.ndf.alpha_x,
+                    self.ndf.alpha_y * self.ndf.alpha_y,
+                );
+                let factors = |w: Vec3| {
                     let e = e.e(w).clamp(0.05, 1.0);
-                    (1.0 - e) / e
+                    let a = alpha_proj2(ax2, ay2, w).sqrt();
+                    let e_iso = compensation::conductor_e(
+                        self.ndf_index,
+                        compensation::alpha_coord(a),
+                        w.z,
+                    )
+                    .min(0.999);
+                    ((1.0 - e) / e, ((1.0 - e) / (1.0 - e_iso)).clamp(0.25, 4.0))
                 };
-                (1.0 - beta) * table + beta * (b(wi) * b(wo)).sqrt() * ss1
+                let ((bi, ti), (bo, to)) = (factors(wi), factors(wo));
+                (1.0 - beta) * table * (ti * to).sqrt() + beta * (bi * bo).sqrt() * ss1
             }
         };
         Vec3::from(tint * value)
