@@ -20,13 +20,14 @@ use msbsdf::{FacetKind, Material, MaterialDesc, Model, NdfId, Rng};
 
 const NDFS: [NdfId; 2] = [NdfId::Beckmann, NdfId::Ggx];
 
-/// Bound on the anisotropic furnace error: the multiply scattered part is
-/// the isotropic table at an effective roughness, rescaled per direction by
-/// the ratio of the anisotropic to the isotropic multiply scattered albedo,
-/// plus the energy-split peaked lobe; it is not normalised exactly
-/// (measured worst 0.081, GGX (0.3, 1) at 80 degrees along y; 0.203 before
-/// the peaked lobe and the rescaling).
-const ANISO_FURNACE: f64 = 0.09;
+/// Bound on the anisotropic furnace error: the lobe is normalised by a
+/// symmetric scaling at the nodes of a 16 x 16 roughness grid (7
+/// azimuths, 16 cosines) and the materials here lie between nodes;
+/// measured worst 0.020 (GGX (0.3, 1) at 89 degrees along y; 0.081 without
+/// the correction table, 0.203 before the peaked lobe and the rescaling).
+/// The quadrature of eval (400 x 400 normals) is exact to 0.17% for the
+/// isotropic lobes (`white_furnace_eval_and_sample`), far below this.
+const ANISO_FURNACE: f64 = 0.025;
 
 /// Complex IOR (eta, k) per RGB channel (about 650, 550, 450 nm).
 const METALS: [(&str, [f32; 3], [f32; 3]); 5] = [
@@ -331,11 +332,12 @@ fn suite_error_against_reference_values() {
     assert!(worst_iso < 0.02, "{report}");
     assert!(iso <= 0.015, "{report}isotropic {iso}");
     // Anisotropic roughness (module docs): the rescaled isotropic table at
-    // an effective roughness plus the energy-split peaked lobe. Measured
-    // GGX 0.024-0.028 (0.078-0.080 before), Beckmann 0.055-0.060
-    // (0.079-0.080 before).
-    assert!(worst_aniso_ggx < 0.035, "{report}");
-    assert!(worst_aniso < 0.07, "{report}");
+    // an effective roughness plus the energy-split peaked lobe, normalised
+    // by the correction table. Measured GGX 0.020-0.023 (0.078-0.080
+    // before), Beckmann 0.066-0.069 (0.079-0.080 before; 0.055-0.060
+    // without the normalisation, which lowers Beckmann's too-broad lobe).
+    assert!(worst_aniso_ggx < 0.03, "{report}");
+    assert!(worst_aniso < 0.075, "{report}");
 }
 
 /// Random table cells re-estimated with the library's walk (other seeds).

@@ -127,6 +127,10 @@ pub fn aniso_grid_alpha(j: usize) -> f32 {
     MAX_ALPHA * s * s
 }
 
+/// A table on the grid of `CONDUCTOR_E_ANISO`:
+/// `[ndf][alpha_x][alpha_y][phi][mu]`.
+pub(crate) type AnisoTable = [[[[[f32; an::AN_MU]; an::AN_PHI]; an::AN_A]; an::AN_A]; 2];
+
 /// Anisotropic roughness: the single-scattering albedo with F = 1 read from
 /// the 4D table `compensation_aniso_tables` (bilinear in the two alphas,
 /// fixed per material, and in azimuth and mu per direction).
@@ -157,8 +161,8 @@ impl Aniso {
 
     /// The table at (phi node `k`, mu node `i`), bilinear in the alphas.
     #[inline]
-    fn node(&self, k: usize, i: usize) -> f32 {
-        let e = &an::CONDUCTOR_E_ANISO[self.ndf];
+    fn node(&self, table: &AnisoTable, k: usize, i: usize) -> f32 {
+        let e = &table[self.ndf];
         let at = |jx: usize, jy: usize| e[jx][jy][k][i];
         lerp(
             lerp(at(self.jx, self.jy), at(self.jx, self.jy + 1), self.fy),
@@ -174,6 +178,13 @@ impl Aniso {
     /// Albedo seen from `w` (the table is even in `w.x` and `w.y`).
     #[inline]
     pub(crate) fn e(&self, w: Vec3) -> f32 {
+        self.read(&an::CONDUCTOR_E_ANISO, w)
+    }
+
+    /// Any table on the grid of `CONDUCTOR_E_ANISO`, even in `w.x` and
+    /// `w.y`, seen from `w` (also read by `MSBSDF_MODEL_TABULATED`).
+    #[inline]
+    pub(crate) fn read(&self, table: &AnisoTable, w: Vec3) -> f32 {
         let phi = w.y.abs().atan2(w.x.abs());
         let (k0, k1, fk) = split(
             phi / std::f32::consts::FRAC_PI_2 * (an::AN_PHI - 1) as f32,
@@ -181,8 +192,8 @@ impl Aniso {
         );
         let (i0, i1, fi) = split(aniso_mu_coord(w.z.abs()), an::AN_MU);
         lerp(
-            lerp(self.node(k0, i0), self.node(k0, i1), fi),
-            lerp(self.node(k1, i0), self.node(k1, i1), fi),
+            lerp(self.node(table, k0, i0), self.node(table, k0, i1), fi),
+            lerp(self.node(table, k1, i0), self.node(table, k1, i1), fi),
             fk,
         )
     }

@@ -93,8 +93,16 @@
 //! `1 - E_iso(alpha_w, mu_w)`, so `t` moves each direction's energy to the
 //! anisotropic `1 - E(w)`; the peaked part has the albedo `1 - E(wi)` where
 //! `E(wo) = E(wi)` (over the peak of `f_ss1`, whose albedo is `E(wi)`). Both
-//! parts are symmetric in `wi` and `wo`, so the lobe stays reciprocal; the
-//! furnace holds to a few percent, not exactly (`docs/tabulated.md`).
+//! parts are symmetric in `wi` and `wo`, so the lobe stays reciprocal.
+//!
+//! The sum is then scaled by `sqrt(c(wi) c(wo))` with the furnace
+//! correction [`ANISO_CORRECTION`] `c(alpha_x, alpha_y, phi, mu)`, on the
+//! grid of ENERGY_COMPENSATED's anisotropic albedo table and read with its
+//! interpolation (`compensation::Aniso::read`): Sinkhorn steps of a
+//! symmetric scaling towards the albedo `1 - E(w)` at the grid nodes, by
+//! deterministic quadrature of the lobe (`gen_tabulated_aniso`). The
+//! furnace holds to about 2% to 89 degrees between the nodes, not 0.5%
+//! (`docs/tabulated.md`).
 //!
 //! ## Sampling
 //!
@@ -103,7 +111,8 @@
 //! albedo (clamped to `[0.02, 0.95]`). `pdf` returns exactly the mixture's
 //! density and the weight is `eval / pdf`.
 
-use super::compensation::{self, Aniso};
+use super::bintable::decode5;
+use super::compensation::{self, Aniso, AnisoTable};
 use crate::bsdf::{Sample, ScatterModel};
 use crate::facet::Facet;
 use crate::frame::{flip_z, reflect};
@@ -155,6 +164,15 @@ pub const FILE_BYTES: usize = HEADER_BYTES + 4 * (LOBE_LEN + ALBEDO_LEN + FRESNE
 /// (0.25: GGX 0.037, 0.35: 0.027, 0.45: 0.029) and checked against HEITZ
 /// walks at (0.2, 0.8), (0.05, 0.3) and (0.6, 0.1) (`docs/tabulated.md`).
 pub const ANISO_PEAK: f32 = 0.35;
+
+/// The anisotropic furnace correction `c(alpha_x, alpha_y, phi, mu)` on the
+/// grid of ENERGY_COMPENSATED's anisotropic albedo table
+/// (`compensation_aniso_tables`): `(1 - E(w)) / A(w)` with `E` that table
+/// and `A` the multiply scattered albedo with F = 1 of the uncorrected
+/// anisotropic lobe by deterministic quadrature; the lobe is scaled by
+/// `sqrt(c(wi) c(wo))`. `data/tabulated_aniso.bin`, written by
+/// `cargo run --release --example gen_tabulated_aniso`.
+pub static ANISO_CORRECTION: AnisoTable = decode5(include_bytes!("../../data/tabulated_aniso.bin"));
 
 /// Roughness nodes of the furnace scale table (uniform in
 /// `sqrt(alpha / MAX_ALPHA)`, the first is 0).
@@ -516,6 +534,9 @@ pub struct Tabulated {
     /// Anisotropic roughness: SINGLE's albedo table and the weight of the
     /// energy-split peaked lobe (see [`ANISO_PEAK`]).
     aniso: Option<(Aniso, f32)>,
+    /// Whether the anisotropic lobe is scaled by [`ANISO_CORRECTION`]
+    /// (off only for the table generator).
+    aniso_corrected: bool,
     /// Effective Fresnel reflectance of inter-reflections per channel.
     fbar: Vec3,
     /// The reflectance against the Schlick weight, for the first and last
@@ -641,8 +662,18 @@ impl Tabulated {
             fresnel_curve,
             scale_alpha: split(root * (SCALE_ALPHA_N - 1) as f32, SCALE_ALPHA_N),
             aniso,
+            aniso_corrected: true,
             fbar,
             fresnel_lanes,
+        }
+    }
+
+    /// The model without the anisotropic furnace correction
+    /// [`ANISO_CORRECTION`] (what `gen_tabulated_aniso` integrates).
+    pub fn without_aniso_correction(self) -> Self {
+        Tabulated {
+            aniso_corrected: false,
+            ..self
         }
     }
 
@@ -748,7 +779,12 @@ impl Tabulated {
                     ((1.0 - e) / e, ((1.0 - e) / (1.0 - e_iso)).clamp(0.25, 4.0))
                 };
                 let ((bi, ti), (bo, to)) = (factors(wi), factors(wo));
-                (1.0 - beta) * table * (ti * to).sqrt() + beta * (bi * bo).sqrt() * ss1
+                let lobe = (1.0 - beta) * table * (ti * to).sqrt() + beta * (bi * bo).sqrt() * ss1;
+                if self.aniso_corrected {
+                    lobe * (e.read(&ANISO_CORRECTION, wi) * e.read(&ANISO_CORRECTION, wo)).sqrt()
+                } else {
+                    lobe
+                }
             }
         };
         Vec3::from(tint * value)
