@@ -101,8 +101,8 @@
 //! interpolation (`compensation::Aniso::read`): Sinkhorn steps of a
 //! symmetric scaling towards the albedo `1 - E(w)` at the grid nodes, by
 //! deterministic quadrature of the lobe (`gen_tabulated_aniso`). The
-//! furnace holds to about 2% to 89 degrees between the nodes, not 0.5%
-//! (`docs/tabulated.md`).
+//! furnace holds to 1.2% at the nodes and 1.3% between them (measured to
+//! 89 degrees), not 0.5% (`docs/tabulated.md`).
 //!
 //! ## Sampling
 //!
