@@ -177,25 +177,35 @@ impl Aniso {
 
     /// Albedo seen from `w` (the table is even in `w.x` and `w.y`).
     #[inline]
-    pub(crate) fn e(&self, w: Vec3) -> f32 {
+    fn e(&self, w: Vec3) -> f32 {
         self.read(&an::CONDUCTOR_E_ANISO, w)
     }
 
     /// Any table on the grid of `CONDUCTOR_E_ANISO`, even in `w.x` and
-    /// `w.y`, seen from `w` (also read by `MSBSDF_MODEL_TABULATED`).
+    /// `w.y`, seen from `w`.
     #[inline]
-    pub(crate) fn read(&self, table: &AnisoTable, w: Vec3) -> f32 {
+    fn read(&self, table: &AnisoTable, w: Vec3) -> f32 {
+        let [v] = self.read_all([table], w);
+        v
+    }
+
+    /// [`Self::read`] of several tables on the same grid, sharing the
+    /// azimuth and cosine weights (also read by `MSBSDF_MODEL_TABULATED`).
+    #[inline]
+    pub(crate) fn read_all<const N: usize>(&self, tables: [&AnisoTable; N], w: Vec3) -> [f32; N] {
         let phi = w.y.abs().atan2(w.x.abs());
         let (k0, k1, fk) = split(
             phi / std::f32::consts::FRAC_PI_2 * (an::AN_PHI - 1) as f32,
             an::AN_PHI,
         );
         let (i0, i1, fi) = split(aniso_mu_coord(w.z.abs()), an::AN_MU);
-        lerp(
-            lerp(self.node(table, k0, i0), self.node(table, k0, i1), fi),
-            lerp(self.node(table, k1, i0), self.node(table, k1, i1), fi),
-            fk,
-        )
+        tables.map(|table| {
+            lerp(
+                lerp(self.node(table, k0, i0), self.node(table, k0, i1), fi),
+                lerp(self.node(table, k1, i0), self.node(table, k1, i1), fi),
+                fk,
+            )
+        })
     }
 
     /// `E_avg = (1 / pi) int E(w) cos dw` of exactly the interpolant `e`,

@@ -98,7 +98,7 @@
 //! The sum is then scaled by `sqrt(c(wi) c(wo))` with the furnace
 //! correction [`ANISO_CORRECTION`] `c(alpha_x, alpha_y, phi, mu)`, on the
 //! grid of ENERGY_COMPENSATED's anisotropic albedo table and read with its
-//! interpolation (`compensation::Aniso::read`): Sinkhorn steps of a
+//! interpolation (`compensation::Aniso::read_all`): Sinkhorn steps of a
 //! symmetric scaling towards the albedo `1 - E(w)` at the grid nodes, by
 //! deterministic quadrature of the lobe (`gen_tabulated_aniso`). The
 //! furnace holds to 1.2% at the nodes and 1.3% between them (measured to
@@ -113,6 +113,7 @@
 
 use super::bintable::decode5;
 use super::compensation::{self, Aniso, AnisoTable};
+use super::compensation_aniso_tables::CONDUCTOR_E_ANISO;
 use crate::bsdf::{Sample, ScatterModel};
 use crate::facet::Facet;
 use crate::frame::{flip_z, reflect};
@@ -767,8 +768,11 @@ impl Tabulated {
                     self.ndf.alpha_x * self.ndf.alpha_x,
                     self.ndf.alpha_y * self.ndf.alpha_y,
                 );
+                // Per direction: b, t and the correction c (one read of
+                // the albedo and correction tables with shared weights).
                 let factors = |w: Vec3| {
-                    let e = e.e(w).clamp(0.05, 1.0);
+                    let [e_w, c] = e.read_all([&CONDUCTOR_E_ANISO, &ANISO_CORRECTION], w);
+                    let e_w = e_w.clamp(0.05, 1.0);
                     let a = alpha_proj2(ax2, ay2, w).sqrt();
                     let e_iso = compensation::conductor_e(
                         self.ndf_index,
@@ -776,15 +780,16 @@ impl Tabulated {
                         w.z,
                     )
                     .min(0.999);
-                    ((1.0 - e) / e, ((1.0 - e) / (1.0 - e_iso)).clamp(0.25, 4.0))
+                    let c = if self.aniso_corrected { c } else { 1.0 };
+                    (
+                        (1.0 - e_w) / e_w,
+                        ((1.0 - e_w) / (1.0 - e_iso)).clamp(0.25, 4.0),
+                        c,
+                    )
                 };
-                let ((bi, ti), (bo, to)) = (factors(wi), factors(wo));
+                let ((bi, ti, ci), (bo, to, co)) = (factors(wi), factors(wo));
                 let lobe = (1.0 - beta) * table * (ti * to).sqrt() + beta * (bi * bo).sqrt() * ss1;
-                if self.aniso_corrected {
-                    lobe * (e.read(&ANISO_CORRECTION, wi) * e.read(&ANISO_CORRECTION, wo)).sqrt()
-                } else {
-                    lobe
-                }
+                lobe * (ci * co).sqrt()
             }
         };
         Vec3::from(tint * value)
