@@ -20,11 +20,14 @@ use msbsdf::{FacetKind, Material, MaterialDesc, Model, NdfId, Rng};
 
 const NDFS: [NdfId; 2] = [NdfId::Beckmann, NdfId::Ggx];
 
-/// Bound on the anisotropic furnace error: the multiply scattered part is
-/// read from the isotropic table at an effective roughness and is not
-/// normalised per direction (measured worst 0.203, GGX (0.3, 1) at 80
-/// degrees along x; (0.05, 1) reaches 0.29 and is not tested).
-const ANISO_FURNACE: f64 = 0.21;
+/// Bound on the anisotropic furnace error: the lobe is normalised by a
+/// symmetric scaling at the nodes of a 16 x 16 roughness grid (7
+/// azimuths, 16 cosines) and the materials here lie between nodes;
+/// measured worst 0.0128 (0.081 without the correction table, 0.203 before
+/// the peaked lobe and the rescaling). The quadrature of eval (400 x 400
+/// normals) is exact to 0.17% for the isotropic lobes
+/// (`white_furnace_eval_and_sample`), far below this.
+const ANISO_FURNACE: f64 = 0.016;
 
 /// Complex IOR (eta, k) per RGB channel (about 650, 550, 450 nm).
 const METALS: [(&str, [f32; 3], [f32; 3]); 5] = [
@@ -305,6 +308,7 @@ fn suite_error_against_reference_values() {
     let mut report = String::new();
     let (mut class, mut iso, mut n_iso) = (0.0, 0.0, 0usize);
     let (mut worst_iso, mut worst_aniso): (f64, f64) = (0.0, 0.0);
+    let mut worst_aniso_ggx: f64 = 0.0;
     for (name, d, num, den) in &mats {
         let e = (num / den).sqrt();
         class += e * e;
@@ -315,6 +319,9 @@ fn suite_error_against_reference_values() {
             n_iso += 1;
         } else {
             worst_aniso = worst_aniso.max(e);
+            if d.ndf == NdfId::Ggx {
+                worst_aniso_ggx = worst_aniso_ggx.max(e);
+            }
         }
     }
     let class = (class / mats.len() as f64).sqrt();
@@ -324,9 +331,13 @@ fn suite_error_against_reference_values() {
     );
     assert!(worst_iso < 0.02, "{report}");
     assert!(iso <= 0.015, "{report}isotropic {iso}");
-    // Anisotropic roughness reads the isotropic table at an effective
-    // roughness (module docs): measured 0.076-0.090, bounded at 0.1.
-    assert!(worst_aniso < 0.1, "{report}");
+    // Anisotropic roughness (module docs): the rescaled isotropic table at
+    // an effective roughness plus the energy-split peaked lobe, normalised
+    // by the correction table. Measured GGX 0.020-0.023 (0.078-0.080
+    // before), Beckmann 0.066-0.069 (0.079-0.080 before; 0.055-0.060
+    // without the normalisation, which lowers Beckmann's too-broad lobe).
+    assert!(worst_aniso_ggx < 0.03, "{report}");
+    assert!(worst_aniso < 0.075, "{report}");
 }
 
 /// Random table cells re-estimated with the library's walk (other seeds).
@@ -452,4 +463,48 @@ fn stability_sweep() {
             }
         }
     }
+}
+
+/// The anisotropic furnace at the nodes of the correction table
+/// (`ANISO_CORRECTION`, random nodes with a fixed seed, roughness >= 0.05
+/// on both axes, any azimuth and cosine node): eval's albedo by quadrature
+/// (400 x 400 normals) against 1 with SINGLE's albedo from the same
+/// quadrature. Between nodes the interpolation of the correction leaves up
+/// to 1.3% (`white_furnace_anisotropic`); at the nodes only the
+/// generator's coarser quadrature (64 x 64), the clamp of the correction
+/// to [0.25, 4] and the unfinished Sinkhorn iteration (5 passes) remain:
+/// measured worst 0.0115 (Beckmann (1.74, 0.32) at mu 0.05), bounded at
+/// 1.5%.
+#[test]
+fn anisotropic_furnace_at_correction_nodes() {
+    use msbsdf::multiple::compensation::{aniso_grid_alpha, aniso_grid_mu, aniso_grid_phi};
+    use msbsdf::multiple::compensation_aniso_tables::{AN_A, AN_MU, AN_PHI};
+    let mut pick = Rng::new(2718, 2);
+    let mut report = String::new();
+    let mut worst: f64 = 0.0;
+    let mut n = 0;
+    while n < 16 {
+        let nd = (pick.next_u32() % 2) as usize;
+        let jx = (pick.next_u32() % AN_A as u32) as usize;
+        let jy = (pick.next_u32() % AN_A as u32) as usize;
+        let (ax, ay) = (aniso_grid_alpha(jx), aniso_grid_alpha(jy));
+        if jx == jy || ax < 0.05 || ay < 0.05 {
+            continue;
+        }
+        n += 1;
+        let k = (pick.next_u32() % AN_PHI as u32) as usize;
+        let i = (pick.next_u32() % AN_MU as u32) as usize;
+        let (mu, phi) = (aniso_grid_mu(i), aniso_grid_phi(k));
+        let st = (1.0 - mu * mu).max(0.0).sqrt();
+        let wi = Vec3::new(st * phi.cos(), st * phi.sin(), mu);
+        let m = mirror(NDFS[nd], ax, ay);
+        let q = albedo_quadrature(&m, wi, ax, ay, 0);
+        report += &format!(
+            "{:?} ({ax:.3}, {ay:.3}) phi {phi:.2} mu {mu:.3}: {q:.4}\n",
+            NDFS[nd]
+        );
+        worst = worst.max((q - 1.0).abs());
+    }
+    println!("{report}worst |albedo - 1| at the nodes = {worst:.4}");
+    assert!(worst < 0.015, "{report}");
 }

@@ -82,7 +82,7 @@ fn mu_coord(mu: f32) -> f32 {
 
 /// Table abscissa of alpha (the grid is uniform in sqrt(alpha / MAX_ALPHA)).
 #[inline]
-fn alpha_coord(alpha: f32) -> f32 {
+pub(crate) fn alpha_coord(alpha: f32) -> f32 {
     (alpha / MAX_ALPHA).clamp(0.0, 1.0).sqrt() * (t::ALPHA_N - 1) as f32
 }
 
@@ -125,11 +125,16 @@ pub fn aniso_grid_alpha(j: usize) -> f32 {
     MAX_ALPHA * s * s
 }
 
+/// A table on the grid of `CONDUCTOR_E_ANISO`:
+/// `[ndf][alpha_x][alpha_y][phi][mu]`.
+pub(crate) type AnisoTable = [[[[[f32; an::AN_MU]; an::AN_PHI]; an::AN_A]; an::AN_A]; 2];
+
 /// Anisotropic roughness: the single-scattering albedo with F = 1 read from
 /// the 4D table `compensation_aniso_tables` (bilinear in the two alphas,
 /// fixed per material, and in azimuth and mu per direction).
+/// Also read by `MSBSDF_MODEL_TABULATED` for anisotropic conductors.
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct Aniso {
+pub(crate) struct Aniso {
     ndf: usize,
     /// Lower alpha nodes and weights along x and y.
     jx: usize,
@@ -139,7 +144,8 @@ struct Aniso {
 }
 
 impl Aniso {
-    fn new(ndf: usize, ax: f32, ay: f32) -> Aniso {
+    /// The table for NDF index `ndf` (0 Beckmann, 1 GGX) at `(ax, ay)`.
+    pub(crate) fn new(ndf: usize, ax: f32, ay: f32) -> Aniso {
         let (jx, _, fx) = split(aniso_alpha_coord(ax), an::AN_A);
         let (jy, _, fy) = split(aniso_alpha_coord(ay), an::AN_A);
         Aniso {
@@ -153,8 +159,8 @@ impl Aniso {
 
     /// The table at (phi node `k`, mu node `i`), bilinear in the alphas.
     #[inline]
-    fn node(&self, k: usize, i: usize) -> f32 {
-        let e = &an::CONDUCTOR_E_ANISO[self.ndf];
+    fn node(&self, table: &AnisoTable, k: usize, i: usize) -> f32 {
+        let e = &table[self.ndf];
         let at = |jx: usize, jy: usize| e[jx][jy][k][i];
         lerp(
             lerp(at(self.jx, self.jy), at(self.jx, self.jy + 1), self.fy),
@@ -170,17 +176,34 @@ impl Aniso {
     /// Albedo seen from `w` (the table is even in `w.x` and `w.y`).
     #[inline]
     fn e(&self, w: Vec3) -> f32 {
+        self.read(&an::CONDUCTOR_E_ANISO, w)
+    }
+
+    /// Any table on the grid of `CONDUCTOR_E_ANISO`, even in `w.x` and
+    /// `w.y`, seen from `w`.
+    #[inline]
+    fn read(&self, table: &AnisoTable, w: Vec3) -> f32 {
+        let [v] = self.read_all([table], w);
+        v
+    }
+
+    /// [`Self::read`] of several tables on the same grid, sharing the
+    /// azimuth and cosine weights (also read by `MSBSDF_MODEL_TABULATED`).
+    #[inline]
+    pub(crate) fn read_all<const N: usize>(&self, tables: [&AnisoTable; N], w: Vec3) -> [f32; N] {
         let phi = w.y.abs().atan2(w.x.abs());
         let (k0, k1, fk) = split(
             phi / std::f32::consts::FRAC_PI_2 * (an::AN_PHI - 1) as f32,
             an::AN_PHI,
         );
         let (i0, i1, fi) = split(aniso_mu_coord(w.z.abs()), an::AN_MU);
-        lerp(
-            lerp(self.node(k0, i0), self.node(k0, i1), fi),
-            lerp(self.node(k1, i0), self.node(k1, i1), fi),
-            fk,
-        )
+        tables.map(|table| {
+            lerp(
+                lerp(self.node(table, k0, i0), self.node(table, k0, i1), fi),
+                lerp(self.node(table, k1, i0), self.node(table, k1, i1), fi),
+                fk,
+            )
+        })
     }
 
     /// `E_avg = (1 / pi) int E(w) cos dw` of exactly the interpolant `e`,
@@ -279,8 +302,14 @@ fn lerp(a: f32, b: f32, f: f32) -> f32 {
     a + (b - a) * f
 }
 
-/// Single-scattering albedo of a conductor with F = 1, bilinear in the
-/// tables, at alpha coordinate `alpha_c` and mu grid abscissa `x`.
+/// Single-scattering albedo of a conductor with F = 1, bilinear in the tables
+/// (`alpha_c` from [`alpha_coord`]); also read by `MSBSDF_MODEL_TABULATED`.
+#[inline]
+pub(crate) fn conductor_e(ndf: usize, alpha_c: f32, mu: f32) -> f32 {
+    conductor_e_at(ndf, alpha_c, mu_coord(mu))
+}
+
+/// [`conductor_e`] at the mu grid abscissa `x`.
 #[inline]
 fn conductor_e_at(ndf: usize, alpha_c: f32, x: f32) -> f32 {
     let (a0, a1, fa) = split(alpha_c, t::ALPHA_N);

@@ -70,12 +70,39 @@
 //!
 //! ## Anisotropic roughness
 //!
-//! The single-scattering term is exact. The multiply scattered term is read
-//! from the isotropic table at the effective roughness
-//! `alpha_eff = sqrt((alpha_wi^2 + alpha_wo^2) / 2)`, `alpha_w` the projected
-//! roughness of each direction's azimuth (Heitz 2016's `alpha_w`), which is
-//! symmetric in `wi` and `wo`, so the lobe stays reciprocal. Its error is
-//! reported separately in `docs/tabulated.md`.
+//! The single-scattering term is exact. The multiply scattered lobe of a
+//! strongly anisotropic surface is not the isotropic one under any map of
+//! directions: at (0.1, 0.6) it is peaked like the anisotropic
+//! single-scattering lobe (the walk's orders >= 2 are 10-16% of `f_ss1`
+//! over its peak, narrow across the smooth axis, wide along the rough one:
+//! double bounces across the rough axis keep the component along the
+//! smooth one), where the isotropic table has a broad lobe. It is
+//! therefore a blend, with the weight
+//! `beta = ANISO_PEAK (1 - (alpha_min / alpha_max)^2)` (0 when isotropic):
+//!
+//! `f_ms = (1 - beta) f_table sqrt(t(wi) t(wo)) + beta sqrt(b(wi) b(wo)) f_ss1(wi, wo)`,
+//! `b(w) = (1 - E(w)) / E(w)`, `t(w) = (1 - E(w)) / (1 - E_iso(alpha_w, mu_w))`,
+//!
+//! where `f_table` is the isotropic table read at the effective roughness
+//! `alpha_eff = sqrt((alpha_wi^2 + alpha_wo^2) / 2)` (`alpha_w` the
+//! projected roughness of each direction's azimuth, Heitz 2016's
+//! `alpha_w`) with its furnace scales at that roughness, `E(w)` is SINGLE's
+//! anisotropic albedo with F = 1 read from ENERGY_COMPENSATED's 4D table
+//! (`compensation::Aniso`) and `E_iso(alpha, mu)` its isotropic albedo
+//! table. The isotropic lobe at roughness `alpha_w` has the albedo
+//! `1 - E_iso(alpha_w, mu_w)`, so `t` moves each direction's energy to the
+//! anisotropic `1 - E(w)`; the peaked part has the albedo `1 - E(wi)` where
+//! `E(wo) = E(wi)` (over the peak of `f_ss1`, whose albedo is `E(wi)`). Both
+//! parts are symmetric in `wi` and `wo`, so the lobe stays reciprocal.
+//!
+//! The sum is then scaled by `sqrt(c(wi) c(wo))` with the furnace
+//! correction [`ANISO_CORRECTION`] `c(alpha_x, alpha_y, phi, mu)`, on the
+//! grid of ENERGY_COMPENSATED's anisotropic albedo table and read with its
+//! interpolation (`compensation::Aniso::read_all`): Sinkhorn steps of a
+//! symmetric scaling towards the albedo `1 - E(w)` at the grid nodes, by
+//! deterministic quadrature of the lobe (`gen_tabulated_aniso`). The
+//! furnace holds to 1.2% at the nodes and 1.3% between them (measured to
+//! 89 degrees), not 0.5% (`docs/tabulated.md`).
 //!
 //! ## Sampling
 //!
@@ -84,6 +111,9 @@
 //! albedo (clamped to `[0.02, 0.95]`). `pdf` returns exactly the mixture's
 //! density and the weight is `eval / pdf`.
 
+use super::bintable::decode5;
+use super::compensation::{self, Aniso, AnisoTable};
+use super::compensation_aniso_tables::CONDUCTOR_E_ANISO;
 use crate::bsdf::{Sample, ScatterModel};
 use crate::facet::Facet;
 use crate::frame::{flip_z, reflect};
@@ -128,6 +158,22 @@ pub const ALBEDO_LEN: usize = NDF_N * ALPHA_N * MU_N;
 pub const FRESNEL_LEN: usize = NDF_N * ALPHA_N * FRESNEL_Q;
 /// Total size of the table file in bytes.
 pub const FILE_BYTES: usize = HEADER_BYTES + 4 * (LOBE_LEN + ALBEDO_LEN + FRESNEL_LEN);
+
+/// Largest weight of the energy-split peaked lobe of anisotropic roughness
+/// (module docs): the weight is `ANISO_PEAK (1 - (alpha_min / alpha_max)^2)`,
+/// 0 for isotropic roughness. Fitted on the suite's (0.1, 0.6) materials
+/// (0.25: GGX 0.037, 0.35: 0.027, 0.45: 0.029) and checked against HEITZ
+/// walks at (0.2, 0.8), (0.05, 0.3) and (0.6, 0.1) (`docs/tabulated.md`).
+pub const ANISO_PEAK: f32 = 0.35;
+
+/// The anisotropic furnace correction `c(alpha_x, alpha_y, phi, mu)` on the
+/// grid of ENERGY_COMPENSATED's anisotropic albedo table
+/// (`compensation_aniso_tables`): `(1 - E(w)) / A(w)` with `E` that table
+/// and `A` the multiply scattered albedo with F = 1 of the uncorrected
+/// anisotropic lobe by deterministic quadrature; the lobe is scaled by
+/// `sqrt(c(wi) c(wo))`. `data/tabulated_aniso.bin`, written by
+/// `cargo run --release --example gen_tabulated_aniso`.
+pub static ANISO_CORRECTION: AnisoTable = decode5(include_bytes!("../../data/tabulated_aniso.bin"));
 
 /// Roughness nodes of the furnace scale table (uniform in
 /// `sqrt(alpha / MAX_ALPHA)`, the first is 0).
@@ -196,8 +242,22 @@ pub fn alpha_coord(alpha: f32) -> f32 {
 #[inline]
 pub fn split(x: f32, n: usize) -> (usize, usize, f32) {
     let x = x.clamp(0.0, (n - 1) as f32);
-    let i = (x as usize).min(n - 2);
+    // x >= 0 (or NaN, which casts to 0): truncation is the floor, and an
+    // i32 cast is cheaper than a saturating usize one.
+    let i = ((x as i32) as usize).min(n - 2);
     (i, i + 1, x - i as f32)
+}
+
+/// The table values at `i`, `i + 1`, `i + ROW` and `i + ROW + 1` (two
+/// adjacent nodes in two adjacent rows) with one bounds check; `SPAN` must
+/// be `ROW + 2` (a smaller one does not compile). Zeros outside the table,
+/// which the grid splits never reach.
+#[inline]
+fn square<const ROW: usize, const SPAN: usize>(table: &[f32], i: usize) -> [f32; 4] {
+    match table.get(i..).and_then(|s| s.first_chunk::<SPAN>()) {
+        Some(c) => [c[0], c[1], c[ROW], c[ROW + 1]],
+        None => [0.0; 4],
+    }
 }
 
 /// Index of the first float of a lobe cell.
@@ -322,7 +382,8 @@ pub fn ndf_index(kind: NdfKind) -> Option<usize> {
     }
 }
 
-/// The multiply scattered lobe with F = 1 at a table point given
+/// The multiply scattered lobe with F = 1 at a table point given the
+/// roughness nodes and weight from [`split`] (upper node = lower + 1),
 /// `sqrt(mu_i)` and `sqrt(mu_o)` (in `[0, 1]`):
 /// `(smooth part, B, [r2, r3, r4])`; the lobe is
 /// `smooth + B f_ss1` with `f_ss1` the single-scattering BSDF with F = 1
@@ -335,22 +396,46 @@ pub fn lookup(
     root_mu_o: f32,
     cos_phi: f32,
 ) -> (f32, f32, [f32; 3]) {
+    let (i0, _, fi) = split(root_mu_i * (MU_N - 1) as f32, MU_N);
+    let (j0, _, fj) = split(root_mu_o * (MU_N - 1) as f32, MU_N);
+    lookup_nodes(ndf, alpha, (i0, fi), (j0, fj), cos_phi)
+}
+
+/// [`lookup`] given the lower cosine nodes and weights from [`split`].
+#[inline]
+fn lookup_nodes(
+    ndf: usize,
+    alpha: (usize, usize, f32),
+    (i0, fi): (usize, f32),
+    (j0, fj): (usize, f32),
+    cos_phi: f32,
+) -> (f32, f32, [f32; 3]) {
     const _: () = assert!(
         CELL == 8 && K_STORED == 4,
         "lookup reads a cell as two Vec4"
     );
+    // split gives upper nodes one above the lower ones, so the eight cells
+    // (a0 + da, i0 + di, j0 + dj) lie at constant offsets from the first:
+    // one bounds check for all of them.
+    const SPAN: usize = lobe_index(0, 1, 1, 2);
+    const DA: usize = lobe_index(0, 1, 0, 0);
+    const DI: usize = lobe_index(0, 0, 1, 0);
     let (a0, a1, fa) = alpha;
-    let (i0, i1, fi) = split(root_mu_i * (MU_N - 1) as f32, MU_N);
-    let (j0, j1, fj) = split(root_mu_o * (MU_N - 1) as f32, MU_N);
+    debug_assert!(a1 == a0 + 1);
+    let Some(c) = LOBE
+        .get(lobe_index(ndf, a0, i0, j0)..)
+        .and_then(|s| s.first_chunk::<SPAN>())
+    else {
+        return (0.0, 0.0, [0.0; 3]);
+    };
     let (mut lo, mut hi) = (Vec4::ZERO, Vec4::ZERO);
-    for (a, wa) in [(a0, 1.0 - fa), (a1, fa)] {
-        for (i, wi) in [(i0, 1.0 - fi), (i1, fi)] {
-            let (b0, b1) = (lobe_index(ndf, a, i, j0), lobe_index(ndf, a, i, j1));
+    for (oa, wa) in [(0, 1.0 - fa), (DA, fa)] {
+        for (oi, wi) in [(0, 1.0 - fi), (DI, fi)] {
+            let o = oa + oi;
             let (w0, w1) = (wa * wi * (1.0 - fj), wa * wi * fj);
-            lo +=
-                Vec4::from_slice(&LOBE[b0..b0 + 4]) * w0 + Vec4::from_slice(&LOBE[b1..b1 + 4]) * w1;
-            hi += Vec4::from_slice(&LOBE[b0 + 4..b0 + 8]) * w0
-                + Vec4::from_slice(&LOBE[b1 + 4..b1 + 8]) * w1;
+            let v = |k: usize| Vec4::new(c[o + k], c[o + k + 1], c[o + k + 2], c[o + k + 3]);
+            lo += v(0) * w0 + v(CELL) * w1;
+            hi += v(4) * w0 + v(CELL + 4) * w1;
         }
     }
     // sum_k c_k cos(k phi): cos 2 phi = 2 c^2 - 1, cos 3 phi = (4 c^2 - 3) c.
@@ -447,12 +532,21 @@ pub struct Tabulated {
     alpha: (usize, usize, f32),
     /// Scale-table roughness nodes and weight (isotropic materials).
     scale_alpha: (usize, usize, f32),
-    anisotropic: bool,
+    /// Anisotropic roughness: SINGLE's albedo table and the weight of the
+    /// energy-split peaked lobe (see [`ANISO_PEAK`]).
+    aniso: Option<(Aniso, f32)>,
+    /// Whether the anisotropic lobe is scaled by [`ANISO_CORRECTION`]
+    /// (off only for the table generator).
+    aniso_corrected: bool,
     /// Effective Fresnel reflectance of inter-reflections per channel.
     fbar: Vec3,
     /// The reflectance against the Schlick weight, for the first and last
     /// facets.
     fresnel_curve: FresnelCurve,
+    /// `(eta^2 - k^2, 4 eta^2 k^2)` per channel for the closed-form
+    /// Fresnel factor of the single-scattering term in SIMD lanes (`None`:
+    /// the perfect reflector, F = 1).
+    fresnel_lanes: Option<(Vec3A, Vec3A)>,
 }
 
 /// The exact Fresnel reflectance of a conductor as a piecewise linear
@@ -506,24 +600,58 @@ impl Tabulated {
     pub fn new(ndf: Ndf, facet: Facet) -> Self {
         let ndf_index = ndf_index(ndf.kind).unwrap_or(1);
         let alpha_rms = (0.5 * (ndf.alpha_x * ndf.alpha_x + ndf.alpha_y * ndf.alpha_y)).sqrt();
-        let alpha_c = alpha_coord(alpha_rms);
-        let alpha = split(alpha_c, ALPHA_N);
+        // sqrt(alpha / MAX_ALPHA), the coordinate of both tables (one root
+        // for alpha_coord and scale_alpha_coord).
+        let root = (alpha_rms / MAX_ALPHA).clamp(0.0, 1.0).sqrt();
+        let alpha = split(root * (ALPHA_N - 1) as f32, ALPHA_N);
         // The exact Fresnel at the three quantile cosines of the facets of
         // multiply scattered paths, against the Schlick weight w = (1 - c)^5.
         let mut curve = [(0.0f32, Vec3::ONE); FRESNEL_Q];
+        let mut fresnel_lanes = None;
         if let Facet::Conductor { eta, k } = facet {
             let (a0, a1, fa) = alpha;
             let (q0, q1) = (fresnel_index(ndf_index, a0), fresnel_index(ndf_index, a1));
+            // The three channels in one SIMD lane vector per cosine.
+            let (eta2, k2) = (Vec3A::from(eta * eta), Vec3A::from(k * k));
+            let (e2k2, four_e2k2) = (eta2 - k2, 4.0 * eta2 * k2);
+            if !(eta == Vec3::ZERO && k == Vec3::ONE) {
+                fresnel_lanes = Some((e2k2, four_e2k2));
+            }
+            let cells = |q: usize| {
+                FRESNEL_COS
+                    .get(q..)
+                    .and_then(|s| s.first_chunk::<FRESNEL_Q>())
+                    .copied()
+                    .unwrap_or([1.0; FRESNEL_Q])
+            };
+            let (c0, c1) = (cells(q0), cells(q1));
+            let mut sum = Vec3A::ZERO;
             for (q, point) in curve.iter_mut().enumerate() {
-                let c = FRESNEL_COS[q0 + q] * (1.0 - fa) + FRESNEL_COS[q1 + q] * fa;
-                *point = (
-                    (1.0 - c).max(0.0).powi(5),
-                    fresnel::conductor_rgb(c, eta, k),
-                );
+                let c = (c0[q] + (c1[q] - c0[q]) * fa).clamp(0.0, 1.0);
+                let f = fresnel::conductor_closed_form(Vec3A::splat(c), e2k2, four_e2k2);
+                sum += f;
+                let w = 1.0 - c;
+                let w2 = w * w;
+                *point = (w2 * w2 * w, Vec3::from(f.clamp(Vec3A::ZERO, Vec3A::ONE)));
+            }
+            // One finiteness test for the three; the complex form where
+            // the closed form is 0 / 0 (c = 0 with k = 0).
+            if !sum.is_finite() {
+                for (q, point) in curve.iter_mut().enumerate() {
+                    let c = (c0[q] + (c1[q] - c0[q]) * fa).clamp(0.0, 1.0);
+                    point.1 = fresnel::conductor_rgb(c, eta, k);
+                }
             }
         }
         let fbar = (curve[0].1 + curve[1].1 + curve[2].1) * (1.0 / FRESNEL_Q as f32);
-        let anisotropic = ndf.alpha_x != ndf.alpha_y;
+        let aniso = (ndf.alpha_x != ndf.alpha_y).then(|| {
+            let (lo, hi) = (ndf.alpha_x.min(ndf.alpha_y), ndf.alpha_x.max(ndf.alpha_y));
+            let r = lo / hi;
+            (
+                Aniso::new(ndf_index, ndf.alpha_x, ndf.alpha_y),
+                ANISO_PEAK * (1.0 - r * r),
+            )
+        });
         let sbar = SBAR[ndf_index * ALPHA_N + alpha.0] * (1.0 - alpha.2)
             + SBAR[ndf_index * ALPHA_N + alpha.1] * alpha.2;
         let fresnel_curve = FresnelCurve::new(curve, fbar, sbar);
@@ -533,9 +661,37 @@ impl Tabulated {
             ndf_index,
             alpha,
             fresnel_curve,
-            scale_alpha: split(scale_alpha_coord(alpha_rms), SCALE_ALPHA_N),
-            anisotropic,
+            scale_alpha: split(root * (SCALE_ALPHA_N - 1) as f32, SCALE_ALPHA_N),
+            aniso,
+            aniso_corrected: true,
             fbar,
+            fresnel_lanes,
+        }
+    }
+
+    /// The model without the anisotropic furnace correction
+    /// [`ANISO_CORRECTION`] (what `gen_tabulated_aniso` integrates).
+    pub fn without_aniso_correction(self) -> Self {
+        Tabulated {
+            aniso_corrected: false,
+            ..self
+        }
+    }
+
+    /// The conductor's Fresnel factor at the cosine `c` ([`Facet::conductor_fresnel`]
+    /// through the shared closed form in SIMD lanes, with the squares of
+    /// the index precomputed).
+    #[inline]
+    fn fresnel(&self, c: f32) -> Vec3 {
+        let Some((e2k2, four_e2k2)) = self.fresnel_lanes else {
+            return Vec3::ONE;
+        };
+        let c = c.clamp(0.0, 1.0);
+        let f = fresnel::conductor_closed_form(Vec3A::splat(c), e2k2, four_e2k2);
+        if f.is_finite() {
+            Vec3::from(f.clamp(Vec3A::ZERO, Vec3A::ONE))
+        } else {
+            self.facet.conductor_fresnel(c)
         }
     }
 
@@ -548,17 +704,16 @@ impl Tabulated {
     /// pair of directions.
     #[inline]
     fn alpha_and_scale(&self, wi: Vec3, wo: Vec3, ri: f32, ro: f32) -> ((usize, usize, f32), f32) {
-        if !self.anisotropic {
+        if self.aniso.is_none() {
             let (s0, s1, fs) = self.scale_alpha;
-            let (r0, r1) = (
-                scale_index(self.ndf_index, s0, 0),
-                scale_index(self.ndf_index, s1, 0),
-            );
+            // split: s1 = s0 + 1, the next row of the table.
+            debug_assert!(s1 == s0 + 1);
+            let r0 = scale_index(self.ndf_index, s0, 0);
             let row = |r: f32| {
-                let (i0, i1, f) = split(r * (SCALE_MU_N - 1) as f32, SCALE_MU_N);
-                let v0 = SCALE[r0 + i0] * (1.0 - f) + SCALE[r0 + i1] * f;
-                let v1 = SCALE[r1 + i0] * (1.0 - f) + SCALE[r1 + i1] * f;
-                v0 * (1.0 - fs) + v1 * fs
+                let (i0, _, f) = split(r * (SCALE_MU_N - 1) as f32, SCALE_MU_N);
+                let [a0, a1, b0, b1] = square::<SCALE_MU_N, { SCALE_MU_N + 2 }>(&SCALE, r0 + i0);
+                let (v0, v1) = (a0 + (a1 - a0) * f, b0 + (b1 - b0) * f);
+                v0 + (v1 - v0) * fs
             };
             return (self.alpha, row(ri) * row(ro));
         }
@@ -580,26 +735,64 @@ impl Tabulated {
     fn multiple(&self, wi: Vec3, wo: Vec3, ss1: f32) -> Vec3 {
         let (ri, ro) = (wi.z.min(1.0).sqrt(), wo.z.min(1.0).sqrt());
         let (alpha, s) = self.alpha_and_scale(wi, wo, ri, ro);
-        let (f, peak, r) = lookup(self.ndf_index, alpha, ri, ro, cos_phi(wi, wo));
+        let nodes = |r: f32| {
+            let (n0, _, f) = split(r * (MU_N - 1) as f32, MU_N);
+            (n0, f)
+        };
+        let (ni, no) = (nodes(ri), nodes(ro));
+        let (f, peak, r) = lookup_nodes(self.ndf_index, alpha, ni, no, cos_phi(wi, wo));
         let b = Vec3A::from(self.fbar);
         // First and last facets: the reflectance at the cosines seen from
         // mu_i and mu_o (Schlick-shaped deviation from fbar).
-        let fe = |r: f32| {
-            let (i0, i1, fi) = split(r * (MU_N - 1) as f32, MU_N);
-            let (a0, a1, fa) = alpha;
-            let at = |a| {
-                let base = albedo_index(self.ndf_index, a, 0);
-                FIRST[base + i0] * (1.0 - fi) + FIRST[base + i1] * fi
-            };
-            let sf = at(a0) * (1.0 - fa) + at(a1) * fa;
+        let fe = |(i0, fi): (usize, f32)| {
+            let (a0, _, fa) = alpha;
+            let [u0, u1, v0, v1] =
+                square::<MU_N, { MU_N + 2 }>(&FIRST, albedo_index(self.ndf_index, a0, i0));
+            let (s0, s1) = (u0 + (u1 - u0) * fi, v0 + (v1 - v0) * fi);
+            let sf = s0 + (s1 - s0) * fa;
             self.fresnel_curve.at(sf).clamp(Vec3A::ZERO, Vec3A::ONE)
         };
         let r5 = (1.0 - r[0] - r[1] - r[2]).max(0.0);
-        let tint = fe(ri) * fe(ro) * (b * (b * (b * r5 + r[2]) + r[1]) + r[0]);
+        let tint = fe(ni) * fe(no) * (b * (b * (b * r5 + r[2]) + r[1]) + r[0]);
         // The smooth part is clamped at 0 (its cosine series can dip below 0
         // next to a strong peaked part); the scale table integrates the
         // clamped series, so the furnace holds with the clamp.
-        Vec3::from(tint * ((f.max(0.0) * wo.z + peak * ss1) * s))
+        let table = (f.max(0.0) * wo.z + peak * ss1) * s;
+        let value = match &self.aniso {
+            None => table,
+            Some((e, beta)) => {
+                // Energy-split peaked lobe: sqrt(b_i b_o) f_ss1 with
+                // b = (1 - E) / E has the albedo 1 - E(wi) where E(wo)
+                // is close to E(wi) (the peak of f_ss1); symmetric.
+                let (ax2, ay2) = (
+                    self.ndf.alpha_x * self.ndf.alpha_x,
+                    self.ndf.alpha_y * self.ndf.alpha_y,
+                );
+                // Per direction: b, t and the correction c (one read of
+                // the albedo and correction tables with shared weights).
+                let factors = |w: Vec3| {
+                    let [e_w, c] = e.read_all([&CONDUCTOR_E_ANISO, &ANISO_CORRECTION], w);
+                    let e_w = e_w.clamp(0.05, 1.0);
+                    let a = alpha_proj2(ax2, ay2, w).sqrt();
+                    let e_iso = compensation::conductor_e(
+                        self.ndf_index,
+                        compensation::alpha_coord(a),
+                        w.z,
+                    )
+                    .min(0.999);
+                    let c = if self.aniso_corrected { c } else { 1.0 };
+                    (
+                        (1.0 - e_w) / e_w,
+                        ((1.0 - e_w) / (1.0 - e_iso)).clamp(0.25, 4.0),
+                        c,
+                    )
+                };
+                let ((bi, ti, ci), (bo, to, co)) = (factors(wi), factors(wo));
+                let lobe = (1.0 - beta) * table * (ti * to).sqrt() + beta * (bi * bo).sqrt() * ss1;
+                lobe * (ci * co).sqrt()
+            }
+        };
+        Vec3::from(tint * value)
     }
 
     /// Weight of the cosine lobe in the sampling mixture for `mu_i`.
@@ -623,11 +816,7 @@ impl Tabulated {
         let li = self.ndf.lambda(wi);
         let lo = self.ndf.lambda(wo);
         let base = d / (4.0 * wi.z);
-        (
-            base / (1.0 + li + lo),
-            self.facet.conductor_fresnel(ci),
-            base / (1.0 + li),
-        )
+        (base / (1.0 + li + lo), self.fresnel(ci), base / (1.0 + li))
     }
 
     /// The visible-normal pdf of `wo` alone (what [`Self::single_terms`]
