@@ -298,7 +298,9 @@ fn shared_build_runs_through_rpath_and_fails_without() {
 }
 
 /// The installed shared object carries no debug info (issue 14: 6.1 MB with
-/// it, 1.5 MB stripped): no `.debug_info` section and below 2.5 MB.
+/// it, 1.5 MB stripped): no `.debug_info` section, and below the 5 MB that
+/// issue 16 allows the library with its TABULATED tables (4.97 MB since the
+/// dielectric and anisotropic tables; 2.0 MB before them).
 #[test]
 fn installed_shared_object_is_stripped() {
     let real = prefix().join(format!("lib/libmsbsdf.so.{}", version()));
@@ -309,5 +311,5 @@ fn installed_shared_object_is_stripped() {
     );
     let size = std::fs::metadata(&real).expect("installed .so").len();
     println!("installed libmsbsdf.so: {size} bytes");
-    assert!(size < 2_500_000, "installed .so is {size} bytes");
+    assert!(size < 5_000_000, "installed .so is {size} bytes");
 }
