@@ -382,13 +382,15 @@ typedef struct msbsdf_material_desc {
   /**
    * `MSBSDF_MODEL_AUTO`: largest acceptable relative error (relative RMS
    * error of f against the converged HEITZ_RANDOM_WALK over the
-   * measurement suite). The default 0.1 picks analytic models for
-   * conductors (SINGLE up to alpha 0.3, TABULATED above: 85-135 ns per
-   * eval) and SINGLE for glass up to alpha 0.5, HEITZ_RANDOM_WALK
-   * averaged over 8 evaluations (about 7 us) for rougher glass; 0.01
-   * picks TABULATED for GGX conductors and walks averaged over hundreds
-   * to thousands of evaluations elsewhere (0.1 to 2 ms per eval): for
-   * references, not frames.
+   * measurement suite). The default 0.1 picks analytic models only:
+   * SINGLE up to alpha 0.3 for conductors and 0.5 for glass, TABULATED
+   * above (about 2x SINGLE's cost); 0.02 picks TABULATED for every
+   * conductor and for glass from alpha 0.3 (relative errors about 0.02
+   * for conductors, 0.006 for glass); 0.01 keeps TABULATED for GGX
+   * conductors and glass up to alpha 0.5 and picks walks averaged over
+   * hundreds to thousands of evaluations (0.1 to 2 ms per eval) for
+   * Beckmann conductors below alpha 1 and rougher glass: for references,
+   * not frames.
    */
   float tolerance;
   /**

@@ -106,7 +106,7 @@ fn auto_tolerance_001_meets_it_on_every_suite_material() {
                     "{name}: {:?}/{:?} x{} table error {:.4} measured {e:.4} (bound {hi:.4}), {:.0} ns",
                     c.model, c.estimator, c.evaluations, c.error, c.ns
                 );
-                // The table's errors are upper confidence values (3 standard
+                // The table's errors are upper confidence values (4 standard
                 // errors on the squared bias and on the variance), so a
                 // fresh estimate with other random numbers stays below the
                 // tolerance, and so does its upper bound `hi` (4 standard
