@@ -324,3 +324,56 @@ fn warp_roundtrip() {
         assert!((u - u2).abs() < 1e-9 && (v - v2).abs() < 1e-9);
     }
 }
+
+/// Relative RMS error `sqrt(sum (f - ref)^2 / sum ref^2)` of `Material::eval`
+/// per suite material of `class` (`"conductor"` or `"dielectric"`) against
+/// `data/reference_values.csv` (converged HEITZ walks, the speed-accuracy
+/// harness's measure): `(name, description, error)` in file order. `desc_of`
+/// builds a material's description from a row (`num(column)` reads a numeric
+/// column) and its NDF.
+pub fn suite_errors(
+    class: &str,
+    desc_of: impl Fn(&dyn Fn(&str) -> f32, msbsdf::NdfId) -> msbsdf::MaterialDesc,
+) -> Vec<(String, msbsdf::MaterialDesc, f64)> {
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/data/reference_values.csv"
+    ))
+    .expect("reference values");
+    let mut header: Vec<&str> = Vec::new();
+    let mut mats: Vec<(String, msbsdf::MaterialDesc, f64, f64)> = Vec::new();
+    for line in text.lines().filter(|l| !l.starts_with('#')) {
+        if header.is_empty() {
+            header = line.split(',').collect();
+            continue;
+        }
+        let f: Vec<&str> = line.split(',').collect();
+        let col = |name: &str| f[header.iter().position(|h| *h == name).expect("column")];
+        let num = |name: &str| col(name).parse::<f32>().expect("number");
+        if col("class") != class {
+            continue;
+        }
+        let ndf = if col("ndf") == "ggx" {
+            msbsdf::NdfId::Ggx
+        } else {
+            msbsdf::NdfId::Beckmann
+        };
+        let name = col("material").to_string();
+        if mats.last().map(|m| &m.0) != Some(&name) {
+            mats.push((name, desc_of(&num, ndf), 0.0, 0.0));
+        }
+        let m = msbsdf::Material::new(&mats.last().expect("material").1).expect("valid");
+        let wi = Vec3::new(num("wi_x"), num("wi_y"), num("wi_z"));
+        let wo = Vec3::new(num("wo_x"), num("wo_y"), num("wo_z"));
+        let v = m.eval(wi, wo, &mut Rng::new(0, 0));
+        let last = mats.last_mut().expect("material");
+        for (c, r) in ["ref_r", "ref_g", "ref_b"].iter().enumerate() {
+            let r = num(r) as f64;
+            last.2 += (v[c] as f64 - r).powi(2);
+            last.3 += r * r;
+        }
+    }
+    mats.into_iter()
+        .map(|(name, d, num, den)| (name, d, (num / den).sqrt()))
+        .collect()
+}
