@@ -77,7 +77,7 @@ pub struct Single {
 /// square roots, every denominator positive for directions above the
 /// surface (`den >= min(alpha^2, 1) |H|^2`, `q >= min(alpha, 1)`).
 #[inline(always)]
-fn iso_ggx_reflection(a2: f32, wi: Vec3, wo: Vec3) -> (f32, f32, f32) {
+pub(crate) fn iso_ggx_reflection(a2: f32, wi: Vec3, wo: Vec3) -> (f32, f32, f32) {
     let hv = wi + wo;
     let hxy = hv.x * hv.x + hv.y * hv.y;
     let hh = hxy + hv.z * hv.z;

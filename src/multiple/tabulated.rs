@@ -120,6 +120,7 @@ use crate::frame::{flip_z, reflect};
 use crate::fresnel;
 use crate::ndf::{Ndf, NdfKind};
 use crate::rng::Rng;
+use crate::single::iso_ggx_reflection;
 use glam::{Vec3, Vec3A, Vec4};
 use std::f32::consts::PI;
 
@@ -546,7 +547,10 @@ pub struct Tabulated {
     /// `(eta^2 - k^2, 4 eta^2 k^2)` per channel for the closed-form
     /// Fresnel factor of the single-scattering term in SIMD lanes (`None`:
     /// the perfect reflector, F = 1).
-    fresnel_lanes: Option<(Vec3A, Vec3A)>,
+    fresnel_lanes: Option<fresnel::ConductorLanes>,
+    /// `alpha^2` of an isotropic GGX material: its single-scattering term
+    /// takes SINGLE's closed form (`single::iso_ggx_reflection`).
+    iso_ggx_a2: Option<f32>,
 }
 
 /// The exact Fresnel reflectance of a conductor as a piecewise linear
@@ -615,7 +619,7 @@ impl Tabulated {
             let (eta2, k2) = (Vec3A::from(eta * eta), Vec3A::from(k * k));
             let (e2k2, four_e2k2) = (eta2 - k2, 4.0 * eta2 * k2);
             if !(eta == Vec3::ZERO && k == Vec3::ONE) {
-                fresnel_lanes = Some((e2k2, four_e2k2));
+                fresnel_lanes = Some(fresnel::ConductorLanes::new(eta, k));
             }
             let cells = |q: usize| {
                 FRESNEL_COS
@@ -666,6 +670,8 @@ impl Tabulated {
             aniso_corrected: true,
             fbar,
             fresnel_lanes,
+            iso_ggx_a2: (ndf.kind == NdfKind::Ggx && ndf.alpha_x == ndf.alpha_y)
+                .then_some(ndf.alpha_x * ndf.alpha_x),
         }
     }
 
@@ -683,15 +689,9 @@ impl Tabulated {
     /// the index precomputed).
     #[inline]
     fn fresnel(&self, c: f32) -> Vec3 {
-        let Some((e2k2, four_e2k2)) = self.fresnel_lanes else {
-            return Vec3::ONE;
-        };
-        let c = c.clamp(0.0, 1.0);
-        let f = fresnel::conductor_closed_form(Vec3A::splat(c), e2k2, four_e2k2);
-        if f.is_finite() {
-            Vec3::from(f.clamp(Vec3A::ZERO, Vec3A::ONE))
-        } else {
-            self.facet.conductor_fresnel(c)
+        match (&self.fresnel_lanes, self.facet) {
+            (Some(l), Facet::Conductor { eta, k }) => l.eval(c, eta, k),
+            _ => Vec3::ONE,
         }
     }
 
@@ -807,6 +807,15 @@ impl Tabulated {
     /// `pdf = D_wi(h) / (4 wi.h) = G1(wi) D(h) / (4 wi.z)`.
     #[inline]
     fn single_terms(&self, wi: Vec3, wo: Vec3) -> (f32, Vec3, f32) {
+        if let Some(a2) = self.iso_ggx_a2 {
+            let (_, f, p) = iso_ggx_reflection(a2, wi, wo);
+            if self.fresnel_lanes.is_none() {
+                return (f, Vec3::ONE, p);
+            }
+            // wi.H = 1 + wi.wo > 0 for two directions above.
+            let hv = wi + wo;
+            return (f, self.fresnel(wi.dot(hv) / hv.length()), p);
+        }
         let h = (wi + wo).normalize_or_zero();
         let ci = wi.dot(h);
         if ci <= 0.0 || h.z <= 0.0 {
@@ -823,6 +832,9 @@ impl Tabulated {
     /// returns last, without `Lambda(wo)` and the Fresnel factor).
     #[inline]
     fn vndf_pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
+        if let Some(a2) = self.iso_ggx_a2 {
+            return iso_ggx_reflection(a2, wi, wo).2;
+        }
         let h = (wi + wo).normalize_or_zero();
         if wi.dot(h) <= 0.0 || h.z <= 0.0 {
             return 0.0;
