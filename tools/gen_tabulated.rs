@@ -36,7 +36,6 @@ use msbsdf::multiple::tabulated::{
 use msbsdf::ndf::{Ndf, NdfKind};
 use msbsdf::single::{G2Form, Single};
 use std::f64::consts::PI;
-use std::io::Write as _;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 const NDFS: [NdfKind; NDF_N] = [NdfKind::Beckmann, NdfKind::Ggx];
@@ -368,6 +367,31 @@ fn parallel<J: Sync, R: Send>(
     parts.sort_by_key(|p| p.0);
     parts.into_iter().map(|p| p.1).collect()
 }
+/// Writes a table file: the text `header` (which must start with `magic`)
+/// padded with zeros to `header_bytes`, then `values` as little-endian f32;
+/// the file must come to `file_bytes` (the layout the library's `const`
+/// assertions check).
+fn write_table(
+    out: &str,
+    header: &str,
+    magic: &[u8],
+    header_bytes: usize,
+    file_bytes: usize,
+    values: impl IntoIterator<Item = f32>,
+) {
+    eprint!("{header}");
+    let mut bytes = Vec::with_capacity(file_bytes);
+    bytes.extend_from_slice(header.as_bytes());
+    assert!(bytes.len() <= header_bytes, "header too long");
+    assert!(bytes.starts_with(magic));
+    bytes.resize(header_bytes, 0);
+    for v in values {
+        bytes.extend_from_slice(&v.to_le_bytes());
+    }
+    assert_eq!(bytes.len(), file_bytes);
+    std::fs::write(out, &bytes).expect("write output");
+    eprintln!("wrote {out} ({} bytes)", bytes.len());
+}
 
 fn git_commit() -> String {
     let run = |args: &[&str]| {
@@ -586,18 +610,14 @@ fn scale_main(args: &[String]) {
         git_commit(),
         t0.elapsed().as_secs_f64(),
     );
-    eprint!("{header}");
-    let mut bytes = Vec::with_capacity(SCALE_FILE_BYTES);
-    bytes.extend_from_slice(header.as_bytes());
-    assert!(bytes.len() <= HEADER_BYTES, "header too long");
-    assert!(bytes.starts_with(SCALE_MAGIC));
-    bytes.resize(HEADER_BYTES, 0);
-    for v in scale.iter().chain(&first).chain(&sbar) {
-        bytes.extend_from_slice(&v.to_le_bytes());
-    }
-    assert_eq!(bytes.len(), SCALE_FILE_BYTES);
-    std::fs::write(&out, &bytes).expect("write output");
-    eprintln!("wrote {out} ({} bytes)", bytes.len());
+    write_table(
+        &out,
+        &header,
+        SCALE_MAGIC,
+        HEADER_BYTES,
+        SCALE_FILE_BYTES,
+        scale.iter().chain(&first).chain(&sbar).copied(),
+    );
 }
 
 fn main() {
@@ -951,22 +971,17 @@ fn finish(
         },
         t0.elapsed().as_secs_f64(),
     );
-    eprint!("{header}");
-    let mut bytes = Vec::with_capacity(FILE_BYTES);
-    bytes.extend_from_slice(header.as_bytes());
-    assert!(bytes.len() <= HEADER_BYTES, "header too long");
-    assert!(bytes.starts_with(MAGIC));
-    bytes.resize(HEADER_BYTES, 0);
-    for v in lobe.iter().chain(albedo.iter()) {
-        bytes.extend_from_slice(&(*v as f32).to_le_bytes());
-    }
-    for v in &fresnel {
-        bytes.extend_from_slice(&v.to_le_bytes());
-    }
-    assert_eq!(bytes.len(), FILE_BYTES);
-    let mut f = std::fs::File::create(out).expect("create output");
-    f.write_all(&bytes).expect("write output");
-    eprintln!("wrote {out} ({} bytes)", bytes.len());
+    write_table(
+        out,
+        &header,
+        MAGIC,
+        HEADER_BYTES,
+        FILE_BYTES,
+        lobe.iter()
+            .chain(albedo.iter())
+            .map(|v| *v as f32)
+            .chain(fresnel.iter().copied()),
+    );
 }
 
 /// `--dielectric`: the dielectric table `data/tabulated_dielectric.bin`
@@ -978,6 +993,7 @@ fn finish(
 /// (`project_exit`) per lobe (reflection, transmission). SINGLE's reflected
 /// plus transmitted albedo `E_ss` by quadrature gives the furnace targets.
 mod dielectric {
+    use super::write_table;
     use super::{
         CONDUCTOR_F1, K_FIT, NDFS, RIDGE, arg, dir, fit_node, git_commit, gram_entries, node_mu,
         parallel, sinkhorn,
@@ -1395,18 +1411,14 @@ mod dielectric {
             git_commit(),
             t0.elapsed().as_secs_f64(),
         );
-        eprint!("{head}");
-        let mut bytes = Vec::with_capacity(SCALE_FILE_BYTES);
-        bytes.extend_from_slice(head.as_bytes());
-        assert!(bytes.len() <= HEADER_BYTES, "header too long");
-        assert!(bytes.starts_with(SCALE_MAGIC));
-        bytes.resize(HEADER_BYTES, 0);
-        for v in &scale {
-            bytes.extend_from_slice(&v.to_le_bytes());
-        }
-        assert_eq!(bytes.len(), SCALE_FILE_BYTES);
-        std::fs::write(&out, &bytes).expect("write output");
-        eprintln!("wrote {out} ({} bytes)", bytes.len());
+        write_table(
+            &out,
+            &head,
+            SCALE_MAGIC,
+            HEADER_BYTES,
+            SCALE_FILE_BYTES,
+            scale.iter().copied(),
+        );
     }
 
     /// Mean of two estimates weighted by the (hat-weighted) numbers of
@@ -1672,18 +1684,14 @@ mod dielectric {
             },
             t0.elapsed().as_secs_f64(),
         );
-        eprint!("{header}");
-        let mut bytes = Vec::with_capacity(FILE_BYTES);
-        bytes.extend_from_slice(header.as_bytes());
-        assert!(bytes.len() <= HEADER_BYTES, "header too long");
-        assert!(bytes.starts_with(MAGIC));
-        bytes.resize(HEADER_BYTES, 0);
-        for v in lobe.iter().chain(albedo.iter()) {
-            bytes.extend_from_slice(&(*v as f32).to_le_bytes());
-        }
-        assert_eq!(bytes.len(), FILE_BYTES);
-        std::fs::write(&out, &bytes).expect("write output");
-        eprintln!("wrote {out} ({} bytes)", bytes.len());
+        write_table(
+            &out,
+            &header,
+            MAGIC,
+            HEADER_BYTES,
+            FILE_BYTES,
+            lobe.iter().chain(albedo.iter()).map(|v| *v as f32),
+        );
     }
 
     /// A suite material: name, NDF, roughness, index and its pairs
