@@ -29,9 +29,9 @@ use msbsdf::multiple::heitz::{Heitz, default_max_bounces};
 use msbsdf::multiple::tabulated::{
     ALBEDO_LEN, ALPHA_N, CELL, FILE_BYTES, FIRST_LEN, FRESNEL_LEN, FRESNEL_Q, HEADER_BYTES,
     K_STORED, LOBE_LEN, MAGIC, MU_N, NDF_N, ORDER0, ORDERS, PEAK, SBAR_LEN, SCALE_ALPHA_N,
-    SCALE_FILE_BYTES, SCALE_LEN, SCALE_MAGIC, SCALE_MU_N, albedo_index, alpha_coord, fresnel_index,
-    grid_alpha, grid_mu, hat_moment, lobe_index, mu_coord, project_exit, scale_grid_alpha,
-    scale_grid_mu, scale_index, split,
+    SCALE_FILE_BYTES, SCALE_LEN, SCALE_MAGIC, SCALE_MU_N, add_cosines, albedo_index, alpha_coord,
+    exit_hats, fresnel_index, grid_alpha, grid_mu, hat_moment, lobe_index, mu_coord, project_exit,
+    scale_grid_alpha, scale_grid_mu, scale_index, split,
 };
 use msbsdf::ndf::{Ndf, NdfKind};
 use msbsdf::single::{G2Form, Single};
@@ -181,22 +181,10 @@ fn lobe_job(kind: NdfKind, alpha: f32, mu_i: f32, walks: u64, gram: u64, stream:
         s.ms += 1;
         let wo = smp.wo;
         let f1 = single.eval(wi, wo, &mut zero).x as f64 / wo.z as f64;
-        let sxy = ((wo.x * wo.x + wo.y * wo.y) as f64).sqrt();
-        let c = if sxy > 0.0 { wo.x as f64 / sxy } else { 1.0 };
-        let x = mu_coord(wo.z) as f64;
-        let j0 = (x as usize).min(MU_N - 2);
-        let fr = x - j0 as f64;
-        for (j, hw) in [(j0, 1.0 - fr), (j0 + 1, fr)] {
+        let (hats, c) = exit_hats(wo);
+        for (j, hw) in hats {
             let ww = w * hw;
-            let m = &mut s.moments[j];
-            let (mut t0, mut t1) = (1.0, c);
-            m[0] += ww;
-            m[1] += ww * c;
-            for mk in m.iter_mut().skip(2) {
-                let t2 = 2.0 * c * t1 - t0;
-                *mk += ww * t2;
-                (t0, t1) = (t1, t2);
-            }
+            add_cosines(&mut s.moments[j], c, ww);
             s.peak[j] += ww * f1;
             if (2..2 + ORDERS as u32).contains(&bounces) {
                 s.orders[j][(bounces - 2) as usize] += ww;

@@ -463,30 +463,43 @@ pub fn hat_moment(j: usize) -> f64 {
     h * (hi - lo) / n as f64 / scale
 }
 
-/// Projects one exit direction `wo` (with `wi` in the x-z plane, `wi.x >= 0`)
-/// of weight `w` onto the hat functions in `sqrt(mu_o)` times `cos(k phi)`:
-/// adds to `moments[j][k]` (generator and tests).
-pub fn project_exit<const N: usize>(wo: Vec3, w: f64, moments: &mut [[f64; N]; MU_N]) {
+/// The two hat functions in `sqrt(mu_o)` that an exit direction `wo` (with
+/// `wi` in the x-z plane, `wi.x >= 0`) falls on, with their weights, and
+/// `cos(phi)` of `wo` (generator and tests).
+pub fn exit_hats(wo: Vec3) -> ([(usize, f64); 2], f64) {
     let sxy = ((wo.x * wo.x + wo.y * wo.y) as f64).sqrt();
     let c = if sxy > 0.0 { wo.x as f64 / sxy } else { 1.0 };
     let x = mu_coord(wo.z) as f64;
     let j0 = (x as usize).min(MU_N - 2);
     let fr = x - j0 as f64;
-    for (j, hw) in [(j0, 1.0 - fr), (j0 + 1, fr)] {
-        // cos(k phi) = T_k(c) by the Chebyshev recurrence.
-        let (mut t0, mut t1) = (1.0, c);
-        for (k, mk) in moments[j].iter_mut().enumerate() {
-            let t = match k {
-                0 => 1.0,
-                1 => c,
-                _ => {
-                    let t2 = 2.0 * c * t1 - t0;
-                    (t0, t1) = (t1, t2);
-                    t2
-                }
-            };
-            *mk += w * hw * t;
-        }
+    ([(j0, 1.0 - fr), (j0 + 1, fr)], c)
+}
+
+/// Adds `w cos(k phi)` to `moments[k]` for every `k`, with `c = cos(phi)`
+/// (`cos(k phi) = T_k(c)` by the Chebyshev recurrence).
+pub fn add_cosines(moments: &mut [f64], c: f64, w: f64) {
+    let (mut t0, mut t1) = (1.0, c);
+    for (k, mk) in moments.iter_mut().enumerate() {
+        let t = match k {
+            0 => 1.0,
+            1 => c,
+            _ => {
+                let t2 = 2.0 * c * t1 - t0;
+                (t0, t1) = (t1, t2);
+                t2
+            }
+        };
+        *mk += w * t;
+    }
+}
+
+/// Projects one exit direction `wo` (with `wi` in the x-z plane, `wi.x >= 0`)
+/// of weight `w` onto the hat functions in `sqrt(mu_o)` times `cos(k phi)`:
+/// adds to `moments[j][k]` (generator and tests).
+pub fn project_exit<const N: usize>(wo: Vec3, w: f64, moments: &mut [[f64; N]; MU_N]) {
+    let (hats, c) = exit_hats(wo);
+    for (j, hw) in hats {
+        add_cosines(&mut moments[j], c, w * hw);
     }
 }
 
