@@ -52,9 +52,9 @@ pub struct Single {
     ndf: Ndf,
     facet: Facet,
     g2: G2Form,
-    /// The perfect reflector (conductor eta 0, k 1): F = 1, decided once.
-    white: bool,
-    /// Any other conductor: its indices prepared for the Fresnel closed form.
+    /// A conductor other than the perfect reflector (eta 0, k 1, whose
+    /// F = 1 is decided here once): its indices prepared for the Fresnel
+    /// closed form.
     lanes: Option<fresnel::ConductorLanes>,
     /// `alpha^2` when the reflection of this material has the isotropic GGX
     /// closed form ([`iso_ggx_reflection`]): GGX, `alpha_x == alpha_y`,
@@ -128,7 +128,6 @@ impl Single {
             ndf,
             facet,
             g2,
-            white,
             lanes,
             iso_ggx_a2,
         }
