@@ -4,6 +4,8 @@
 //! limits from here, never from `material.rs`).
 
 use crate::Material;
+use crate::ndf::{Ndf, NdfKind};
+use crate::status::Error;
 use glam::Vec3;
 
 /// Largest number of scattering events any walk follows (path state on the
@@ -156,5 +158,28 @@ impl Default for MaterialDesc {
             inner: None,
             one_sided: false,
         }
+    }
+}
+
+impl MaterialDesc {
+    /// The Smith microfacet distribution of the description (Beckmann, GGX
+    /// or Student-T; roughness clamped to [`MIN_ALPHA`]; the shape matters
+    /// for Student-T only): `Error::Unsupported` for the NDFs that have no
+    /// Smith form here (vMF, exponential, K0, Phong).
+    pub(crate) fn smith_ndf(&self) -> Result<Ndf, Error> {
+        let kind = match self.ndf {
+            NdfId::Beckmann => NdfKind::Beckmann,
+            NdfId::Ggx => NdfKind::Ggx,
+            NdfId::StudentT => NdfKind::StudentT,
+            NdfId::Vmf | NdfId::Exponential | NdfId::BesselK0 | NdfId::Phong => {
+                return Err(Error::Unsupported);
+            }
+        };
+        Ok(Ndf::with_shape(
+            kind,
+            self.alpha_x.max(MIN_ALPHA),
+            self.alpha_y.max(MIN_ALPHA),
+            self.shape,
+        ))
     }
 }

@@ -13,17 +13,16 @@ use crate::dispatch::{
 use crate::facet::Facet;
 use crate::multiple::auto;
 use crate::multiple::bitterli_deon::BitterliDeon;
-use crate::multiple::compensation::{self, Compensated};
+use crate::multiple::compensation::Compensated;
 use crate::multiple::heitz::Heitz;
-use crate::multiple::invariance::{self, Invariance};
-use crate::multiple::null_scattering::{self, NullNdf, NullNdfKind, NullScattering};
+use crate::multiple::invariance::Invariance;
+use crate::multiple::null_scattering::NullScattering;
 use crate::multiple::position_free::PositionFree;
-use crate::multiple::tabulated::{self, Tabulated};
-use crate::multiple::tabulated_dielectric::{self, TabulatedDielectric};
-use crate::multiple::vgroove::{VGroove, dist::Family};
-use crate::ndf::{Ndf, NdfKind};
+use crate::multiple::tabulated::Tabulated;
+use crate::multiple::tabulated_dielectric::TabulatedDielectric;
+use crate::multiple::vgroove::VGroove;
 use crate::rng::Rng;
-use crate::single::{G2Form, Single};
+use crate::single::Single;
 use crate::specular::Specular;
 use crate::status::Error;
 use glam::Vec3;
@@ -93,8 +92,9 @@ impl Material {
     /// Validates `desc` and builds the material.
     ///
     /// [`Model::NullScattering`] refuses with [`Error::InvalidArgument`] a
-    /// roughness below [`null_scattering::MIN_ALPHA`] (0.2: the delta-tracking
-    /// rejection rate grows like `1 / alpha^2`, d'Eon 2023 section 3.3), and with
+    /// roughness below [`crate::multiple::null_scattering::MIN_ALPHA`] (0.2:
+    /// the delta-tracking rejection rate grows like `1 / alpha^2`, d'Eon 2023
+    /// section 3.3), and with
     /// [`Error::Unsupported`] the Phong NDF, anisotropic vMF / exponential /
     /// Bessel K0, and Student-T with shape below 2 (unbounded at the horizon,
     /// so no constant majorant exists).
@@ -207,84 +207,17 @@ impl Material {
     /// what it refuses when asked for by name.
     #[inline(always)]
     fn build(d: &MaterialDesc, facet: Facet, inner: Option<&Material>) -> Result<Material, Error> {
-        let ndf_kind = match d.ndf {
-            NdfId::Beckmann => Some(NdfKind::Beckmann),
-            NdfId::Ggx => Some(NdfKind::Ggx),
-            NdfId::StudentT => Some(NdfKind::StudentT),
-            _ => None,
-        };
-        // The Smith NDF of the description (roughness clamped to MIN_ALPHA;
-        // the shape matters for Student-T only).
-        let smith_ndf = |kind: NdfKind| {
-            Ndf::with_shape(
-                kind,
-                d.alpha_x.max(MIN_ALPHA),
-                d.alpha_y.max(MIN_ALPHA),
-                d.shape,
-            )
-        };
+        // Each model's constructor from the description owns its support
+        // checks (NDF, facet, ranges); this is dispatch only.
+        let base = |m: BaseModel| ModelImpl::Base(m);
         let imp = match d.model {
-            Model::Single => {
-                let kind = ndf_kind.ok_or(Error::Unsupported)?;
-                if matches!(facet, Facet::Diffuse { .. }) {
-                    return Err(Error::Unsupported);
-                }
-                let ndf = smith_ndf(kind);
-                ModelImpl::Base(BaseModel::Single(Single::new(
-                    ndf,
-                    facet,
-                    G2Form::HeightCorrelated,
-                )))
-            }
-            Model::Invariance | Model::BitterliDeon => {
-                // Beckmann, GGX and Student-T: the walks use only the generic
-                // Smith API (tests/invariance.rs checks Student-T too).
-                let kind = ndf_kind.ok_or(Error::Unsupported)?;
-                if !matches!(facet, Facet::Conductor { .. }) {
-                    return Err(Error::Unsupported);
-                }
-                let ndf = smith_ndf(kind);
-                // Heavy Student-T tails at large roughness need walks too long
-                // for these estimators' f64 arithmetic (MAX_DEFAULT_BOUNCES).
-                if invariance::default_max_bounces_for(&ndf) > invariance::MAX_DEFAULT_BOUNCES {
-                    return Err(Error::Unsupported);
-                }
-                if d.model == Model::Invariance {
-                    ModelImpl::Base(BaseModel::Invariance(Invariance::new(
-                        ndf,
-                        facet,
-                        d.estimator,
-                        d.max_bounces,
-                    )))
-                } else {
-                    if d.estimator != Estimator::Pt {
-                        return Err(Error::Unsupported);
-                    }
-                    ModelImpl::Base(BaseModel::BitterliDeon(BitterliDeon::new(
-                        ndf,
-                        facet,
-                        d.max_bounces,
-                    )))
-                }
+            Model::Single => base(BaseModel::Single(Single::from_desc(d, facet)?)),
+            Model::Invariance => base(BaseModel::Invariance(Invariance::from_desc(d, facet)?)),
+            Model::BitterliDeon => {
+                base(BaseModel::BitterliDeon(BitterliDeon::from_desc(d, facet)?))
             }
             Model::NullScattering => {
-                // Below null_scattering::MIN_ALPHA the rejection rate makes
-                // the walk impractical (d'Eon 2023, section 3.3): refused.
-                if d.alpha_x.min(d.alpha_y) < null_scattering::MIN_ALPHA {
-                    return Err(Error::InvalidArgument);
-                }
-                let kind = match d.ndf {
-                    NdfId::Beckmann => NullNdfKind::Beckmann,
-                    NdfId::Ggx => NullNdfKind::Ggx,
-                    NdfId::StudentT => NullNdfKind::StudentT,
-                    NdfId::Vmf => NullNdfKind::Vmf,
-                    NdfId::Exponential => NullNdfKind::Exponential,
-                    NdfId::BesselK0 => NullNdfKind::BesselK0,
-                    NdfId::Phong => return Err(Error::Unsupported),
-                };
-                let ndf =
-                    NullNdf::new(kind, d.alpha_x, d.alpha_y, d.shape).ok_or(Error::Unsupported)?;
-                let model = NullScattering::new(ndf, facet, d.max_bounces);
+                let model = NullScattering::from_desc(d, facet)?;
                 ModelImpl::NullScattering(match inner.map(|m| m.imp) {
                     Some(ModelImpl::Base(base)) if d.facet == FacetKind::Material => model
                         .with_inner(Inner {
@@ -295,97 +228,21 @@ impl Material {
                 })
             }
             Model::EnergyCompensated => {
-                let kind = ndf_kind.ok_or(Error::Unsupported)?;
-                if kind == NdfKind::StudentT {
-                    return Err(Error::Unsupported); // tables for Beckmann and GGX only
-                }
-                match facet {
-                    Facet::Diffuse { .. } => return Err(Error::Unsupported),
-                    Facet::Dielectric { eta }
-                        if !(1.0 / compensation::MAX_ETA..=compensation::MAX_ETA)
-                            .contains(&eta) =>
-                    {
-                        return Err(Error::InvalidArgument);
-                    }
-                    _ => {}
-                }
-                if d.alpha_x > compensation::MAX_ALPHA || d.alpha_y > compensation::MAX_ALPHA {
-                    return Err(Error::InvalidArgument);
-                }
-                let ndf = smith_ndf(kind);
-                ModelImpl::Base(BaseModel::Compensated(Compensated::new(ndf, facet)))
+                base(BaseModel::Compensated(Compensated::from_desc(d, facet)?))
             }
-            Model::Tabulated => {
-                // Tables for Beckmann and GGX conductors up to tabulated::MAX_ALPHA.
-                let kind = ndf_kind.ok_or(Error::Unsupported)?;
-                if tabulated::ndf_index(kind).is_none() {
-                    return Err(Error::Unsupported);
+            Model::Tabulated => base(match facet {
+                Facet::Dielectric { .. } => {
+                    BaseModel::TabulatedDielectric(TabulatedDielectric::from_desc(d, facet)?)
                 }
-                if d.alpha_x > tabulated::MAX_ALPHA || d.alpha_y > tabulated::MAX_ALPHA {
-                    return Err(Error::InvalidArgument);
-                }
-                match facet {
-                    Facet::Conductor { .. } => ModelImpl::Base(BaseModel::Tabulated(
-                        Tabulated::new(smith_ndf(kind), facet),
-                    )),
-                    // Dielectric tables cover E = max(eta, 1 / eta) in [1.05, 3].
-                    Facet::Dielectric { eta } if tabulated_dielectric::covers_eta(eta) => {
-                        ModelImpl::Base(BaseModel::TabulatedDielectric(TabulatedDielectric::new(
-                            smith_ndf(kind),
-                            facet,
-                        )))
-                    }
-                    _ => return Err(Error::Unsupported),
-                }
-            }
-            Model::HeitzRandomWalk => {
-                let kind = ndf_kind.ok_or(Error::Unsupported)?;
-                let ndf = smith_ndf(kind);
-                ModelImpl::Base(BaseModel::Heitz(Heitz::new(ndf, facet, d.max_bounces)))
-            }
+                _ => BaseModel::Tabulated(Tabulated::from_desc(d, facet)?),
+            }),
+            Model::HeitzRandomWalk => base(BaseModel::Heitz(Heitz::from_desc(d, facet)?)),
             Model::PositionFree => {
-                // Beckmann, GGX and Student-T (tests/position_free.rs).
-                let kind = ndf_kind.ok_or(Error::Unsupported)?;
-                if matches!(facet, Facet::Diffuse { .. }) {
-                    return Err(Error::Unsupported);
-                }
-                let ndf = smith_ndf(kind);
-                ModelImpl::Base(BaseModel::PositionFree(PositionFree::new(
-                    ndf,
-                    facet,
-                    d.estimator,
-                    d.max_bounces,
-                )))
+                base(BaseModel::PositionFree(PositionFree::from_desc(d, facet)?))
             }
-            Model::VGroove | Model::VGrooveNonsymmetric => {
-                // Lee et al. 2018: conductor facets; Beckmann, GGX and Phong NDFs.
-                let Facet::Conductor { eta, k } = facet else {
-                    return Err(Error::Unsupported);
-                };
-                let family = match d.ndf {
-                    NdfId::Beckmann => Family::Beckmann,
-                    NdfId::Ggx => Family::Ggx,
-                    NdfId::Phong => {
-                        // Phong exponent 2 / alpha^2 - 2 must be >= 0.
-                        if d.alpha_x > 1.0 || d.alpha_y > 1.0 {
-                            return Err(Error::InvalidArgument);
-                        }
-                        Family::Phong
-                    }
-                    _ => return Err(Error::Unsupported),
-                };
-                let symmetric = d.model == Model::VGroove;
-                let m = VGroove::new(
-                    family,
-                    d.alpha_x.max(MIN_ALPHA),
-                    d.alpha_y.max(MIN_ALPHA),
-                    eta,
-                    k,
-                    d.max_bounces,
-                    symmetric,
-                );
-                ModelImpl::Base(BaseModel::VGroove(m))
-            }
+            Model::VGroove | Model::VGrooveNonsymmetric => base(BaseModel::VGroove(
+                VGroove::from_desc(d, facet, d.model == Model::VGroove)?,
+            )),
             Model::Auto => {
                 // The choice comes from the measured table (multiple/auto.rs),
                 // which builds its candidates through this dispatch.

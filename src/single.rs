@@ -22,11 +22,13 @@
 //! `cargo run --release --example single_albedo`.
 
 use crate::bsdf::{LOBE_ALL, LOBE_REFLECTION, LOBE_TRANSMISSION, Sample, ScatterModel};
+use crate::desc::MaterialDesc;
 use crate::facet::Facet;
 use crate::frame::{RefractionHalf, flip_z, reflect, refract, refraction_half};
 use crate::fresnel;
 use crate::ndf::{Ndf, NdfKind};
 use crate::rng::Rng;
+use crate::status::Error;
 use glam::Vec3;
 
 /// Below this `wi.m` of a sampled reflection, sample checks that eval and
@@ -405,5 +407,17 @@ impl ScatterModel for Single {
 
     fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
         self.eval_pdf(wi, wo, LOBE_ALL, false, true).1
+    }
+}
+
+impl Single {
+    /// SINGLE for a validated description: Smith NDFs (Beckmann, GGX,
+    /// Student-T), conductor or dielectric facets, the height-correlated
+    /// `G2`; `Error::Unsupported` otherwise.
+    pub(crate) fn from_desc(d: &MaterialDesc, facet: Facet) -> Result<Self, Error> {
+        if matches!(facet, Facet::Diffuse { .. }) {
+            return Err(Error::Unsupported);
+        }
+        Ok(Single::new(d.smith_ndf()?, facet, G2Form::HeightCorrelated))
     }
 }

@@ -45,8 +45,10 @@
 
 use crate::bsdf::{Sample, ScatterModel};
 use crate::desc::MAX_BOUNCES;
+use crate::desc::{Estimator, MaterialDesc};
 use crate::facet::Facet;
 use crate::frame::flip_z;
+use crate::multiple::invariance::smith_conductor_walk_ndf;
 use crate::multiple::invariance::{
     CAP_MAX, CAP_SMALL, TWO_WALKS_BELOW_ALPHA, default_max_bounces_for, eval_two_walks,
     sample_exact_exit, two_sided_hapke_pdf,
@@ -54,6 +56,7 @@ use crate::multiple::invariance::{
 use crate::multiple::microsurface::{self, Microsurface};
 use crate::ndf::Ndf;
 use crate::rng::Rng;
+use crate::status::Error;
 use glam::Vec3;
 
 /// Smallest relative distance kept between two poles `b_j` (see module docs).
@@ -251,5 +254,18 @@ impl ScatterModel for BitterliDeon {
 
     fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
         two_sided_hapke_pdf(&self.ms.ndf, wi, wo)
+    }
+}
+
+impl BitterliDeon {
+    /// BITTERLI_DEON for a validated description: what INVARIANCE supports
+    /// (`invariance::smith_conductor_walk_ndf`), with the path-tracing
+    /// estimator only (the paper has no bidirectional form).
+    pub(crate) fn from_desc(d: &MaterialDesc, facet: Facet) -> Result<Self, Error> {
+        let ndf = smith_conductor_walk_ndf(d, facet)?;
+        if d.estimator != Estimator::Pt {
+            return Err(Error::Unsupported);
+        }
+        Ok(BitterliDeon::new(ndf, facet, d.max_bounces))
     }
 }

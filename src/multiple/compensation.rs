@@ -60,12 +60,14 @@ use super::compensation_aniso_tables as an;
 use super::compensation_ms_tables as ms;
 use super::compensation_tables as t;
 use crate::bsdf::{Sample, ScatterModel, same_side};
+use crate::desc::MaterialDesc;
 use crate::facet::Facet;
 use crate::frame::{flip_z, reflect, refract};
 use crate::fresnel;
 use crate::ndf::{Ndf, NdfKind};
 use crate::rng::Rng;
 use crate::single::{G2Form, Single};
+use crate::status::Error;
 use glam::{Vec3, Vec3A, Vec4};
 use std::f32::consts::PI;
 
@@ -963,4 +965,28 @@ pub fn single_albedo(
         }
     }
     sum / (n * n) as f64
+}
+
+impl Compensated {
+    /// ENERGY_COMPENSATED for a validated description: Beckmann or GGX (the
+    /// tables cover no other NDF), conductor or dielectric facets, roughness
+    /// up to [`MAX_ALPHA`] and relative index in `[1 / MAX_ETA, MAX_ETA]`
+    /// (`Error::InvalidArgument` outside them).
+    pub(crate) fn from_desc(d: &MaterialDesc, facet: Facet) -> Result<Self, Error> {
+        let ndf = d.smith_ndf()?;
+        if ndf.kind == NdfKind::StudentT {
+            return Err(Error::Unsupported);
+        }
+        match facet {
+            Facet::Diffuse { .. } => return Err(Error::Unsupported),
+            Facet::Dielectric { eta } if !(1.0 / MAX_ETA..=MAX_ETA).contains(&eta) => {
+                return Err(Error::InvalidArgument);
+            }
+            _ => {}
+        }
+        if d.alpha_x > MAX_ALPHA || d.alpha_y > MAX_ALPHA {
+            return Err(Error::InvalidArgument);
+        }
+        Ok(Compensated::new(ndf, facet))
+    }
 }

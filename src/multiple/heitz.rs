@@ -54,6 +54,7 @@
 
 use crate::bsdf::{Sample, ScatterModel, same_side};
 use crate::desc::MAX_BOUNCES;
+use crate::desc::MaterialDesc;
 use crate::facet::Facet;
 use crate::multiple::microsurface::{
     self, BounceRule, DepthState, Microsurface, Travel, WalkOptions, exp_m1_nonpositive,
@@ -61,6 +62,7 @@ use crate::multiple::microsurface::{
 };
 use crate::ndf::Ndf;
 use crate::rng::Rng;
+use crate::status::Error;
 use glam::Vec3;
 
 /// Default bounce limit for the given roughness and facets: keeps the
@@ -360,5 +362,13 @@ impl ScatterModel for Heitz {
 
     fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
         microsurface::approximate_pdf(&self.ms, self.q, wi, wo)
+    }
+}
+
+impl Heitz {
+    /// HEITZ_RANDOM_WALK for a validated description: Smith NDFs and every
+    /// facet (conductor, dielectric, diffuse).
+    pub(crate) fn from_desc(d: &MaterialDesc, facet: Facet) -> Result<Self, Error> {
+        Ok(Heitz::new(d.smith_ndf()?, facet, d.max_bounces))
     }
 }

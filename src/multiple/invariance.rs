@@ -117,12 +117,14 @@
 //! the Beckmann NDF gives nearly the same surface at a quarter of the cost.
 
 use crate::bsdf::{Sample, ScatterModel};
+use crate::desc::MaterialDesc;
 use crate::desc::{Estimator, MAX_BOUNCES};
 use crate::facet::Facet;
 use crate::frame::flip_z;
 use crate::multiple::microsurface::{self, BounceRule, DepthState, Microsurface, WalkOptions};
 use crate::ndf::Ndf;
 use crate::rng::Rng;
+use crate::status::Error;
 use glam::{DVec3, Vec3};
 
 /// Capacity of the path arrays for any `max_bounces` (directions = bounces + 1).
@@ -776,6 +778,31 @@ pub(crate) fn sample_exact_exit<S: DepthState>(
         }
         _ => Sample::ABSORBED,
     }
+}
+
+impl Invariance {
+    /// INVARIANCE for a validated description: Smith NDFs (the walk uses
+    /// only the generic Smith API; tests/invariance.rs checks Student-T
+    /// too), conductor facets, PT or BDPT. `Error::Unsupported` for other
+    /// facets and for heavy Student-T tails whose walks would exceed
+    /// [`MAX_DEFAULT_BOUNCES`] (too long for the estimators' f64 arithmetic).
+    pub(crate) fn from_desc(d: &MaterialDesc, facet: Facet) -> Result<Self, Error> {
+        let ndf = smith_conductor_walk_ndf(d, facet)?;
+        Ok(Invariance::new(ndf, facet, d.estimator, d.max_bounces))
+    }
+}
+
+/// The Smith NDF of a description for the invariance-family walks
+/// (INVARIANCE and BITTERLI_DEON): conductor facets, walks no longer than
+/// [`MAX_DEFAULT_BOUNCES`].
+pub(crate) fn smith_conductor_walk_ndf(d: &MaterialDesc, facet: Facet) -> Result<Ndf, Error> {
+    let ndf = d.smith_ndf()?;
+    if !matches!(facet, Facet::Conductor { .. })
+        || default_max_bounces_for(&ndf) > MAX_DEFAULT_BOUNCES
+    {
+        return Err(Error::Unsupported);
+    }
+    Ok(ndf)
 }
 
 #[cfg(test)]

@@ -137,6 +137,7 @@
 //! scatter as another opaque material ([`NullScattering::with_inner`]).
 
 use crate::bsdf::{Sample, ScatterModel, same_side};
+use crate::desc::{MaterialDesc, NdfId};
 use crate::facet::Facet;
 use crate::frame::{basis, flip_z};
 use crate::math::{FRAC_1_SQRT_PI, erf, erfcx_pos};
@@ -146,6 +147,7 @@ use crate::multiple::microsurface::{
 use crate::ndf::{Ndf, NdfKind, beckmann};
 use crate::rng::Rng;
 use crate::specfun::bessel_k;
+use crate::status::Error;
 use glam::Vec3;
 use std::f64::consts::PI;
 use std::sync::OnceLock;
@@ -914,5 +916,31 @@ impl ScatterModel for NullScattering {
     /// approximate pdf with no single-scattering part.
     fn pdf(&self, wi: Vec3, wo: Vec3) -> f32 {
         approximate_pdf(&self.ms, 1.0, wi, wo)
+    }
+}
+
+impl NullScattering {
+    /// NULL_SCATTERING for a validated description (without an inner
+    /// material: `material.rs` composes one with [`Self::with_inner`]):
+    /// roughness at least [`MIN_ALPHA`] (`Error::InvalidArgument` below:
+    /// the rejection rate makes the walk impractical, d'Eon 2023, section
+    /// 3.3); Beckmann, GGX, Student-T, vMF, exponential and K0 NDFs
+    /// (`Error::Unsupported` for Phong and for shapes [`NullNdf::new`]
+    /// refuses).
+    pub(crate) fn from_desc(d: &MaterialDesc, facet: Facet) -> Result<Self, Error> {
+        if d.alpha_x.min(d.alpha_y) < MIN_ALPHA {
+            return Err(Error::InvalidArgument);
+        }
+        let kind = match d.ndf {
+            NdfId::Beckmann => NullNdfKind::Beckmann,
+            NdfId::Ggx => NullNdfKind::Ggx,
+            NdfId::StudentT => NullNdfKind::StudentT,
+            NdfId::Vmf => NullNdfKind::Vmf,
+            NdfId::Exponential => NullNdfKind::Exponential,
+            NdfId::BesselK0 => NullNdfKind::BesselK0,
+            NdfId::Phong => return Err(Error::Unsupported),
+        };
+        let ndf = NullNdf::new(kind, d.alpha_x, d.alpha_y, d.shape).ok_or(Error::Unsupported)?;
+        Ok(NullScattering::new(ndf, facet, d.max_bounces))
     }
 }

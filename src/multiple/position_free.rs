@@ -123,6 +123,7 @@
 //! dielectrics.
 
 use crate::bsdf::{Sample, ScatterModel};
+use crate::desc::MaterialDesc;
 use crate::desc::{Estimator, MAX_BOUNCES};
 use crate::facet::Facet;
 use crate::frame::{RefractionHalf, flip_z, reflect, refract, refraction_half};
@@ -132,6 +133,7 @@ use crate::multiple::microsurface::{
 };
 use crate::ndf::Ndf;
 use crate::rng::Rng;
+use crate::status::Error;
 use glam::Vec3;
 
 /// The bounce limit used when the description asks for the default (0):
@@ -772,5 +774,22 @@ impl ScatterModel for PositionFree {
         // The walks' approximate pdf: the first vertex with weight 1 - c, a
         // Lambert lobe (both hemispheres for dielectrics) with weight c.
         microsurface::approximate_pdf(&self.ms, self.lambert_weight, wi, wo)
+    }
+}
+
+impl PositionFree {
+    /// POSITION_FREE for a validated description: Smith NDFs (Beckmann,
+    /// GGX and Student-T: tests/position_free.rs), conductor or dielectric
+    /// facets.
+    pub(crate) fn from_desc(d: &MaterialDesc, facet: Facet) -> Result<Self, Error> {
+        if matches!(facet, Facet::Diffuse { .. }) {
+            return Err(Error::Unsupported);
+        }
+        Ok(PositionFree::new(
+            d.smith_ndf()?,
+            facet,
+            d.estimator,
+            d.max_bounces,
+        ))
     }
 }

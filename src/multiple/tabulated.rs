@@ -115,12 +115,14 @@ use super::bintable::decode5;
 use super::compensation::{self, Aniso, AnisoTable};
 use super::compensation_aniso_tables::CONDUCTOR_E_ANISO;
 use crate::bsdf::{Sample, ScatterModel};
+use crate::desc::MaterialDesc;
 use crate::facet::Facet;
 use crate::frame::{flip_z, reflect};
 use crate::fresnel;
 use crate::ndf::{Ndf, NdfKind};
 use crate::rng::Rng;
 use crate::single::iso_ggx_reflection;
+use crate::status::Error;
 use glam::{Vec3, Vec3A, Vec4};
 use std::f32::consts::PI;
 
@@ -935,4 +937,30 @@ impl ScatterModel for Tabulated {
         let q = self.cosine_weight(wi.z);
         (1.0 - q) * self.vndf_pdf(wi, wo) + q * wo.z / PI
     }
+}
+
+impl Tabulated {
+    /// TABULATED with conductor facets for a validated description:
+    /// Beckmann or GGX (`Error::Unsupported` otherwise), roughness up to
+    /// [`MAX_ALPHA`] (`Error::InvalidArgument` above).
+    pub(crate) fn from_desc(d: &MaterialDesc, facet: Facet) -> Result<Self, Error> {
+        let ndf = tabulated_ndf(d)?;
+        if !matches!(facet, Facet::Conductor { .. }) {
+            return Err(Error::Unsupported);
+        }
+        Ok(Tabulated::new(ndf, facet))
+    }
+}
+
+/// The NDF of a description for the tabulated tier (conductor and
+/// dielectric tables): Beckmann or GGX up to [`MAX_ALPHA`].
+pub(crate) fn tabulated_ndf(d: &MaterialDesc) -> Result<Ndf, Error> {
+    let ndf = d.smith_ndf()?;
+    if ndf_index(ndf.kind).is_none() {
+        return Err(Error::Unsupported);
+    }
+    if d.alpha_x > MAX_ALPHA || d.alpha_y > MAX_ALPHA {
+        return Err(Error::InvalidArgument);
+    }
+    Ok(ndf)
 }

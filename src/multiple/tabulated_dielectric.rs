@@ -82,14 +82,17 @@
 //! weight is `eval / pdf`.
 
 use crate::bsdf::{LOBE_ALL, Sample, ScatterModel};
+use crate::desc::MaterialDesc;
 use crate::facet::Facet;
 use crate::frame::flip_z;
+use crate::multiple::tabulated::tabulated_ndf;
 use crate::multiple::tabulated::{
     MAX_ALPHA, MU_N, alpha_proj2, cos_phi, cosine_sample, mu_coord, ndf_index, split, text_header,
 };
 use crate::ndf::Ndf;
 use crate::rng::Rng;
 use crate::single::{G2Form, Single};
+use crate::status::Error;
 use glam::{Vec3, Vec4};
 use std::f32::consts::PI;
 
@@ -666,5 +669,21 @@ impl ScatterModel for TabulatedDielectric {
         }
         let ps = self.single.eval_pdf(wi, wo, LOBE_ALL, false, true).1;
         self.mix_pdf(wi, wo, ps)
+    }
+}
+
+impl TabulatedDielectric {
+    /// TABULATED with dielectric facets for a validated description: what
+    /// the conductor tables support (`tabulated::tabulated_ndf`) with
+    /// `max(eta, 1 / eta)` in the tables' range ([`covers_eta`]);
+    /// `Error::Unsupported` otherwise.
+    pub(crate) fn from_desc(d: &MaterialDesc, facet: Facet) -> Result<Self, Error> {
+        let ndf = tabulated_ndf(d)?;
+        match facet {
+            Facet::Dielectric { eta } if covers_eta(eta) => {
+                Ok(TabulatedDielectric::new(ndf, facet))
+            }
+            _ => Err(Error::Unsupported),
+        }
     }
 }

@@ -240,8 +240,11 @@ pub mod ftable;
 pub mod kaleido;
 
 use crate::bsdf::{Sample, ScatterModel};
+use crate::desc::{MIN_ALPHA, MaterialDesc, NdfId};
+use crate::facet::Facet;
 use crate::frame::flip_z;
 use crate::rng::Rng;
+use crate::status::Error;
 use dist::{Family, GrooveNdf};
 use ftable::FresnelTable;
 use glam::{DVec3, Vec3, Vec3A};
@@ -1279,6 +1282,41 @@ impl ScatterModel for VGroove {
             only_k: 0,
         };
         self.eval_pdf(wi, wo, want).1
+    }
+}
+
+impl VGroove {
+    /// VGROOVE (`symmetric`) or VGROOVE_NONSYMMETRIC for a validated
+    /// description (Lee et al. 2018): conductor facets; Beckmann, GGX and
+    /// Phong (`Error::Unsupported` otherwise); Phong roughness at most 1
+    /// (its exponent `2 / alpha^2 - 2` must be >= 0; `Error::InvalidArgument`
+    /// above).
+    pub(crate) fn from_desc(
+        d: &MaterialDesc,
+        facet: Facet,
+        symmetric: bool,
+    ) -> Result<Self, Error> {
+        let Facet::Conductor { eta, k } = facet else {
+            return Err(Error::Unsupported);
+        };
+        let family = match d.ndf {
+            NdfId::Beckmann => Family::Beckmann,
+            NdfId::Ggx => Family::Ggx,
+            NdfId::Phong if d.alpha_x > 1.0 || d.alpha_y > 1.0 => {
+                return Err(Error::InvalidArgument);
+            }
+            NdfId::Phong => Family::Phong,
+            _ => return Err(Error::Unsupported),
+        };
+        Ok(VGroove::new(
+            family,
+            d.alpha_x.max(MIN_ALPHA),
+            d.alpha_y.max(MIN_ALPHA),
+            eta,
+            k,
+            d.max_bounces,
+            symmetric,
+        ))
     }
 }
 
