@@ -506,7 +506,7 @@ const POOL: usize = 1536;
 /// entry within it, or the last entry when none is: exactly what [`best`]
 /// finds, without the per-candidate work. Compile time.
 #[derive(Clone, Copy)]
-struct Fronts {
+struct FrontsHead {
     /// False when the list has repeated or too many isotropic alphas (the
     /// lookup then takes [`best`]).
     usable: bool,
@@ -520,40 +520,64 @@ struct Fronts {
     aniso_alpha: [(f32, f32); N_ROWS],
     n_aniso: usize,
     /// Per bracket state of an isotropic description: (start, length) in
-    /// the pool.
+    /// the entries.
     iso: [(u16, u8); MAX_STATES],
     /// Per bracket states of `min(alpha)` and `max(alpha)` of an
     /// anisotropic description.
     aniso: [[(u16, u8); MAX_STATES]; MAX_STATES],
-    /// The candidates (predicted error and ns in place of the row's).
-    entry: [Candidate; POOL],
+    /// Entries used.
     used: usize,
     overflow: bool,
 }
 
-impl Fronts {
-    const EMPTY: Fronts = Fronts {
-        usable: false,
-        alpha: [f32::INFINITY; MAX_ISO],
-        n_states: 0,
-        aniso_alpha: [(f32::NAN, f32::NAN); N_ROWS],
-        n_aniso: 0,
-        iso: [(0, 0); MAX_STATES],
-        aniso: [[(0, 0); MAX_STATES]; MAX_STATES],
+/// [`FrontsHead`] with room for `P` entries: built at compile time with
+/// [`POOL`], then stored [`Fronts::trimmed`] to the entries used.
+#[derive(Clone, Copy)]
+struct Fronts<const P: usize> {
+    head: FrontsHead,
+    /// The candidates (predicted error and ns in place of the row's).
+    entry: [Candidate; P],
+}
+
+impl<const P: usize> Fronts<P> {
+    const EMPTY: Fronts<P> = Fronts {
+        head: FrontsHead {
+            usable: false,
+            alpha: [f32::INFINITY; MAX_ISO],
+            n_states: 0,
+            aniso_alpha: [(f32::NAN, f32::NAN); N_ROWS],
+            n_aniso: 0,
+            iso: [(0, 0); MAX_STATES],
+            aniso: [[(0, 0); MAX_STATES]; MAX_STATES],
+            used: 0,
+            overflow: false,
+        },
         entry: [Candidate {
             model: Model::Single,
             estimator: Estimator::Pt,
             evaluations: 0,
             error: 0.0,
             cost: 0.0,
-        }; POOL],
-        used: 0,
-        overflow: false,
+        }; P],
     };
 
+    /// The same fronts with room for `Q` entries (`Q` at least the
+    /// entries used: compile time).
+    const fn trimmed<const Q: usize>(&self) -> Fronts<Q> {
+        assert!(Q >= self.head.used, "trimmed below the entries used");
+        let mut out = Fronts::<Q>::EMPTY;
+        out.head = self.head;
+        let mut i = 0;
+        while i < Q {
+            out.entry[i] = self.entry[i];
+            i += 1;
+        }
+        out
+    }
+
     /// Compile time.
-    const fn of(sorted: &Sorted) -> Fronts {
-        let mut f = Fronts::EMPTY;
+    const fn of(sorted: &Sorted) -> Fronts<P> {
+        let mut f = Fronts::<P>::EMPTY;
         let n = sorted.n_iso;
         if n == 0 || n > MAX_ISO {
             return f;
@@ -567,39 +591,39 @@ impl Fronts {
         }
         let mut i = 0;
         while i < n {
-            f.alpha[i] = sorted.iso_alpha[i];
+            f.head.alpha[i] = sorted.iso_alpha[i];
             i += 1;
         }
         let mut i = 0;
         while i < sorted.n_aniso {
             let r = &ROWS[sorted.aniso[i] as usize];
-            f.aniso_alpha[i] = (r.alpha_x, r.alpha_y);
+            f.head.aniso_alpha[i] = (r.alpha_x, r.alpha_y);
             i += 1;
         }
-        f.n_aniso = sorted.n_aniso;
-        f.n_states = 2 * n;
+        f.head.n_aniso = sorted.n_aniso;
+        f.head.n_states = 2 * n;
         // State 2n (above the largest alpha) scales the errors: not here.
         let states = 2 * n;
         let mut lo = 0;
         while lo < states {
             let (rel, k) = rel_of_states(sorted, lo, lo, false);
-            f.iso[lo] = f.push_front(&rel, k);
+            f.head.iso[lo] = f.push_front(&rel, k);
             let mut hi = lo;
             while hi < states {
                 let (rel, k) = rel_of_states(sorted, lo, hi, true);
-                f.aniso[lo][hi] = f.push_front(&rel, k);
+                f.head.aniso[lo][hi] = f.push_front(&rel, k);
                 hi += 1;
             }
             lo += 1;
         }
-        f.usable = !f.overflow;
+        f.head.usable = !f.head.overflow;
         f
     }
 
     /// Appends the front of the rows `rel[..k]`; returns its (start,
     /// length).
     const fn push_front(&mut self, rel: &[u8; MAX_RELEVANT], k: usize) -> (u16, u8) {
-        let start = self.used;
+        let start = self.head.used;
         if k == 0 {
             return (start as u16, 0);
         }
@@ -641,27 +665,27 @@ impl Fronts {
             if b == usize::MAX {
                 break;
             }
-            if self.used == POOL {
+            if self.head.used == P {
                 // Out of room (a larger table): `of` marks the list
                 // unusable and the lookup takes `best`.
-                self.overflow = true;
+                self.head.overflow = true;
                 return (start as u16, 0);
             }
             let c = &cands[BY_COST[first][b] as usize];
-            self.entry[self.used] = Candidate {
+            self.entry[self.head.used] = Candidate {
                 model: c.model,
                 estimator: c.estimator,
                 evaluations: if c.evaluations > 1 { c.evaluations } else { 1 },
                 error: err[b],
                 cost: ns[b],
             };
-            self.used += 1;
+            self.head.used += 1;
             bound = err[b];
             any = true;
         }
-        let len = self.used - start;
+        let len = self.head.used - start;
         if len > u8::MAX as usize {
-            self.overflow = true;
+            self.head.overflow = true;
         }
         (start as u16, len as u8)
     }
@@ -772,28 +796,42 @@ const fn same_config(x: &Candidate, c: &Candidate) -> bool {
 }
 
 /// [`Fronts`] of GGX conductors' own rows ([`OWN_SORTED`]), a compile-time
-/// evaluation. Each table of fronts takes about 26 kB of the library; the
-/// stripped `.so` must stay under 5 MB (issue 16) with the TABULATED tables,
-/// so only the most common case, GGX conductors, has one: every other
-/// description takes the per-candidate search [`best`] (the same choice,
-/// tested, at a higher init cost).
-static FRONTS_GGX_CONDUCTOR: Fronts = Fronts::of(&OWN_SORTED[1][0]);
+/// evaluation, stored with the entries it uses (about 18 kB; GGX
+/// dielectrics' about 6 kB). The stripped `.so` must stay under 5 MB
+/// (issue 16) with the TABULATED tables, so only the two most common cases,
+/// GGX conductors and GGX glass, have them (Beckmann conductors' would take
+/// about 22 kB): every other description takes the per-candidate search
+/// [`best`] (the same choice, tested, at a higher init cost).
+const FULL_GGX_CONDUCTOR: Fronts<POOL> = Fronts::of(&OWN_SORTED[1][0]);
+static FRONTS_GGX_CONDUCTOR: Fronts<{ FULL_GGX_CONDUCTOR.head.used }> =
+    FULL_GGX_CONDUCTOR.trimmed();
+/// [`Fronts`] of GGX dielectrics' own rows, likewise.
+const FULL_GGX_DIELECTRIC: Fronts<POOL> = Fronts::of(&OWN_SORTED[1][1]);
+static FRONTS_GGX_DIELECTRIC: Fronts<{ FULL_GGX_DIELECTRIC.head.used }> =
+    FULL_GGX_DIELECTRIC.trimmed();
+
+/// Stored fronts: the head and the entries used.
+type FrontsRef = (&'static FrontsHead, &'static [Candidate]);
 
 /// The fronts a description uses, per NDF code (the last slot: an NDF
 /// without rows) and facet code; `None`: no fronts stored.
-static FRONTS: [[Option<&Fronts>; FACET_CODES.len()]; NDF_CODES.len() + 1] = {
+static FRONTS: [[Option<FrontsRef>; FACET_CODES.len()]; NDF_CODES.len() + 1] = {
     const _: () = assert!(NDF_CODES.len() == 2 && FACET_CODES.len() == 2);
     const _: () = assert!(OWN_ROWS[1][0].len > 0, "GGX conductors use their own rows");
+    const _: () = assert!(OWN_ROWS[1][1].len > 0, "GGX dielectrics use their own rows");
     [
         [None, None],
-        [Some(&FRONTS_GGX_CONDUCTOR), None],
+        [
+            Some((&FRONTS_GGX_CONDUCTOR.head, &FRONTS_GGX_CONDUCTOR.entry)),
+            Some((&FRONTS_GGX_DIELECTRIC.head, &FRONTS_GGX_DIELECTRIC.entry)),
+        ],
         [None, None],
     ]
 };
 
 /// Bracket state of `a` among the distinct isotropic alphas `fronts.alpha`.
 #[inline]
-fn state(fronts: &Fronts, a: f32) -> usize {
+fn state(fronts: &FrontsHead, a: f32) -> usize {
     // Padded with infinities: two four-lane comparisons, no branches.
     let [x0, x1] = [&fronts.alpha[..4], &fronts.alpha[4..]].map(Vec4::from_slice);
     let a = Vec4::splat(a);
@@ -808,7 +846,7 @@ fn state(fronts: &Fronts, a: f32) -> usize {
 fn best_from_fronts(d: &MaterialDesc) -> Option<Option<Choice>> {
     let fc = code_of(&FACET_CODES, d.facet)?;
     let nc = code_of(&NDF_CODES, d.ndf).unwrap_or(NDF_CODES.len());
-    let fronts = FRONTS[nc][fc]?;
+    let (fronts, entry) = FRONTS[nc][fc]?;
     if !fronts.usable {
         return None;
     }
@@ -830,10 +868,10 @@ fn best_from_fronts(d: &MaterialDesc) -> Option<Option<Choice>> {
         fronts.aniso[s_lo.min(MAX_STATES - 1)][s_hi.min(MAX_STATES - 1)]
     };
     let (start, len) = (start as usize, len as usize);
-    if len == 0 || start + len > POOL {
+    if len == 0 || start + len > entry.len() {
         return Some(None);
     }
-    let front = &fronts.entry[start..start + len];
+    let front = &entry[start..start + len];
     // The first entry within tolerance, else the smallest error (the last).
     let c = front
         .iter()
@@ -978,8 +1016,8 @@ mod tests {
     /// gives, wherever they apply, over a grid of roughness pairs (at,
     /// between, below and above the measured rows), tolerances and
     /// descriptions of every facet and NDF; and they apply to the common
-    /// cases (isotropic and anisotropic GGX and Beckmann conductors, GGX
-    /// glass).
+    /// cases (isotropic and anisotropic GGX conductors, GGX glass; Beckmann
+    /// conductors have no stored fronts: size).
     #[test]
     fn fronts_agree_with_the_candidate_search() {
         let alphas = [
@@ -1026,13 +1064,14 @@ mod tests {
                 }
             }
         }
-        // GGX conductors (the one list with stored fronts): every isotropic
-        // roughness up to the largest measured (1.0; 12 of the 13 values)
-        // and 11 tolerances, and the anisotropic pairs within it but the
-        // measured (0.1, 0.6); nothing else.
+        // GGX conductors (stored fronts): every isotropic roughness up to
+        // the largest measured (1.0; 12 of the 13 values) and 11
+        // tolerances, and the anisotropic pairs within it but the measured
+        // (0.1, 0.6). GGX glass (stored fronts, no anisotropic row): every
+        // pair within 1.0. Nothing else.
         assert_eq!(covered[0], 12 * 11, "{covered:?}");
         assert_eq!(covered[1], (12 * 11 - 1) * 11, "{covered:?}");
-        assert_eq!(covered[2], 0, "{covered:?}");
+        assert_eq!(covered[2], 12 * 12 * 11, "{covered:?}");
         assert!(compared > 1500, "{compared}");
     }
 }
