@@ -1647,7 +1647,7 @@ mod dielectric {
             }
         }
         let header = format!(
-            "MSBSDF-TABULATED-DIELECTRIC-v1\n\
+            "MSBSDF-TABULATED-DIELECTRIC-v2\n\
              MSBSDF_MODEL_TABULATED dielectric table (layout: src/multiple/tabulated_dielectric.rs)\n\
              command: cargo run --release --example gen_tabulated -- {}\n\
              commit: {}\n\
@@ -1658,7 +1658,7 @@ mod dielectric {
              transmission from both sides (f(thin i -> dense j) vs E^2 f(dense j -> thin i)): RMS relative difference {:.3e}\n\
              albedo before rescaling vs 1 - E_ss: worst relative deviation {mc_worst:.3e} (targets > 1e-3); after: {norm_worst:.3e}\n\
              peaked part of the reflection lobes: Gram entries by {gram} SINGLE (F = 1) samples per node (seed Rng::new({SEED_GRAM}, stream = job index)), ridge {RIDGE} x G_BB\n\
-             {}grid: ndf {NDF_N} x alpha {ALPHA_N} x eta {ETA_N} x lobe 3 x mu_i {MU_N} x mu_o {MU_N} (reflection: {R_TERMS} cosine terms of a {K_FIT}-term fit and the peaked weight; transmission: {K} cosine terms); albedos ndf x alpha x eta x side 2 x lobe 2 x mu_i\n\
+             {}grid: ndf {NDF_N} x alpha nodes 1 to {} of {ALPHA_N} (node 0, a smooth surface, is 0 and not stored) x eta {ETA_N} x lobe 3 x mu_i {MU_N} x mu_o {MU_N} (reflection: {R_TERMS} cosine terms of a {K_FIT}-term fit and the peaked weight; transmission: {K} cosine terms); albedos ndf x alpha x eta x side 2 x mu_i x lobe 2\n\
              wall time: {:.0} s on {threads} threads\n",
             args[1..].join(" "),
             git_commit(),
@@ -1670,6 +1670,7 @@ mod dielectric {
                 ),
                 None => String::new(),
             },
+            ALPHA_N - 1,
             t0.elapsed().as_secs_f64(),
         );
         write_table(
