@@ -62,8 +62,23 @@
 //! of the two lobes seen from each side (before the scale) are stored for the
 //! sampler.
 //!
-//! Lookups are linear in `sqrt(alpha / MAX_ALPHA)`, `ln E`, `sqrt(mu_i)` and
-//! `sqrt(mu_o)`, and the cosine series is clamped at 0.
+//! Lookups are piecewise linear on triangles: the grid square of
+//! `(sqrt(alpha / MAX_ALPHA), ln E)` holding the material is cut along its
+//! diagonal and the triangle's three corners and barycentric weights are
+//! found once, at construction; the square of `(sqrt(mu_i), sqrt(mu_o))`
+//! is cut the same way per query (symmetric in the two cosines, so the
+//! symmetric reflection lobes stay reciprocal). Nine cell reads per query
+//! instead of bilinear-times-bilinear's sixteen, and three scale reads per
+//! direction (triangle in roughness and index, linear in `sqrt(mu)`)
+//! instead of four; the furnace scale table is computed for exactly this
+//! interpolation. Roughness node 0 (a smooth surface) has no multiple
+//! scattering and is not stored: its corners read as 0. The cosine series
+//! is clamped at 0.
+//!
+//! The peaked part needs `f_ss1` of the pair; eval takes it from SINGLE's
+//! reflection `F f_ss1`, already computed for the single-scattering term,
+//! divided by the Fresnel factor at `wi.h = sqrt((1 + wi.wo) / 2)`,
+//! instead of evaluating `D` and `G2` again.
 //!
 //! ## Anisotropic roughness
 //!
