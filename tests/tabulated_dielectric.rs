@@ -55,9 +55,9 @@ fn eta_seen(eta: f32, side: f32) -> f32 {
 /// part `B f_ss1`) over microfacet normals (`single_albedo`, `n x n`; 400
 /// x 400 for roughness up to 1, 800 x 800 above), and the multiply
 /// scattered transmission (smooth, but not confined to the directions a
-/// refraction reaches) over an `n / 3 x 2 n / 3` grid of `wo` in `(sqrt(1
-/// - |z|), phi)` (133 x 266, 266 x 533). The multiply scattered part is
-/// TABULATED's eval minus SINGLE's. At alpha 1.9 from inside at 85-89
+/// refraction reaches) over an `n / 3 x 2 n / 3` grid of `wo` in
+/// `(sqrt(1 - |z|), phi)` (133 x 266, 266 x 533). The multiply scattered
+/// part is TABULATED's eval minus SINGLE's. At alpha 1.9 from inside at 85-89
 /// degrees, 400 x 400 is still 0.1-0.2% from the converged value (1600 x
 /// 1600): 800 x 800 is within 0.07%.
 fn albedo_quadrature(t: &Material, s: &Material, wi: Vec3, ax: f32, ay: f32, eta: f32) -> f64 {
