@@ -52,12 +52,16 @@ fn eta_seen(eta: f32, side: f32) -> f32 {
 /// Directional albedo (reflection + transmission) of TABULATED by
 /// deterministic quadrature, in the frame where `wi` is up: SINGLE's
 /// albedo and the multiply scattered reflection (which holds the peaked
-/// part `B f_ss1`) over microfacet normals (`single_albedo`, 400 x 400),
-/// and the multiply scattered transmission (smooth, but not confined to the
-/// directions a refraction reaches) over a 128 x 256 grid of `wo` in
-/// `(sqrt(1 - |z|), phi)`. The multiply scattered part is TABULATED's eval
-/// minus SINGLE's.
+/// part `B f_ss1`) over microfacet normals (`single_albedo`, `n x n`; 400
+/// x 400 for roughness up to 1, 800 x 800 above), and the multiply
+/// scattered transmission (smooth, but not confined to the directions a
+/// refraction reaches) over an `n / 3 x 2 n / 3` grid of `wo` in
+/// `(sqrt(1 - |z|), phi)` (133 x 266, 266 x 533). The multiply scattered
+/// part is TABULATED's eval minus SINGLE's. At alpha 1.9 from inside at 85-89
+/// degrees, 400 x 400 is still 0.1-0.2% from the converged value (1600 x
+/// 1600): 800 x 800 is within 0.07%.
 fn albedo_quadrature(t: &Material, s: &Material, wi: Vec3, ax: f32, ay: f32, eta: f32) -> f64 {
+    let n = if ax.max(ay) > 1.0 { 800 } else { 400 };
     let mut rng = Rng::new(0, 0);
     let side = wi.z.signum();
     let (up, eta_l) = (Vec3::new(wi.x, wi.y, wi.z.abs()), eta_seen(eta, side));
@@ -68,7 +72,7 @@ fn albedo_quadrature(t: &Material, s: &Material, wi: Vec3, ax: f32, ay: f32, eta
         ay,
         up,
         Some(eta_l),
-        400,
+        n,
     );
     let r_ms = single_albedo(
         |a, b| {
@@ -79,9 +83,9 @@ fn albedo_quadrature(t: &Material, s: &Material, wi: Vec3, ax: f32, ay: f32, eta
         ay,
         up,
         None,
-        400,
+        n,
     );
-    let (nz, np) = (128usize, 256usize);
+    let (nz, np) = (n / 3, 2 * n / 3);
     let mut t_ms = 0.0;
     for a in 0..nz {
         // |z| = 1 - u^2 crowds points towards the horizon.
@@ -106,16 +110,17 @@ fn albedo_quadrature(t: &Material, s: &Material, wi: Vec3, ax: f32, ay: f32, eta
 
 /// White furnace to 89 degrees from both sides: a lossless dielectric
 /// keeps all the energy (reflected plus transmitted albedo 1). Alpha 0.1,
-/// 0.5 and 1: the quadrature of eval is within 0.5% of 1 (measured worst
-/// 0.35%), and the mean of 100,000 sample weights within 0.5% plus 3
+/// 0.5, 1 and 1.9: the quadrature of eval is within 0.5% of 1 (measured
+/// worst 0.34% to alpha 1, 0.46% at alpha 1.9, GGX glass from inside at 89
+/// degrees), and the mean of 100,000 sample weights within 0.5% plus 3
 /// standard errors. The sample weights are heavier than the conductor's
 /// (relative standard deviation up to 1.2 for rough glass at grazing
-/// angles): the standard error is asserted below 4e-3, so the sample half
-/// detects a 1.6% loss (4 of them) and the quadrature carries the 0.5%.
-/// Alpha 1.9 (rough surfaces seen from inside, where the furnace scale
-/// reaches its clamp): measured worst quadrature error 1.8% (Beckmann glass
-/// from inside at 80 degrees), bounded at 2.5%, sample standard error below
-/// 1e-2 (a 4% loss at 4 of them).
+/// angles): the standard error is asserted below 4e-3 to alpha 1, so the
+/// sample half detects a 1.6% loss (4 of them) and the quadrature carries
+/// the 0.5%; at alpha 1.9 below 1e-2 (a 4% loss at 4 of them; measured
+/// 8e-3). Alpha 1.9 was 1.8% off (Beckmann glass from inside at 80
+/// degrees) until the scale generator took GGX's visible normals as its
+/// reflection proposal for Beckmann too.
 #[test]
 fn white_furnace_both_sides_eval_and_sample() {
     let mut report = String::new();
@@ -155,8 +160,8 @@ fn white_furnace_both_sides_eval_and_sample() {
     assert!(worst[0][0] < 5e-3, "{report}");
     assert!(worst[0][1] < 5e-3, "{report}");
     assert!(worst[1][2] < 1e-2, "{report}");
-    assert!(worst[1][0] < 2.5e-2, "{report}");
-    assert!(worst[1][1] < 2.5e-2, "{report}");
+    assert!(worst[1][0] < 5e-3, "{report}");
+    assert!(worst[1][1] < 5e-3, "{report}");
 }
 
 /// Anisotropic roughness reads the table at an effective roughness; its
@@ -414,7 +419,7 @@ fn suite_error_against_reference_values() {
 #[test]
 fn table_cells_reestimated_with_the_library_walk() {
     let header = tabulated_dielectric::header();
-    assert!(header.starts_with("MSBSDF-TABULATED-DIELECTRIC-v1"));
+    assert!(header.starts_with("MSBSDF-TABULATED-DIELECTRIC-v2"));
     let walks_table: f64 = header
         .lines()
         .find_map(|l| l.strip_prefix("walks: "))
