@@ -360,9 +360,18 @@ impl Material {
         self.eval_dispatched(wi, wo, rng)
     }
 
-    /// [`Material::eval_unit`] for every model but SINGLE, out of line.
+    /// [`Material::eval_unit`] for every model but SINGLE and TABULATED, out
+    /// of line.
     #[inline(never)]
     fn eval_dispatched(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3 {
+        // TABULATED (deterministic: one evaluation) by a direct call.
+        match &self.imp {
+            ModelImpl::Base(BaseModel::Tabulated(m)) => return finite_or_zero(m.eval(wi, wo, rng)),
+            ModelImpl::Base(BaseModel::TabulatedDielectric(m)) => {
+                return finite_or_zero(m.eval(wi, wo, rng));
+            }
+            _ => {}
+        }
         finite_or_zero(eval_prepared(
             &self.imp,
             self.chosen.evaluations,
