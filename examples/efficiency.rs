@@ -20,7 +20,7 @@
 //! 4e5 for the committed figures: the walks' estimates are heavy-tailed, so
 //! the variance of fewer evals is often underestimated by half). `report`
 //! writes `docs/efficiency.md` and `docs/efficiency.svg`. The environment
-//! variables `EFFICIENCY_ONLY=<name part>` and `EFFICIENCY_CONFIG=<alpha>/<theta_i>`
+//! variables `EFFICIENCY_ONLY=<name part>[,<name part>...]` and `EFFICIENCY_CONFIG=<alpha>/<theta_i>`
 //! restrict `measure` to some models and one configuration (development runs;
 //! it then also prints each measured configuration's efficiency against the
 //! baseline in `docs/efficiency_baseline.csv`).
@@ -62,14 +62,15 @@ const MODELS: [(&str, Model, Estimator); 5] = [
 const ALPHAS: [f32; 3] = [0.3, 0.5, 1.0];
 const THETAS: [f64; 3] = [0.0, 60.0, 80.0];
 
-/// The models measured: all, or those whose name contains the environment
-/// variable `EFFICIENCY_ONLY` (for development runs).
+/// The models measured: all, or those whose name contains one of the
+/// comma-separated parts of the environment variable `EFFICIENCY_ONLY` (for
+/// development runs).
 fn models() -> Vec<(&'static str, Model, Estimator)> {
     let only = std::env::var("EFFICIENCY_ONLY").unwrap_or_default();
     MODELS
         .iter()
         .copied()
-        .filter(|m| m.0.contains(only.as_str()))
+        .filter(|m| only.split(',').any(|part| m.0.contains(part)))
         .collect()
 }
 

@@ -52,7 +52,7 @@
 //!   and goes on past the vertex it reaches by Russian roulette with that
 //!   probability after the vertex's next event (Alg. 3's Russian roulette,
 //!   delayed by one vertex, from the first vertex on). Below a mean
-//!   roughness of 0.75 it runs a walk from `wi` and one from `wo`, weighted
+//!   roughness of 1.5 it runs a walk from `wi` and one from `wo`, weighted
 //!   by the balance heuristic on their direction densities (unbiased for
 //!   any weights that sum to 1; measured in `docs/efficiency.md`).
 //! - **Hapke lobe** (eq. 15): `H(mu) = (1 + 2 mu) / (1 + 2 mu sqrt(1 - a))`
@@ -315,13 +315,13 @@ const PT_OPTIONS: WalkOptions = WalkOptions {
 /// Measured with [`PT_OPTIONS`] (`efficiency orders`, GGX, F = 1, variance
 /// of one eval, geometric mean over the 8 pairs of `docs/efficiency.md`):
 /// two walks have 3.4x less variance than one at alpha 0.5 (theta_i 60),
-/// 2.4 / 2.0 / 1.8x at alpha 1 (theta_i 0 / 60 / 80) and 1.7x at alpha 2
-/// (theta_i 60), for 1.5-1.9x the instructions: from alpha 1 on they would
-/// be 1.1-1.4x more efficient, but their variance then falls below
-/// BDPT's, which the INVARIANCE tests require to stay the lower of the
-/// two (`bdpt_has_lower_variance_than_pt`, alpha 1); so one walk from
-/// 0.75 on, as before.
-pub(crate) const TWO_WALKS_BELOW_ALPHA: f32 = 0.75;
+/// 2.0x at alpha 1, 1.7x at alpha 2 and 1.9x at alpha 3 (theta_i 60, 1e5
+/// evals per pair; 2.8, 3.9 and 5.0 vertices per walk), for 1.5-1.9x the
+/// instructions: 1.1-1.4x more efficient up to alpha 1, not from alpha 2
+/// on, where the walks' share of the cost nears all of it. The paper's
+/// one-walk PT stays available ([`Invariance::with_one_walk`]) for the
+/// comparison of BDPT with it.
+pub(crate) const TWO_WALKS_BELOW_ALPHA: f32 = 1.5;
 
 /// The PT estimate with the depth state `S`: single scattering in closed
 /// form plus, with `two_walks`, the MIS-weighted walks from `wi` and from
@@ -544,6 +544,8 @@ pub struct Invariance {
     estimator: Estimator,
     max_bounces: u32,
     ms: Microsurface,
+    /// PT runs the walks from `wi` and `wo` (else one from `wi`).
+    two_walks: bool,
 }
 
 impl Invariance {
@@ -561,6 +563,20 @@ impl Invariance {
             estimator,
             max_bounces,
             ms: Microsurface::new(ndf, facet, max_bounces),
+            two_walks: 0.5 * (ndf.alpha_x + ndf.alpha_y) < TWO_WALKS_BELOW_ALPHA,
+        }
+    }
+
+    /// The model with the paper's PT estimator (Cui et al. 2023, Alg. 3):
+    /// one walk from `wi` at every roughness, where the default runs two
+    /// MIS-weighted walks (from `wi` and from `wo`) below a mean roughness
+    /// of 1.5. The same expectation with more variance (2x at alpha 1); for
+    /// comparisons with the paper's estimators, e.g. that its BDPT has the
+    /// lower variance (`tests/invariance.rs`).
+    pub fn with_one_walk(self) -> Self {
+        Invariance {
+            two_walks: false,
+            ..self
         }
     }
 
@@ -572,8 +588,7 @@ impl Invariance {
     /// Unidirectional estimator with next-event estimation (Cui et al.
     /// 2023, Alg. 3) on the shared walk, the segment term as its state.
     fn eval_pt<const C: usize>(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3 {
-        let two = 0.5 * (self.ndf.alpha_x + self.ndf.alpha_y) < TWO_WALKS_BELOW_ALPHA;
-        eval_two_walks::<SegmentTerm<C>>(&self.ms, wi, wo, two, rng)
+        eval_two_walks::<SegmentTerm<C>>(&self.ms, wi, wo, self.two_walks, rng)
     }
 
     /// Draws `wo` from caller uniforms: `u[0]` chooses the lobe at the first

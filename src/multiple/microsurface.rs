@@ -484,7 +484,7 @@ impl Microsurface {
     /// vector (`F_d` the dielectric Fresnel, 1 for conductors; 0 for a
     /// refraction), which the reverse walk's density of the same reflection
     /// needs: `D` is evaluated once.
-    #[inline]
+    #[inline(always)]
     pub fn phase_and_density<N: NormalDensity>(
         &self,
         ndf: &N,
@@ -494,7 +494,8 @@ impl Microsurface {
         rate: f64,
     ) -> (Vec3, f32) {
         let i = -w;
-        if rate.is_nan() || rate <= 0.0 || matches!(self.facet, Facet::Diffuse { .. }) {
+        // `!(rate > 0)` also refuses NaN.
+        if !(rate > 0.0) || matches!(self.facet, Facet::Diffuse { .. }) {
             return (Vec3::ZERO, 0.0);
         }
         if o.z > 0.0 {
@@ -504,7 +505,7 @@ impl Microsurface {
                 return (Vec3::ZERO, 0.0);
             }
             let dm = ndf.density(h) as f32;
-            let scale = (0.25 / rate) as f32;
+            let scale = 0.25 / rate as f32;
             return match self.facet {
                 Facet::Dielectric { .. } => {
                     let fd = fresnel::dielectric(ci, eta) * dm;
