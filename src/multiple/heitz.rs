@@ -313,12 +313,14 @@ impl ScatterModel for Heitz {
                     roulette: true,
                 };
                 // The pair's Lambdas serve single scattering and both walks.
+                // Stratified first vertices: microsurface::STRATIFIED_WALKS.
                 let pair = microsurface::Pair::new(&self.ms, wi, wo);
-                let mut fwd = Vec3::ZERO;
-                microsurface::walk_pair::<HeightState, _>(&self.ms, &pair, rng, opt, &mut fwd);
-                let mut bwd = Vec3::ZERO;
+                let n = microsurface::STRATIFIED_WALKS;
+                let fwd =
+                    microsurface::stratified_walks::<HeightState>(&self.ms, &pair, n, rng, opt);
                 let rev = pair.reversed();
-                microsurface::walk_pair::<HeightState, _>(&self.ms, &rev, rng, opt, &mut bwd);
+                let bwd =
+                    microsurface::stratified_walks::<HeightState>(&self.ms, &rev, n, rng, opt);
                 self.ms.single_pair(&pair) + fwd + bwd * scale
             }
             false => {
