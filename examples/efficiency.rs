@@ -78,6 +78,12 @@ fn models() -> Vec<(&'static str, Model, Estimator)> {
 /// the environment variable `EFFICIENCY_CONFIG=<alpha>/<theta_i>`.
 fn configs() -> Vec<(f32, f64)> {
     let only = std::env::var("EFFICIENCY_CONFIG").unwrap_or_default();
+    // Any configuration can be named; only those of the table have a baseline.
+    if let Some((a, t)) = only.split_once('/')
+        && let (Ok(a), Ok(t)) = (a.parse::<f32>(), t.parse::<f64>())
+    {
+        return vec![(a, t)];
+    }
     let mut v = Vec::new();
     for &alpha in &ALPHAS {
         for &theta_i in &THETAS {
