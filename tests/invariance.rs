@@ -405,8 +405,8 @@ fn invariance_equals_bitterli_deon_within_4_sigma() {
 
 /// PT and BDPT estimate the same value; BDPT with less variance than the
 /// paper's PT (Cui et al. 2023, Alg. 3: one walk from `wi`,
-/// `Invariance::with_one_walk`; the model's default PT runs two MIS walks
-/// below alpha 1.5, whose variance at alpha 1 is below BDPT's).
+/// `Invariance::with_one_walk`; the model's default PT runs 8 walks with
+/// stratified first vertices, whose variance is below BDPT's).
 #[test]
 fn bdpt_has_lower_variance_than_pt() {
     use msbsdf::bsdf::ScatterModel;

@@ -313,9 +313,10 @@ impl ScatterModel for Heitz {
                     roulette: true,
                 };
                 // The pair's Lambdas serve single scattering and both walks.
-                // Stratified first vertices: microsurface::STRATIFIED_WALKS.
+                // Half the walks from each direction, stratified first
+                // vertices (microsurface::STRATIFIED_WALKS).
                 let pair = microsurface::Pair::new(&self.ms, wi, wo);
-                let n = microsurface::STRATIFIED_WALKS;
+                let n = microsurface::STRATIFIED_WALKS.div_ceil(2);
                 let fwd =
                     microsurface::stratified_walks::<HeightState>(&self.ms, &pair, n, rng, opt);
                 let rev = pair.reversed();

@@ -51,8 +51,9 @@
 //!   forces every upward segment to collide (weight the hit probability)
 //!   and goes on past the vertex it reaches by Russian roulette with that
 //!   probability after the vertex's next event (Alg. 3's Russian roulette,
-//!   delayed by one vertex, from the first vertex on). Below a mean
-//!   roughness of 1.5 it runs a walk from `wi` and one from `wo`, weighted
+//!   delayed by one vertex, from the first vertex on), with 8 walks whose
+//!   first vertices are stratified. Below a mean
+//!   roughness of 0.75 it runs half from `wi` and half from `wo`, weighted
 //!   by the balance heuristic on their direction densities (unbiased for
 //!   any weights that sum to 1; measured in `docs/efficiency.md`).
 //! - **Hapke lobe** (eq. 15): `H(mu) = (1 + 2 mu) / (1 + 2 mu sqrt(1 - a))`
@@ -72,9 +73,12 @@
 //! drawn from the phase functions alone, unaware of the segment term, so
 //! both are sampled to the full bounce limit (18 scatterings per eval at
 //! 10 bounces) and every one of the ~50 connections pays an O(t N) segment
-//! term (16-19k instructions per eval against 2.0-3.5k), for a variance
-//! per eval at most equal to PT's at alpha 0.3 and 0.5 (where PT's two MIS
-//! walks are BDPT's two end strategies) and 1.7x below it at alpha 1.
+//! term (16-19k instructions per eval against 2.0-3.5k for one PT walk),
+//! for a variance per eval at most equal to that of PT with one walk per
+//! direction at alpha 0.3 and 0.5 (where PT's two MIS walks are BDPT's two
+//! end strategies) and 1.7x below it at alpha 1; PT with 8 stratified
+//! walks (the default) has 8-12x less variance than BDPT at theta_i 60
+//! (alpha 0.5 and 1) for 0.7-0.8x its instructions.
 //! Russian roulette on the sub-paths past their first direction (survival
 //! 0.5) cut `variance x instructions` 3.1x at alpha 0.5 and 2.3x at 1, still
 //! 1.6x behind PT, and raised the variance per eval above PT's, which the
@@ -309,26 +313,24 @@ const PT_OPTIONS: WalkOptions = WalkOptions {
 };
 
 /// Mean roughness below which the PT estimators of INVARIANCE and
-/// BITTERLI_DEON run two walks (from `wi` and from `wo`) weighted by MIS on
-/// their direction densities, and from which they run one walk from `wi`.
+/// BITTERLI_DEON run their walks from `wi` and from `wo` weighted by MIS on
+/// their direction densities, and from which they run them all from `wi`.
 ///
-/// Measured with [`PT_OPTIONS`] (`efficiency orders`, GGX, F = 1, variance
-/// of one eval, geometric mean over the 8 pairs of `docs/efficiency.md`):
-/// two walks have 3.4x less variance than one at alpha 0.5 (theta_i 60),
-/// 2.0x at alpha 1, 1.7x at alpha 2 and 1.9x at alpha 3 (theta_i 60, 1e5
-/// evals per pair; 2.8, 3.9 and 5.0 vertices per walk), for 1.5-1.9x the
-/// instructions: 1.1-1.4x more efficient up to alpha 1, not from alpha 2
-/// on, where the walks' share of the cost nears all of it. The paper's
+/// Measured with [`PT_OPTIONS`] and [`microsurface::STRATIFIED_WALKS`] = 8
+/// walks per eval (`examples/efficiency.rs`, GGX, F = 1, theta_i 60,
+/// efficiency against HEITZ at 9f91b5f): both directions 8.19x at alpha 0.5
+/// and 7.52x at alpha 1, 8 walks from `wi` 3.86x and 9.58x (at alpha 1,
+/// theta_i 0: 16.5x both, 14.5x from `wi`). The paper's
 /// one-walk PT stays available ([`Invariance::with_one_walk`]) for the
 /// comparison of BDPT with it.
-pub(crate) const TWO_WALKS_BELOW_ALPHA: f32 = 1.5;
+pub(crate) const TWO_WALKS_BELOW_ALPHA: f32 = 0.75;
 
 /// The PT estimate with the depth state `S`: single scattering in closed
 /// form plus, with `two_walks`, the MIS-weighted walks from `wi` and from
 /// `wo` (the latter scaled by reciprocity, `f(wi, wo) |wo.z| = f(wo, wi)
-/// |wi.z| |wo.z| / |wi.z|`), else the walks from `wi`; `walks` walks per
-/// direction with stratified first vertices
-/// ([`microsurface::stratified_walks`]); options [`PT_OPTIONS`].
+/// |wi.z| |wo.z| / |wi.z|`), else the walks from `wi`; `walks` walks in
+/// all (half per direction with `two_walks`), with stratified first
+/// vertices ([`microsurface::stratified_walks`]); options [`PT_OPTIONS`].
 pub(crate) fn eval_two_walks<S: DepthState>(
     ms: &Microsurface,
     wi: Vec3,
@@ -343,9 +345,11 @@ pub(crate) fn eval_two_walks<S: DepthState>(
     };
     // The pair's Lambdas serve single scattering and both walks.
     let pair = microsurface::Pair::new(ms, wi, wo);
-    let mut f = microsurface::stratified_walks::<S>(ms, &pair, walks, rng, opt);
+    let per_direction = if two_walks { walks.div_ceil(2) } else { walks };
+    let mut f = microsurface::stratified_walks::<S>(ms, &pair, per_direction, rng, opt);
     if two_walks {
-        let bwd = microsurface::stratified_walks::<S>(ms, &pair.reversed(), walks, rng, opt);
+        let rev = pair.reversed();
+        let bwd = microsurface::stratified_walks::<S>(ms, &rev, per_direction, rng, opt);
         f += bwd * (wo.z / wi.z);
     }
     let v = ms.single_pair(&pair) + f;
@@ -544,9 +548,10 @@ pub struct Invariance {
     estimator: Estimator,
     max_bounces: u32,
     ms: Microsurface,
-    /// PT runs the walks from `wi` and `wo` (else from `wi`).
+    /// PT runs walks from `wi` and `wo` (else from `wi`).
     two_walks: bool,
-    /// PT's walks per direction (stratified first vertices).
+    /// PT's walks per eval (stratified first vertices), split over the
+    /// directions.
     walks: u32,
 }
 
@@ -573,9 +578,9 @@ impl Invariance {
     /// The model with the paper's PT estimator (Cui et al. 2023, Alg. 3):
     /// one walk from `wi` at every roughness, where the default runs
     /// [`microsurface::STRATIFIED_WALKS`] walks with stratified first
-    /// vertices from `wi` and as many from `wo` (MIS-weighted, below a mean
-    /// roughness of 1.5). The same expectation with more variance (8.7x at
-    /// alpha 1) at a lower cost per eval; for comparisons with the paper's
+    /// vertices, half from `wi` and half from `wo` (MIS-weighted) below a
+    /// mean roughness of 0.75. The same expectation with more variance (8x
+    /// at alpha 1) at a lower cost per eval; for comparisons with the paper's
     /// estimators, e.g. that its BDPT has the lower variance
     /// (`tests/invariance.rs`).
     pub fn with_one_walk(self) -> Self {

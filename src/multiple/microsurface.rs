@@ -1097,14 +1097,18 @@ pub fn walk_pair_from<S: DepthState, T: Tally>(
     }
 }
 
-/// Walks per direction in the eval of HEITZ, INVARIANCE PT and BITTERLI_DEON
-/// PT, with stratified first vertices ([`stratified_walks`]).
+/// Walks per eval of HEITZ, INVARIANCE PT and BITTERLI_DEON PT, with
+/// stratified first vertices ([`stratified_walks`]): half from `wi` and
+/// half from `wo` where the two directions are combined by MIS, else all
+/// from `wi`.
 ///
 /// The first direction carries most of the variance of a walk's estimate
-/// (at alpha 1 the orders covary: a walk that first turns down stays long),
-/// so stratifying it pays more than the walks cost. Measured on INVARIANCE
-/// PT with two MIS walks (`examples/efficiency.rs`, GGX, F = 1, theta_i 60,
-/// efficiency against HEITZ at 9f91b5f, 2e5 evals per pair):
+/// (at alpha 1 the orders covary: a walk that first turns down stays long;
+/// forcing every segment to collide instead of Russian roulette changes the
+/// variance by 5%), so stratifying it pays more than the walks cost.
+/// Measured on INVARIANCE PT (`examples/efficiency.rs`, GGX, F = 1,
+/// theta_i 60, efficiency against HEITZ at 9f91b5f, 2e5 evals per pair),
+/// walks per direction with both directions:
 ///
 /// | walks per direction | 1 | 2 | 3 | 4 | 8 |
 /// |---|---|---|---|---|---|
@@ -1113,11 +1117,15 @@ pub fn walk_pair_from<S: DepthState, T: Tally>(
 /// | alpha 1: instructions per eval | 4247 | 7645 | 11047 | 14478 | 28151 |
 /// | alpha 1: efficiency | 2.55x | 5.68x | 6.93x | 7.25x | 8.62x |
 ///
-/// The shift of the second uniform matters: with 4 walks stratifying it in
-/// 2 instead of 4 (lattice generator 2) gives 4.48x at alpha 1. 4 keeps an
-/// eval near 2-3 us; more walks still gain by this measure but make every
-/// eval dearer for a caller that needs fewer.
-pub const STRATIFIED_WALKS: u32 = 4;
+/// 8 walks from `wi` alone: 9.58x at alpha 1, 3.86x at 0.5 and 7.66x at
+/// alpha 0.3, theta_i 80 (22.6x with 4 per direction); hence one direction
+/// from a mean roughness of 0.75 on (INVARIANCE, BITTERLI_DEON). The shift
+/// of the second uniform matters: stratifying it in 2 instead of 4 (4
+/// walks, lattice generator 2) gives 4.48x at alpha 1. At alpha 0.1 (theta_i
+/// 60) 4 walks per direction have 4-5x less variance than 1 for 2.9x the
+/// instructions. 8 keeps an eval near 2-3 us; more walks still gain by this
+/// measure but make every eval dearer for a caller that needs fewer.
+pub const STRATIFIED_WALKS: u32 = 8;
 
 /// The mean of `n` walks from the pair ([`walk_pair_from`]) whose first
 /// visible normals take the uniforms `((u1 + j / n) mod 1, (u2 + j / n) mod
