@@ -30,8 +30,10 @@
 //! times the escape probability towards `wo` from the vertex height. For
 //! conductor and dielectric facets, single scattering is added in closed
 //! form (SINGLE with the height-correlated `G2`, which is what order 1 of
-//! the walk estimates) and the walks estimate orders 2 and up: one from `wi`
-//! and one from `wo` (roles swapped, scaled by the generalised reciprocity
+//! the walk estimates) and the walks estimate orders 2 and up: four from
+//! `wi` and four from `wo`, each four with stratified first vertices
+//! ([`microsurface::stratified_walks`], [`microsurface::STRATIFIED_WALKS`];
+//! the walks from `wo` with the roles swapped, scaled by the generalised reciprocity
 //! `f(wi, wo) / eta_o^2 = f(wo, wi) / eta_i^2`), combined by the balance
 //! heuristic on the densities of their direction choices (the kernel's
 //! default, [`DepthState::ln_entry_density`]; still unbiased, since the two

@@ -494,8 +494,7 @@ impl Microsurface {
         rate: f64,
     ) -> (Vec3, f32) {
         let i = -w;
-        // `!(rate > 0)` also refuses NaN.
-        if !(rate > 0.0) || matches!(self.facet, Facet::Diffuse { .. }) {
+        if rate.is_nan() || rate <= 0.0 || matches!(self.facet, Facet::Diffuse { .. }) {
             return (Vec3::ZERO, 0.0);
         }
         if o.z > 0.0 {
