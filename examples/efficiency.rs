@@ -20,8 +20,10 @@
 //! 4e5 for the committed figures: the walks' estimates are heavy-tailed, so
 //! the variance of fewer evals is often underestimated by half). `report`
 //! writes `docs/efficiency.md` and `docs/efficiency.svg`. The environment
-//! variable `EFFICIENCY_ONLY=<name part>` restricts `measure` to some models
-//! (development runs).
+//! variables `EFFICIENCY_ONLY=<name part>[,<name part>...]` and `EFFICIENCY_CONFIG=<alpha>/<theta_i>`
+//! restrict `measure` to some models and one configuration (development runs;
+//! it then also prints each measured configuration's efficiency against the
+//! baseline in `docs/efficiency_baseline.csv`).
 //!
 //! Three development modes look at one configuration:
 //!
@@ -60,15 +62,37 @@ const MODELS: [(&str, Model, Estimator); 5] = [
 const ALPHAS: [f32; 3] = [0.3, 0.5, 1.0];
 const THETAS: [f64; 3] = [0.0, 60.0, 80.0];
 
-/// The models measured: all, or those whose name contains the environment
-/// variable `EFFICIENCY_ONLY` (for development runs).
+/// The models measured: all, or those whose name contains one of the
+/// comma-separated parts of the environment variable `EFFICIENCY_ONLY` (for
+/// development runs).
 fn models() -> Vec<(&'static str, Model, Estimator)> {
     let only = std::env::var("EFFICIENCY_ONLY").unwrap_or_default();
     MODELS
         .iter()
         .copied()
-        .filter(|m| m.0.contains(only.as_str()))
+        .filter(|m| only.split(',').any(|part| m.0.contains(part)))
         .collect()
+}
+
+/// The configurations (alpha, theta_i) measured: all, or the one named by
+/// the environment variable `EFFICIENCY_CONFIG=<alpha>/<theta_i>`.
+fn configs() -> Vec<(f32, f64)> {
+    let only = std::env::var("EFFICIENCY_CONFIG").unwrap_or_default();
+    // Any configuration can be named; only those of the table have a baseline.
+    if let Some((a, t)) = only.split_once('/')
+        && let (Ok(a), Ok(t)) = (a.parse::<f32>(), t.parse::<f64>())
+    {
+        return vec![(a, t)];
+    }
+    let mut v = Vec::new();
+    for &alpha in &ALPHAS {
+        for &theta_i in &THETAS {
+            if only.is_empty() || only == format!("{alpha}/{theta_i}") {
+                v.push((alpha, theta_i));
+            }
+        }
+    }
+    v
 }
 
 /// The 8 outgoing directions (theta_o, phi_o) in degrees, phi 0 forward.
@@ -149,16 +173,14 @@ fn measure_sample(m: &Material, wi: Vec3, n: usize, rng: &mut Rng) -> f32 {
 fn count() {
     let mut sink = 0.0f32;
     for (mi, &(_, model, est)) in models().iter().enumerate() {
-        for &alpha in &ALPHAS {
-            for &theta_i in &THETAS {
-                let m = material(model, est, alpha).expect("a supported material");
-                let wi = wi_of(theta_i);
-                let mut rng = Rng::new(7, mi as u64);
-                for (t, p) in outs(theta_i) {
-                    sink += measure_eval(&m, wi, wo_of(t, p), N_COUNT, &mut rng);
-                }
-                sink += measure_sample(&m, wi, N_COUNT, &mut rng);
+        for (alpha, theta_i) in configs() {
+            let m = material(model, est, alpha).expect("a supported material");
+            let wi = wi_of(theta_i);
+            let mut rng = Rng::new(7, mi as u64);
+            for (t, p) in outs(theta_i) {
+                sink += measure_eval(&m, wi, wo_of(t, p), N_COUNT, &mut rng);
             }
+            sink += measure_sample(&m, wi, N_COUNT, &mut rng);
         }
     }
     println!("{sink}");
@@ -217,7 +239,7 @@ fn measure(out: &str, evals: usize) {
         .expect("valgrind (callgrind) must be installed");
     assert!(status.success(), "callgrind run failed");
     let counts = dumps(&dir);
-    let per_model = ALPHAS.len() * THETAS.len() * 9;
+    let per_model = configs().len() * 9;
     assert!(
         counts.len() >= models().len() * per_model,
         "expected {} dumps, found {}",
@@ -228,49 +250,64 @@ fn measure(out: &str, evals: usize) {
     let mut csv = String::from("model,alpha,theta_i,kind,theta_o,phi_o,mean,var,ns,instr\n");
     let mut di = 0;
     for (mi, &(name, model, est)) in models().iter().enumerate() {
-        for &alpha in &ALPHAS {
-            for &theta_i in &THETAS {
-                let m = material(model, est, alpha).expect("a supported material");
-                let wi = wi_of(theta_i);
-                let mut rng = Rng::new(1, 100 + mi as u64);
-                for (t, p) in outs(theta_i) {
-                    let wo = wo_of(t, p);
-                    let (mut s, mut s2) = (0.0f64, 0.0f64);
-                    let t0 = Instant::now();
-                    for _ in 0..evals {
-                        let v = m.eval(wi, wo, &mut rng).y as f64;
-                        s += v;
-                        s2 += v * v;
-                    }
-                    let ns = t0.elapsed().as_secs_f64() * 1e9 / evals as f64;
-                    let mean = s / evals as f64;
-                    let var = (s2 / evals as f64 - mean * mean).max(0.0) * evals as f64
-                        / (evals as f64 - 1.0);
-                    let instr = counts[di] as f64 / N_COUNT as f64;
-                    di += 1;
-                    let _ = writeln!(
-                        csv,
-                        "{name},{alpha},{theta_i},eval,{t},{p},{mean:.6e},{var:.6e},{ns:.1},{instr:.1}"
-                    );
-                    eprintln!(
-                        "{name} {alpha} {theta_i} ({t}, {p}): mean {mean:.4e} var {var:.3e} {ns:.0} ns {instr:.0} instr"
-                    );
-                }
+        for (alpha, theta_i) in configs() {
+            let m = material(model, est, alpha).expect("a supported material");
+            let wi = wi_of(theta_i);
+            let mut rng = Rng::new(1, 100 + mi as u64);
+            for (t, p) in outs(theta_i) {
+                let wo = wo_of(t, p);
+                let (mut s, mut s2) = (0.0f64, 0.0f64);
                 let t0 = Instant::now();
-                let n = evals / 4;
-                std::hint::black_box(measure_sample(&m, wi, n, &mut rng));
-                let ns = t0.elapsed().as_secs_f64() * 1e9 / n as f64;
+                for _ in 0..evals {
+                    let v = m.eval(wi, wo, &mut rng).y as f64;
+                    s += v;
+                    s2 += v * v;
+                }
+                let ns = t0.elapsed().as_secs_f64() * 1e9 / evals as f64;
+                let mean = s / evals as f64;
+                let var = (s2 / evals as f64 - mean * mean).max(0.0) * evals as f64
+                    / (evals as f64 - 1.0);
                 let instr = counts[di] as f64 / N_COUNT as f64;
                 di += 1;
                 let _ = writeln!(
                     csv,
-                    "{name},{alpha},{theta_i},sample,,,,,{ns:.1},{instr:.1}"
+                    "{name},{alpha},{theta_i},eval,{t},{p},{mean:.6e},{var:.6e},{ns:.1},{instr:.1}"
+                );
+                eprintln!(
+                    "{name} {alpha} {theta_i} ({t}, {p}): mean {mean:.4e} var {var:.3e} {ns:.0} ns {instr:.0} instr"
                 );
             }
+            let t0 = Instant::now();
+            let n = evals / 4;
+            std::hint::black_box(measure_sample(&m, wi, n, &mut rng));
+            let ns = t0.elapsed().as_secs_f64() * 1e9 / n as f64;
+            let instr = counts[di] as f64 / N_COUNT as f64;
+            di += 1;
+            let _ = writeln!(
+                csv,
+                "{name},{alpha},{theta_i},sample,,,,,{ns:.1},{instr:.1}"
+            );
         }
     }
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::write(out, csv).expect("write csv");
+    if configs().len() < ALPHAS.len() * THETAS.len()
+        && let Ok(base) = std::fs::read_to_string("docs/efficiency_baseline.csv")
+    {
+        let (base, cur) = (
+            parse(&base),
+            parse(&std::fs::read_to_string(out).expect("csv")),
+        );
+        for &(name, _, _) in &models() {
+            for (alpha, theta_i) in configs() {
+                if let Some([eff, instr, _, var]) = summary(&cur, &base, name, alpha, theta_i) {
+                    eprintln!(
+                        "{name} {alpha}/{theta_i}: efficiency {eff:.2}x, {instr:.0} instr, variance {var:.3e}"
+                    );
+                }
+            }
+        }
+    }
 }
 
 /// One CSV row.
@@ -286,7 +323,10 @@ struct Row {
 }
 
 fn read(path: &str) -> Vec<Row> {
-    let text = std::fs::read_to_string(path).expect("csv");
+    parse(&std::fs::read_to_string(path).expect("csv"))
+}
+
+fn parse(text: &str) -> Vec<Row> {
     text.lines()
         .skip(1)
         .filter_map(|l| {

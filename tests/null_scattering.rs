@@ -804,54 +804,6 @@ fn one_way_walk_is_reciprocal() {
     assert_eq!(tested, 12);
 }
 
-/// The kernel's phase function for a normal density over the whole sphere
-/// (`Microsurface::phase_over`, which NULL_SCATTERING uses with its
-/// tentative rate) is the kernel's height-field phase function
-/// (`Microsurface::phase`) when given a height-field NDF and the
-/// cross-section `sigma(-w)` as the rate: gold and glass (reflection and
-/// refraction, travelling down and up), anisotropic Beckmann, GGX and
-/// Student-T, within 2e-4 relative (f32 against mixed precision).
-#[test]
-fn phase_over_a_height_field_is_the_kernel_phase() {
-    use msbsdf::multiple::microsurface::Microsurface;
-    let mut rng = Rng::new(53, 4);
-    let glass = Facet::Dielectric { eta: 1.5 };
-    let (mut tested, mut refracted) = (0, 0);
-    for kind in [NdfKind::Beckmann, NdfKind::Ggx, NdfKind::StudentT] {
-        for facet in [GOLD, glass] {
-            let ndf = Ndf::with_shape(kind, 0.7, 0.3, 3.0);
-            let ms = Microsurface::new(ndf, facet, 10);
-            for _ in 0..1000 {
-                let inside = rng.next_f32() < 0.5;
-                let eta = ms.eta(inside);
-                // Travel down (first vertex) or up (later vertices).
-                let mut w = cosine_dir(&mut rng);
-                if rng.next_f32() < 0.5 {
-                    w = -w;
-                }
-                let mut o = cosine_dir(&mut rng);
-                if ms.is_dielectric() && rng.next_f32() < 0.5 {
-                    o.z = -o.z;
-                }
-                let sigma = ndf.sigma(-w);
-                let a = ms.phase(w, o, eta, sigma, Vec3::Z);
-                let b = ms.phase_over(&ndf, w, o, eta, sigma as f64);
-                let scale = a.max_element().max(b.max_element());
-                if scale > 1e-6 {
-                    tested += 1;
-                    refracted += usize::from(o.z < 0.0);
-                    assert!(
-                        (a - b).abs().max_element() <= 2e-4 * scale,
-                        "{kind:?} {facet:?} w {w} o {o}: phase {a} vs phase_over {b}"
-                    );
-                }
-            }
-        }
-    }
-    println!("{tested} pairs, {refracted} refractions");
-    assert!(tested > 2500 && refracted > 150, "{tested} {refracted}");
-}
-
 /// The majorant of Beckmann, GGX and Student-T (their `D` at the peak, by
 /// the crate's `ndf::Ndf`) is the closed-form maximum of `D` over the
 /// sphere within 2e-5 relative, and no `D` of 2e5 random normals (uniform

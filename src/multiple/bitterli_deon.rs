@@ -211,7 +211,8 @@ impl BitterliDeon {
     fn eval_pt<const C: usize>(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3 {
         let ndf = &self.ms.ndf;
         let two = 0.5 * (ndf.alpha_x + ndf.alpha_y) < TWO_WALKS_BELOW_ALPHA;
-        eval_two_walks::<HeightDistribution<C>>(&self.ms, wi, wo, two, rng)
+        let walks = microsurface::STRATIFIED_WALKS;
+        eval_two_walks::<HeightDistribution<C>>(&self.ms, wi, wo, two, walks, rng)
     }
 
     /// Draws `wo` from caller uniforms: `u[0]` chooses the lobe at the first

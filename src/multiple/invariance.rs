@@ -51,8 +51,9 @@
 //!   forces every upward segment to collide (weight the hit probability)
 //!   and goes on past the vertex it reaches by Russian roulette with that
 //!   probability after the vertex's next event (Alg. 3's Russian roulette,
-//!   delayed by one vertex, from the first vertex on). Below a mean
-//!   roughness of 0.75 it runs a walk from `wi` and one from `wo`, weighted
+//!   delayed by one vertex, from the first vertex on), with 8 walks whose
+//!   first vertices are stratified. Below a mean
+//!   roughness of 0.75 it runs half from `wi` and half from `wo`, weighted
 //!   by the balance heuristic on their direction densities (unbiased for
 //!   any weights that sum to 1; measured in `docs/efficiency.md`).
 //! - **Hapke lobe** (eq. 15): `H(mu) = (1 + 2 mu) / (1 + 2 mu sqrt(1 - a))`
@@ -72,9 +73,12 @@
 //! drawn from the phase functions alone, unaware of the segment term, so
 //! both are sampled to the full bounce limit (18 scatterings per eval at
 //! 10 bounces) and every one of the ~50 connections pays an O(t N) segment
-//! term (16-19k instructions per eval against 2.0-3.5k), for a variance
-//! per eval at most equal to PT's at alpha 0.3 and 0.5 (where PT's two MIS
-//! walks are BDPT's two end strategies) and 1.7x below it at alpha 1.
+//! term (16-19k instructions per eval against 2.0-3.5k for one PT walk),
+//! for a variance per eval at most equal to that of PT with one walk per
+//! direction at alpha 0.3 and 0.5 (where PT's two MIS walks are BDPT's two
+//! end strategies) and 1.7x below it at alpha 1; PT with 8 stratified
+//! walks (the default) has 8-12x less variance than BDPT at theta_i 60
+//! (alpha 0.5 and 1) for 0.7-0.8x its instructions.
 //! Russian roulette on the sub-paths past their first direction (survival
 //! 0.5) cut `variance x instructions` 3.1x at alpha 0.5 and 2.3x at 1, still
 //! 1.6x behind PT, and raised the variance per eval above PT's, which the
@@ -311,30 +315,30 @@ const PT_OPTIONS: WalkOptions = WalkOptions {
 };
 
 /// Mean roughness below which the PT estimators of INVARIANCE and
-/// BITTERLI_DEON run two walks (from `wi` and from `wo`) weighted by MIS on
-/// their direction densities, and from which they run one walk from `wi`.
+/// BITTERLI_DEON run their walks from `wi` and from `wo` weighted by MIS on
+/// their direction densities, and from which they run them all from `wi`.
 ///
-/// Measured with [`PT_OPTIONS`] (`efficiency orders`, GGX, F = 1, variance
-/// of one eval, geometric mean over the 8 pairs of `docs/efficiency.md`):
-/// two walks have 3.4x less variance than one at alpha 0.5 (theta_i 60),
-/// 2.4 / 2.0 / 1.8x at alpha 1 (theta_i 0 / 60 / 80) and 1.7x at alpha 2
-/// (theta_i 60), for 1.5-1.9x the instructions: from alpha 1 on they would
-/// be 1.1-1.4x more efficient, but their variance then falls below
-/// BDPT's, which the INVARIANCE tests require to stay the lower of the
-/// two (`bdpt_has_lower_variance_than_pt`, alpha 1); so one walk from
-/// 0.75 on, as before.
+/// Measured with [`PT_OPTIONS`] and [`microsurface::STRATIFIED_WALKS`] = 8
+/// walks per eval (`examples/efficiency.rs`, GGX, F = 1, theta_i 60,
+/// efficiency against HEITZ at 9f91b5f): both directions 8.19x at alpha 0.5
+/// and 7.52x at alpha 1, 8 walks from `wi` 3.86x and 9.58x (at alpha 1,
+/// theta_i 0: 16.5x both, 14.5x from `wi`). The paper's
+/// one-walk PT stays available ([`Invariance::with_one_walk`]) for the
+/// comparison of BDPT with it.
 pub(crate) const TWO_WALKS_BELOW_ALPHA: f32 = 0.75;
 
 /// The PT estimate with the depth state `S`: single scattering in closed
 /// form plus, with `two_walks`, the MIS-weighted walks from `wi` and from
 /// `wo` (the latter scaled by reciprocity, `f(wi, wo) |wo.z| = f(wo, wi)
-/// |wi.z| |wo.z| / |wi.z|`), else one walk from `wi`; options
-/// [`PT_OPTIONS`].
+/// |wi.z| |wo.z| / |wi.z|`), else the walks from `wi`; `walks` walks in
+/// all (half per direction with `two_walks`), with stratified first
+/// vertices ([`microsurface::stratified_walks`]); options [`PT_OPTIONS`].
 pub(crate) fn eval_two_walks<S: DepthState>(
     ms: &Microsurface,
     wi: Vec3,
     wo: Vec3,
     two_walks: bool,
+    walks: u32,
     rng: &mut Rng,
 ) -> Vec3 {
     let opt = WalkOptions {
@@ -343,11 +347,11 @@ pub(crate) fn eval_two_walks<S: DepthState>(
     };
     // The pair's Lambdas serve single scattering and both walks.
     let pair = microsurface::Pair::new(ms, wi, wo);
-    let mut f = Vec3::ZERO;
-    microsurface::walk_pair::<S, _>(ms, &pair, rng, opt, &mut f);
+    let per_direction = if two_walks { walks.div_ceil(2) } else { walks };
+    let mut f = microsurface::stratified_walks::<S>(ms, &pair, per_direction, rng, opt);
     if two_walks {
-        let mut bwd = Vec3::ZERO;
-        microsurface::walk_pair::<S, _>(ms, &pair.reversed(), rng, opt, &mut bwd);
+        let rev = pair.reversed();
+        let bwd = microsurface::stratified_walks::<S>(ms, &rev, per_direction, rng, opt);
         f += bwd * (wo.z / wi.z);
     }
     let v = ms.single_pair(&pair) + f;
@@ -546,6 +550,11 @@ pub struct Invariance {
     estimator: Estimator,
     max_bounces: u32,
     ms: Microsurface,
+    /// PT runs walks from `wi` and `wo` (else from `wi`).
+    two_walks: bool,
+    /// PT's walks per eval (stratified first vertices), split over the
+    /// directions.
+    walks: u32,
 }
 
 impl Invariance {
@@ -563,6 +572,24 @@ impl Invariance {
             estimator,
             max_bounces,
             ms: Microsurface::new(ndf, facet, max_bounces),
+            two_walks: 0.5 * (ndf.alpha_x + ndf.alpha_y) < TWO_WALKS_BELOW_ALPHA,
+            walks: microsurface::STRATIFIED_WALKS,
+        }
+    }
+
+    /// The model with the paper's PT estimator (Cui et al. 2023, Alg. 3):
+    /// one walk from `wi` at every roughness, where the default runs
+    /// [`microsurface::STRATIFIED_WALKS`] walks with stratified first
+    /// vertices, half from `wi` and half from `wo` (MIS-weighted) below a
+    /// mean roughness of 0.75. The same expectation with more variance (8x
+    /// at alpha 1) at a lower cost per eval; for comparisons with the paper's
+    /// estimators, e.g. that its BDPT has the lower variance
+    /// (`tests/invariance.rs`).
+    pub fn with_one_walk(self) -> Self {
+        Invariance {
+            two_walks: false,
+            walks: 1,
+            ..self
         }
     }
 
@@ -574,8 +601,7 @@ impl Invariance {
     /// Unidirectional estimator with next-event estimation (Cui et al.
     /// 2023, Alg. 3) on the shared walk, the segment term as its state.
     fn eval_pt<const C: usize>(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3 {
-        let two = 0.5 * (self.ndf.alpha_x + self.ndf.alpha_y) < TWO_WALKS_BELOW_ALPHA;
-        eval_two_walks::<SegmentTerm<C>>(&self.ms, wi, wo, two, rng)
+        eval_two_walks::<SegmentTerm<C>>(&self.ms, wi, wo, self.two_walks, self.walks, rng)
     }
 
     /// Draws `wo` from caller uniforms: `u[0]` chooses the lobe at the first
