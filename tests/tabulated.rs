@@ -23,11 +23,11 @@ const NDFS: [NdfId; 2] = [NdfId::Beckmann, NdfId::Ggx];
 /// Bound on the anisotropic furnace error: the lobe is normalised by a
 /// symmetric scaling at the nodes of a 16 x 16 roughness grid (7
 /// azimuths, 16 cosines) and the materials here lie between nodes;
-/// measured worst 0.0128 (0.081 without the correction table, 0.203 before
-/// the peaked lobe and the rescaling). The quadrature of eval (400 x 400
-/// normals) is exact to 0.17% for the isotropic lobes
-/// (`white_furnace_eval_and_sample`), far below this.
-const ANISO_FURNACE: f64 = 0.016;
+/// measured worst 0.0085 (GGX (0.1, 0.6) at 80 degrees along x; 0.0128
+/// with the earlier peaked lobe and correction, 0.203 before both). The
+/// quadrature of eval (400 x 400 normals) is exact to 0.17% for the
+/// isotropic lobes (`white_furnace_eval_and_sample`), far below this.
+const ANISO_FURNACE: f64 = 0.011;
 
 /// Complex IOR (eta, k) per RGB channel (about 650, 550, 450 nm).
 const METALS: [(&str, [f32; 3], [f32; 3]); 5] = [
@@ -89,9 +89,9 @@ fn white_furnace_eval_and_sample() {
     println!("{report}worst |quadrature - 1| = {worst:.2e}");
 }
 
-/// Anisotropic roughness: the effective-roughness lookup is not normalised
-/// per direction; its furnace error is measured and bounded by
-/// [`ANISO_FURNACE`] (a regression bound, far from the isotropic 0.5%).
+/// Anisotropic roughness, 0-89 degrees: the lobe is normalised at the
+/// nodes of the correction table only; its furnace error between them is
+/// measured and bounded by [`ANISO_FURNACE`] (not the isotropic 0.5%).
 #[test]
 fn white_furnace_anisotropic() {
     let mut report = String::new();
@@ -253,8 +253,9 @@ fn coloured_conductors_against_walks_with_exact_fresnel() {
 /// HEITZ walks): TABULATED's relative RMS error per conductor material
 /// (`sqrt(sum (f - ref)^2 / sum ref^2)` over the 64 pairs and 3 channels,
 /// the speed-accuracy harness's measure) is at most 0.02 for every
-/// isotropic material and their RMS at most 0.015 (the issue's target for
-/// the class; the anisotropic materials miss it and are bounded apart);
+/// isotropic material, their RMS and the RMS over all 36 materials (the
+/// issue's target for the class) at most 0.015, the anisotropic materials
+/// bounded apart;
 /// the reference's own relative standard error is ~1e-3.
 #[test]
 fn suite_error_against_reference_values() {
@@ -270,7 +271,7 @@ fn suite_error_against_reference_values() {
     });
     assert_eq!(mats.len(), 36, "conductor materials of the suite");
     let mut report = String::new();
-    let (mut class, mut iso, mut n_iso) = (0.0, 0.0, 0usize);
+    let (mut class, mut iso, mut n_iso) = (0.0f64, 0.0, 0usize);
     let (mut worst_iso, mut worst_aniso): (f64, f64) = (0.0, 0.0);
     let mut worst_aniso_ggx: f64 = 0.0;
     for (name, d, e) in &mats {
@@ -295,13 +296,16 @@ fn suite_error_against_reference_values() {
     );
     assert!(worst_iso < 0.02, "{report}");
     assert!(iso <= 0.015, "{report}isotropic {iso}");
+    // The class target of issue 16 (measured 0.0113; 0.0220 with the
+    // earlier anisotropic lobe).
+    assert!(class <= 0.015, "{report}class {class}");
     // Anisotropic roughness (module docs): the rescaled isotropic table at
-    // an effective roughness plus the energy-split peaked lobe, normalised
-    // by the correction table. Measured GGX 0.020-0.023 (0.078-0.080
-    // before), Beckmann 0.066-0.069 (0.079-0.080 before; 0.055-0.060
-    // without the normalisation, which lowers Beckmann's too-broad lobe).
-    assert!(worst_aniso_ggx < 0.03, "{report}");
-    assert!(worst_aniso < 0.075, "{report}");
+    // an effective roughness plus the energy-split peaked lobe of the
+    // roughness-dependent width, normalised by the correction table.
+    // Measured GGX 0.015-0.018 (0.020-0.023 before, 0.078-0.080 with the
+    // table alone), Beckmann 0.016-0.021 (0.065-0.069 before).
+    assert!(worst_aniso_ggx < 0.025, "{report}");
+    assert!(worst_aniso < 0.03, "{report}");
 }
 
 /// Random table cells re-estimated with the library's walk (other seeds).
@@ -434,11 +438,11 @@ fn stability_sweep() {
 /// on both axes, any azimuth and cosine node): eval's albedo by quadrature
 /// (400 x 400 normals) against 1 with SINGLE's albedo from the same
 /// quadrature. Between nodes the interpolation of the correction leaves up
-/// to 1.3% (`white_furnace_anisotropic`); at the nodes only the
-/// generator's coarser quadrature (64 x 64), the clamp of the correction
-/// to [0.25, 4] and the unfinished Sinkhorn iteration (5 passes) remain:
-/// measured worst 0.0115 (Beckmann (1.74, 0.32) at mu 0.05), bounded at
-/// 1.5%.
+/// to 0.85% (`white_furnace_anisotropic`); at the nodes only the
+/// generator's coarser quadrature (96 x 96), the clamp of the correction
+/// to [0.05, 20] and the unfinished Sinkhorn iteration (6 passes) remain:
+/// measured worst 0.0072 (Beckmann (1.74, 0.32) at mu 0.05; 0.0115 with
+/// the earlier lobe and correction), bounded at 1%.
 #[test]
 fn anisotropic_furnace_at_correction_nodes() {
     use msbsdf::multiple::compensation::{aniso_grid_alpha, aniso_grid_mu, aniso_grid_phi};
@@ -470,5 +474,89 @@ fn anisotropic_furnace_at_correction_nodes() {
         worst = worst.max((q - 1.0).abs());
     }
     println!("{report}worst |albedo - 1| at the nodes = {worst:.4}");
-    assert!(worst < 0.015, "{report}");
+    assert!(worst < 0.01, "{report}");
+}
+
+/// Anisotropic roughness off the suite, on pairs of its own (16 incident
+/// directions at 0-85 degrees and azimuths 0-90 degrees; per direction the
+/// mirror direction, the mirror turned 15 degrees in azimuth and 15 degrees
+/// towards the normal, and the normal): TABULATED's relative RMS error
+/// (the suite's measure) against the library's HEITZ_RANDOM_WALK eval
+/// averaged over 20,000 evaluations per pair, whose own relative RMS
+/// standard error is asserted below 0.005. None of these configurations
+/// or pairs was used to choose the anisotropic rule (`aniso_peak`).
+/// Measured: Beckmann (0.35, 0.7) 0.0266, GGX (1.2, 0.4) 0.0703 (SINGLE
+/// 0.133 and 0.477, printed), bounded at 0.035 and 0.085.
+#[test]
+fn anisotropic_against_walks_off_the_suite() {
+    let (eta, k) = (METALS[0].1, METALS[0].2);
+    let mut pairs = Vec::new();
+    for theta in [0.0f32, 40.0, 70.0, 85.0] {
+        for phi in [0.0f32, 30.0, 60.0, 90.0] {
+            let d = dir_deg(theta as f64);
+            let (s, c) = phi.to_radians().sin_cos();
+            let wi = Vec3::new(d.x * c, d.x * s, d.z);
+            let mirror = Vec3::new(-wi.x, -wi.y, wi.z);
+            let turned = {
+                let (s, c) = 15f32.to_radians().sin_cos();
+                Vec3::new(
+                    c * mirror.x - s * mirror.y,
+                    s * mirror.x + c * mirror.y,
+                    mirror.z,
+                )
+            };
+            let steeper = {
+                let t = (theta - 15.0).max(0.0).to_radians();
+                let (st, ct) = t.sin_cos();
+                let (sp, cp) = (phi + 180.0).to_radians().sin_cos();
+                Vec3::new(st * cp, st * sp, ct)
+            };
+            for wo in [mirror, turned, steeper, Vec3::Z] {
+                pairs.push((wi, wo));
+            }
+        }
+    }
+    let mut report = String::new();
+    for (ndf, ax, ay, bound) in [
+        (NdfId::Beckmann, 0.35f32, 0.7f32, 0.035f64),
+        (NdfId::Ggx, 1.2, 0.4, 0.085),
+    ] {
+        let tab = Material::new(&desc(Model::Tabulated, ndf, ax, ay, eta, k)).expect("valid");
+        let single = Material::new(&desc(Model::Single, ndf, ax, ay, eta, k)).expect("valid");
+        let walk =
+            Material::new(&desc(Model::HeitzRandomWalk, ndf, ax, ay, eta, k)).expect("valid");
+        let (mut num, mut num_single, mut den, mut var) = (0.0, 0.0, 0.0, 0.0);
+        for (p, &(wi, wo)) in pairs.iter().enumerate() {
+            let mut rng = Rng::new(8080, p as u64);
+            let n = 20_000;
+            let mut sums = [[0.0f64; 2]; 3];
+            for _ in 0..n {
+                let v = walk.eval(wi, wo, &mut rng);
+                for c in 0..3 {
+                    sums[c][0] += v[c] as f64;
+                    sums[c][1] += (v[c] as f64).powi(2);
+                }
+            }
+            let f = tab.eval(wi, wo, &mut rng);
+            let g = single.eval(wi, wo, &mut rng);
+            for c in 0..3 {
+                let mean = sums[c][0] / n as f64;
+                var += (sums[c][1] / n as f64 - mean * mean).max(0.0) / n as f64;
+                num += (f[c] as f64 - mean).powi(2);
+                num_single += (g[c] as f64 - mean).powi(2);
+                den += mean * mean;
+            }
+        }
+        let (err, err_single, noise) = (
+            (num / den).sqrt(),
+            (num_single / den).sqrt(),
+            (var / den).sqrt(),
+        );
+        report += &format!(
+            "{ndf:?} ({ax}, {ay}): TABULATED {err:.4}, SINGLE {err_single:.4}, walk noise {noise:.4}\n"
+        );
+        assert!(noise < 0.005, "{report}");
+        assert!(err < bound, "{report}");
+    }
+    println!("{report}");
 }

@@ -33,7 +33,7 @@ const NDFS: [NdfKind; 2] = [NdfKind::Beckmann, NdfKind::Ggx];
 /// Range of the stored correction (a guard for nodes where the target and
 /// the albedo are both near 0; the uncorrected lobe's albedo is mostly
 /// within a factor 2 of the target).
-const CLAMP: (f32, f32) = (0.25, 4.0);
+const CLAMP: (f32, f32) = (0.05, 20.0);
 
 /// The correction at one node: `(1 - E) / A`, 1 where there is no multiply
 /// scattered energy to correct (an axis of roughness 0).
