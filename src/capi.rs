@@ -255,14 +255,16 @@ pub struct msbsdf_material_desc {
     /// `MSBSDF_MODEL_AUTO`: largest acceptable relative error (relative RMS
     /// error of f against the converged HEITZ_RANDOM_WALK over the
     /// measurement suite). The default 0.1 picks analytic models only:
-    /// SINGLE up to alpha 0.3 for conductors and 0.5 for glass, TABULATED
-    /// above (about 2x SINGLE's cost); 0.02 picks TABULATED for every
-    /// conductor and for glass from alpha 0.3 (relative errors about 0.02
-    /// for conductors, 0.006 for glass); 0.01 keeps TABULATED for GGX
-    /// conductors and glass up to alpha 0.5 and picks walks averaged over
-    /// hundreds to thousands of evaluations (0.1 to 2 ms per eval) for
-    /// Beckmann conductors below alpha 1 and rougher glass: for references,
-    /// not frames.
+    /// SINGLE up to alpha 0.3 for conductors and 0.5 for glass; above,
+    /// TABULATED for glass and Beckmann conductors and ENERGY_COMPENSATED
+    /// for GGX conductors (it costs about what TABULATED costs, about 2x
+    /// SINGLE, within the timing noise of the table, and its error, about
+    /// 0.07, meets 0.1); 0.02 picks TABULATED for every conductor and for
+    /// glass from alpha 0.2 (relative errors about 0.01 for conductors,
+    /// 0.005 for glass); 0.01 keeps TABULATED for GGX conductors and glass
+    /// and picks walks averaged over 64 to 128 evaluations (about 0.1 to
+    /// 0.2 ms per eval) for Beckmann conductors below alpha 1: for
+    /// references, not frames.
     pub tolerance: f32,
     /// `MSBSDF_FACET_MATERIAL`: the facets scatter as this material. The new
     /// material keeps a copy: `inner` need only be alive during create/init

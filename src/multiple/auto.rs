@@ -40,16 +40,16 @@
 //! What the measurements mean for callers (`docs/speed_accuracy.md`): the
 //! suite's grazing pairs carry large values where an analytic model misses
 //! the multiply scattered light. TABULATED (SINGLE plus the tabulated
-//! orders >= 2 of the walk; conductors and dielectrics) is within about 2%
-//! on the conductor rows and 0.6% on glass at about 2x SINGLE's cost. The
+//! orders >= 2 of the walk; conductors and dielectrics) is within about 1%
+//! on the conductor rows and 0.5% on glass at about 2x SINGLE's cost. The
 //! default 0.1 picks SINGLE up to alpha 0.3 (conductors) or 0.5 (glass) and
-//! TABULATED above (ENERGY_COMPENSATED costs about the same, so timing
-//! noise between harness runs can swap the two at alpha 0.5-1); 0.02 picks
-//! TABULATED for every conductor and for glass from alpha 0.3; 0.01 keeps
-//! it for GGX conductors and glass up to alpha 0.5 and picks a walk
-//! averaged over hundreds to thousands of evaluations per query for
-//! Beckmann conductors below alpha 1 and rougher glass (0.1 to 2 ms per
-//! eval). A renderer that
+//! above it TABULATED, or ENERGY_COMPENSATED for GGX conductors in the
+//! current table (it costs about the same, so timing noise between harness
+//! runs can swap the two at alpha 0.4-1); 0.02 picks TABULATED for every
+//! conductor and for glass from alpha 0.2; 0.01 keeps it for GGX
+//! conductors and glass and picks a walk averaged over 64 to 128
+//! evaluations per query for Beckmann conductors below alpha 1 (0.1 to 0.2
+//! ms per eval). A renderer that
 //! averages many samples per pixel anyway wants a tolerance near the bias
 //! it can accept, since its own samples average the noise.
 
