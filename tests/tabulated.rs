@@ -7,7 +7,6 @@
 mod common;
 use common::*;
 use glam::Vec3;
-use msbsdf::bsdf::ScatterModel;
 use msbsdf::facet::Facet;
 use msbsdf::multiple::compensation::single_albedo;
 use msbsdf::multiple::heitz::Heitz;
@@ -362,23 +361,10 @@ fn table_cells_reestimated_with_the_library_walk() {
             fresh += mean;
             var += s2 / n as f64 - mean * mean;
             // Q_xy / (2 pi H_y) by SINGLE's visible-normal samples.
-            let mut qrng = Rng::new(4243, stream);
-            let (mut q1, mut q2) = (0.0f64, 0.0f64);
-            for _ in 0..nq {
-                let smp = single.sample(wi, &mut qrng);
-                let mut mom = [[0.0f64; 1]; MU_N];
-                if smp.wo.z > 0.0 && smp.pdf > 0.0 {
-                    let ss1 = single.eval(wi, smp.wo, &mut qrng).x as f64;
-                    project_exit(smp.wo, ss1 / smp.pdf as f64, &mut mom);
-                }
-                let v = mom[y][0] / norm;
-                q1 += v;
-                q2 += v * v;
-            }
-            let q = q1 / nq as f64;
+            let (q, q_var) = peak_projection(&single, wi, y, norm, nq, &mut Rng::new(4243, stream));
             let b = lobe_index(nd, a, x, y);
             stored += LOBE[b] as f64 + LOBE[b + PEAK] as f64 * q;
-            var_q += (LOBE[b + PEAK] as f64).powi(2) * (q2 / nq as f64 - q * q) / nq as f64;
+            var_q += (LOBE[b + PEAK] as f64).powi(2) * q_var;
         }
         let se = (var / n as f64 + var / walks_table + var_q).sqrt();
         report += &format!(

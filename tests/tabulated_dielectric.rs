@@ -7,7 +7,6 @@
 mod common;
 use common::*;
 use glam::Vec3;
-use msbsdf::bsdf::ScatterModel;
 use msbsdf::facet::Facet;
 use msbsdf::multiple::compensation::single_albedo;
 use msbsdf::multiple::heitz::Heitz;
@@ -493,24 +492,11 @@ fn table_cells_reestimated_with_the_library_walk() {
             var += s2 / n as f64 - mean * mean;
             if refl {
                 // Q_xy / (2 pi H_y) by SINGLE's (F = 1) samples.
-                let mut qrng = Rng::new(8081, stream);
-                let (mut q1, mut q2) = (0.0f64, 0.0f64);
-                for _ in 0..nq {
-                    let smp = single1.sample(up, &mut qrng);
-                    let mut mom = [[0.0f64; 1]; MU_N];
-                    if smp.wo.z > 0.0 && smp.pdf > 0.0 {
-                        let ss1 = single1.eval(up, smp.wo, &mut qrng).x as f64;
-                        project_exit(smp.wo, ss1 / smp.pdf as f64, &mut mom);
-                    }
-                    let v = mom[y][0] / norm;
-                    q1 += v;
-                    q2 += v * v;
-                }
-                let q = q1 / nq as f64;
+                let (q, q_var) =
+                    peak_projection(&single1, up, y, norm, nq, &mut Rng::new(8081, stream));
                 let b = lobe_index(nd, a, e, lobe, x, y);
                 stored += wgt * (lobe_value(b) as f64 + lobe_value(b + PEAK) as f64 * q);
-                var_q += (wgt * lobe_value(b + PEAK) as f64).powi(2) * (q2 / nq as f64 - q * q)
-                    / nq as f64;
+                var_q += (wgt * lobe_value(b + PEAK) as f64).powi(2) * q_var;
             }
         }
         if lobe == T_THIN {

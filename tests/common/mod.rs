@@ -377,3 +377,33 @@ pub fn suite_errors(
         .map(|(name, d, num, den)| (name, d, (num / den).sqrt()))
         .collect()
 }
+
+/// `Q_xy / (2 pi H_y)` of the tabulated tier's peaked part at exit node `y`
+/// (`norm` the hat moment normalisation), estimated by `n` samples of the
+/// single-scattering model `single` (SINGLE with F = 1) from `wi`: each sample's `f_ss1 / pdf`
+/// projected onto the exit hats. Returns the mean and the variance of the
+/// mean.
+pub fn peak_projection(
+    single: &impl msbsdf::bsdf::ScatterModel,
+    wi: Vec3,
+    y: usize,
+    norm: f64,
+    n: u64,
+    rng: &mut Rng,
+) -> (f64, f64) {
+    use msbsdf::multiple::tabulated::{MU_N, project_exit};
+    let (mut q1, mut q2) = (0.0f64, 0.0f64);
+    for _ in 0..n {
+        let smp = single.sample(wi, rng);
+        let mut mom = [[0.0f64; 1]; MU_N];
+        if smp.wo.z > 0.0 && smp.pdf > 0.0 {
+            let ss1 = single.eval(wi, smp.wo, rng).x as f64;
+            project_exit(smp.wo, ss1 / smp.pdf as f64, &mut mom);
+        }
+        let v = mom[y][0] / norm;
+        q1 += v;
+        q2 += v * v;
+    }
+    let q = q1 / n as f64;
+    (q, (q2 / n as f64 - q * q) / n as f64)
+}
