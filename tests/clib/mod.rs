@@ -115,8 +115,13 @@ pub fn shared_lib_dir(name: &str) -> PathBuf {
     let dir = work_dir(name).join("lib");
     std::fs::create_dir_all(&dir).expect("create lib dir");
     // Copy (not link) so a concurrent cargo build cannot change the file
-    // under a running test; rename makes the copy atomic.
-    let tmp = dir.join(format!("libmsbsdf.so.tmp{}", std::process::id()));
+    // under a running test; rename makes the copy atomic. The temporary
+    // name is unique per call: the tests of one binary run on threads of
+    // one process, and two copies through one name raced (one thread's
+    // rename took the file the other was about to rename).
+    static COPIES: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let n = COPIES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let tmp = dir.join(format!("libmsbsdf.so.tmp{}-{n}", std::process::id()));
     std::fs::copy(built_dir().join("libmsbsdf.so"), &tmp).expect("copy libmsbsdf.so");
     std::fs::rename(&tmp, dir.join("libmsbsdf.so")).expect("rename libmsbsdf.so");
     let soname_link = dir.join("libmsbsdf.so.0");
