@@ -254,17 +254,18 @@ pub struct msbsdf_material_desc {
     pub max_bounces: u32,
     /// `MSBSDF_MODEL_AUTO`: largest acceptable relative error (relative RMS
     /// error of f against the converged HEITZ_RANDOM_WALK over the
-    /// measurement suite). The default 0.1 picks analytic models only:
-    /// SINGLE up to alpha 0.3 for conductors and 0.5 for glass; above,
-    /// TABULATED for glass and Beckmann conductors and ENERGY_COMPENSATED
-    /// for GGX conductors (it costs about what TABULATED costs, about 2x
-    /// SINGLE, within the timing noise of the table, and its error, about
-    /// 0.07, meets 0.1); 0.02 picks TABULATED for every conductor and for
-    /// glass from alpha 0.2 (relative errors about 0.01 for conductors,
-    /// 0.005 for glass); 0.01 keeps TABULATED for GGX conductors and glass
-    /// and picks walks averaged over 64 to 128 evaluations (about 0.1 to
-    /// 0.2 ms per eval) for Beckmann conductors below alpha 1: for
-    /// references, not frames.
+    /// measurement suite); AUTO takes the cheapest model meeting it, costs
+    /// within 15% counting as equal (the smaller error wins). The default
+    /// 0.03 picks analytic models only: TABULATED for every Beckmann or GGX
+    /// conductor (errors 0.005-0.016 isotropic, about 0.02 anisotropic; 1.3
+    /// to 2.5x SINGLE's cost, 4-6x anisotropic) and for glass from alpha
+    /// 0.2 (0.005-0.016), SINGLE for glass up to alpha 0.1 (0.006). 0.1
+    /// keeps SINGLE for conductors up to alpha 0.3 and for glass up to 0.5;
+    /// 0.01 picks walks averaged over 32 to 512 evaluations (0.1 to 3 ms
+    /// per eval) for Beckmann conductors but alpha 1, anisotropic ones and
+    /// GGX conductors at alpha 2: for references, not frames. The table of
+    /// picks: `docs/auto_picks.md`. Anisotropic glass is predicted from the
+    /// isotropic glass rows (none anisotropic was measured).
     pub tolerance: f32,
     /// `MSBSDF_FACET_MATERIAL`: the facets scatter as this material. The new
     /// material keeps a copy: `inner` need only be alive during create/init
@@ -776,7 +777,7 @@ pub unsafe extern "C" fn msbsdf_rng_next_float(rng: *mut msbsdf_rng) -> f32 {
 
 /// A description with every field at its default: GGX alpha 0.5, perfectly
 /// reflecting conductor facets (eta 0, k 1), single scattering, PT estimator,
-/// shape 2, albedo 0.8, default bounces, tolerance 0.1, no inner material,
+/// shape 2, albedo 0.8, default bounces, tolerance 0.03, no inner material,
 /// two-sided conductors, and `struct_size` set. Returned by value, it has
 /// this library's size: a program compiled against an older header must use
 /// `msbsdf_material_desc_init` instead (kept for 0.2 source compatibility).

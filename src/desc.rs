@@ -123,7 +123,7 @@ pub struct MaterialDesc {
     pub albedo: Vec3,
     /// Bounce limit, 0 for the model default.
     pub max_bounces: u32,
-    /// Error tolerance for [`Model::Auto`] (default 0.1; see the C field
+    /// Error tolerance for [`Model::Auto`] (default 0.03; see the C field
     /// `msbsdf_material_desc::tolerance` for what it picks).
     pub tolerance: f32,
     /// [`FacetKind::Material`]: the facets scatter as this material
@@ -154,7 +154,7 @@ impl Default for MaterialDesc {
             k: Vec3::ONE,
             albedo: Vec3::splat(0.8),
             max_bounces: 0,
-            tolerance: 0.1,
+            tolerance: 0.03,
             inner: None,
             one_sided: false,
         }

@@ -1,7 +1,8 @@
 //! MSBSDF_MODEL_AUTO: on every material of the speed-vs-accuracy suite,
 //! tolerance 0.01 gives a material whose measured error against the
 //! committed HEITZ reference is below 0.01 and that costs no more than the
-//! cheapest configuration meeting it in the committed table; the wrapper
+//! cheapest configuration meeting it in the committed table (times the
+//! cost tie `COST_TIE`); the wrapper
 //! averages the chosen number of evaluations; the C API reports the choice.
 
 #[path = "../tools/harness/mod.rs"]
@@ -11,7 +12,7 @@ use glam::Vec3;
 use harness::reference::{self, RefMaterial};
 use harness::suite::{self, c_desc};
 use msbsdf::capi::*;
-use msbsdf::multiple::auto::{Candidate, Choice, Row, concrete};
+use msbsdf::multiple::auto::{COST_TIE, Candidate, Choice, Row, concrete};
 use msbsdf::multiple::auto_table::{REFERENCE_NS, ROWS};
 use msbsdf::{Estimator, FacetKind, Material, MaterialDesc, Model, NdfId, Rng};
 
@@ -160,9 +161,11 @@ fn auto_never_costs_more_than_the_cheapest_config_meeting_it_in_the_table() {
             "{}: no configuration in the table meets {TOLERANCE}",
             r.mat.name
         );
+        // Costs within COST_TIE of the cheapest are a tie that the smaller
+        // error wins (the table's timing noise).
         assert!(
-            c.ns <= cheapest,
-            "{}: AUTO costs {} ns, cheapest meeting it {cheapest}",
+            c.ns <= cheapest * COST_TIE,
+            "{}: AUTO costs {} ns, cheapest meeting it {cheapest} (x {COST_TIE})",
             r.mat.name,
             c.ns
         );
@@ -316,8 +319,9 @@ fn auto_outside_the_table_falls_back_to_an_unbiased_walk() {
 /// has none), a row measured for exactly its roughness alone, else the
 /// isotropic rows bracketing min and max alpha plus the anisotropic rows
 /// for anisotropic roughness; errors scaled above the largest bracket
-/// alpha; the cheapest accepted candidate within tolerance (ties: smaller
-/// error, then the first by cost in the first row), else the smallest
+/// alpha; among the accepted candidates within tolerance that cost at most
+/// `COST_TIE` times the cheapest of them, the smallest error (ties: lower
+/// cost, then the first by cost in the first row), else the smallest
 /// error (ties: lower cost, then the first by cost); no rows or none
 /// accepted: HEITZ_RANDOM_WALK, then NULL_SCATTERING.
 fn reference_choice(d: &MaterialDesc) -> Result<Choice, msbsdf::status::Error> {
@@ -422,12 +426,17 @@ fn reference_choice(d: &MaterialDesc) -> Result<Choice, msbsdf::status::Error> {
                 cands.push((pos, choice));
             }
         }
-        let within = cands
+        let cheapest = cands
             .iter()
             .filter(|(_, c)| c.error <= d.tolerance)
+            .map(|(_, c)| c.ns)
+            .fold(f32::INFINITY, f32::min);
+        let within = cands
+            .iter()
+            .filter(|(_, c)| c.error <= d.tolerance && c.ns <= cheapest * COST_TIE)
             .min_by(|a, b| {
-                (a.1.ns, a.1.error, a.0)
-                    .partial_cmp(&(b.1.ns, b.1.error, b.0))
+                (a.1.error, a.1.ns, a.0)
+                    .partial_cmp(&(b.1.error, b.1.ns, b.0))
                     .expect("finite")
             });
         let any = cands.iter().min_by(|a, b| {

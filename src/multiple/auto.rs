@@ -25,8 +25,10 @@
 //!   linearly). Above the largest measured roughness the errors are scaled
 //!   by `alpha / alpha_max` (every bias measured grows with roughness);
 //! - among the candidates whose model accepts the description, the
-//!   cheapest with error within `tolerance`; when none is, the one with the
-//!   smallest error.
+//!   cheapest with error within `tolerance`, where costs within
+//!   [`COST_TIE`] (15%) of the cheapest count as equal and the smaller
+//!   error wins among them; when none is within `tolerance`, the one with
+//!   the smallest error.
 //!
 //! Acceptance is the models' own: [`build`] takes the constructor dispatch
 //! (`Material`'s, which holds each model's support checks) as a function
@@ -41,15 +43,16 @@
 //! suite's grazing pairs carry large values where an analytic model misses
 //! the multiply scattered light. TABULATED (SINGLE plus the tabulated
 //! orders >= 2 of the walk; conductors and dielectrics) is within about 1%
-//! on the conductor rows and 0.5% on glass at about 2x SINGLE's cost. The
-//! default 0.1 picks SINGLE up to alpha 0.3 (conductors) or 0.5 (glass) and
-//! above it TABULATED, or ENERGY_COMPENSATED for GGX conductors in the
-//! current table (it costs about the same, so timing noise between harness
-//! runs can swap the two at alpha 0.4-1); 0.02 picks TABULATED for every
-//! conductor and for glass from alpha 0.2; 0.01 keeps it for GGX
-//! conductors and glass and picks a walk averaged over 64 to 128
-//! evaluations per query for Beckmann conductors below alpha 1 (0.1 to 0.2
-//! ms per eval). A renderer that
+//! on the conductor rows and 0.5% on glass at about 2x SINGLE's cost, the
+//! knee of the front, and the default tolerance 0.03 lands on it: TABULATED
+//! for every conductor and for glass from alpha 0.2, SINGLE for smoother
+//! glass (`docs/auto_picks.md`, written by `cargo run --release --example
+//! auto_picks`, has every pick). ENERGY_COMPENSATED (error about 0.03-0.08)
+//! costs the same as TABULATED within the table's timing noise, which
+//! [`COST_TIE`] treats as a tie, so it is not picked. 0.1 keeps SINGLE up
+//! to alpha 0.3 (conductors) or 0.5 (glass); 0.01 picks walks averaged
+//! over 32 to 512 evaluations per query for most Beckmann and anisotropic
+//! conductors (0.1 to 3 ms per eval). A renderer that
 //! averages many samples per pixel anyway wants a tolerance near the bias
 //! it can accept, since its own samples average the noise.
 
@@ -120,6 +123,13 @@ impl Choice {
         }
     }
 }
+
+/// Costs within this factor of the cheapest candidate within tolerance
+/// count as equal, and the smaller error wins among them: the table's costs
+/// are medians of wall-clock timings on a shared machine, whose noise
+/// between harness runs is about 10% (ENERGY_COMPENSATED and TABULATED
+/// conductors, both about 2.4x SINGLE, swapped order between runs).
+pub const COST_TIE: f32 = 1.15;
 
 /// Number of rows of the committed table.
 const N_ROWS: usize = ROWS.len();
@@ -872,11 +882,19 @@ fn best_from_fronts(d: &MaterialDesc) -> Option<Option<Choice>> {
         return Some(None);
     }
     let front = &entry[start..start + len];
-    // The first entry within tolerance, else the smallest error (the last).
-    let c = front
+    // The first entry within tolerance, else the smallest error (the last);
+    // then the last entry (the smallest error: the front's errors
+    // decrease) that costs at most COST_TIE times as much.
+    let first = front
         .iter()
-        .find(|c| c.error <= d.tolerance)
-        .unwrap_or(&front[len - 1]);
+        .position(|c| c.error <= d.tolerance)
+        .unwrap_or(len - 1);
+    let limit = front[first].cost * COST_TIE;
+    let tied = front[first + 1..]
+        .iter()
+        .take_while(|c| c.cost <= limit)
+        .count();
+    let c = &front[first + tied];
     Some(Some(Choice {
         model: c.model,
         estimator: c.estimator,
@@ -934,8 +952,30 @@ fn best(
             best = Some((idx, err, ns));
         }
     }
-    if let Some((idx, err, ns)) = best {
-        return Some(choice(&cands[idx], (err, ns)));
+    if let Some((_, _, cheapest)) = best {
+        // Costs within COST_TIE of the cheapest are a tie: the smallest
+        // error among them (ties: the lower cost, then the first by cost).
+        let limit = cheapest * COST_TIE;
+        for &idx in order {
+            let idx = idx as usize;
+            let c = &cands[idx];
+            if c.cost * REFERENCE_NS > limit {
+                break;
+            }
+            if c.error * scale > d.tolerance || excluded(c) {
+                continue;
+            }
+            let Some((err, ns)) = predict(rel, scale, idx, c) else {
+                continue;
+            };
+            if err <= d.tolerance
+                && ns <= limit
+                && best.is_some_and(|(_, b_err, b_ns)| err < b_err || (err == b_err && ns < b_ns))
+            {
+                best = Some((idx, err, ns));
+            }
+        }
+        return best.map(|(idx, err, ns)| choice(&cands[idx], (err, ns)));
     }
     // None within tolerance: the smallest error (ties: the lower cost, then
     // the first by cost).

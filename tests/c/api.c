@@ -133,7 +133,7 @@ static void test_desc_default(void)
     CHECK(d.k.r == 1.0f && d.k.g == 1.0f && d.k.b == 1.0f, "default k not 1");
     CHECK(d.albedo.r == 0.8f && d.albedo.g == 0.8f && d.albedo.b == 0.8f, "default albedo");
     CHECK(d.max_bounces == 0, "default max_bounces %u", (unsigned)d.max_bounces);
-    CHECK(d.tolerance == 0.1f, "default tolerance %g", d.tolerance);
+    CHECK(d.tolerance == 0.03f, "default tolerance %g", d.tolerance);
     CHECK(d.inner == NULL, "default inner not NULL");
     expect_desc_status(&d, MSBSDF_STATUS_OK, "default desc");
 }
