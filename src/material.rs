@@ -207,6 +207,38 @@ impl Material {
     /// what it refuses when asked for by name.
     #[inline(always)]
     fn build(d: &MaterialDesc, facet: Facet, inner: Option<&Material>) -> Result<Material, Error> {
+        if d.model == Model::Auto {
+            // The choice comes from the measured table (multiple/auto.rs),
+            // which builds its candidates through this dispatch. The
+            // material keeps AUTO's description and the choice; the model
+            // alone is built for each candidate tried, and the material
+            // finished once.
+            // The common case, shaped like the direct path below so that
+            // the model is built in place: the precomputed fronts' pick,
+            // accepted by its model. Otherwise (no fronts for `d`, or the
+            // pick refused) the full lookup, which builds through a closure.
+            if let Some(Some(c)) = auto::best_from_fronts(d) {
+                let cd = auto::concrete(d, c.model, c.estimator);
+                if let Ok(imp) = Material::build_model(&cd, facet, inner) {
+                    return Ok(Material::finish(imp, *d, c));
+                }
+            }
+            return auto::build(d, |cd, c| {
+                Material::build_model(cd, facet, inner).map(|imp| Material::finish(imp, *d, c))
+            });
+        }
+        let imp = Material::build_model(d, facet, inner)?;
+        let chosen = auto::Choice::own(d.model, d.estimator);
+        Ok(Material::finish(imp, *d, chosen))
+    }
+
+    /// The model of [`Material::build`] for a concrete (not AUTO) model.
+    #[inline(always)]
+    fn build_model(
+        d: &MaterialDesc,
+        facet: Facet,
+        inner: Option<&Material>,
+    ) -> Result<ModelImpl, Error> {
         // Each model's constructor from the description owns its support
         // checks (NDF, facet, ranges); this is dispatch only.
         let base = |m: BaseModel| ModelImpl::Base(m);
@@ -243,20 +275,14 @@ impl Material {
             Model::VGroove | Model::VGrooveNonsymmetric => base(BaseModel::VGroove(
                 VGroove::from_desc(d, facet, d.model == Model::VGroove)?,
             )),
-            Model::Auto => {
-                // The choice comes from the measured table (multiple/auto.rs),
-                // which builds its candidates through this dispatch.
-                // The material keeps AUTO's description and the choice.
-                return auto::build(d, |cd, c| {
-                    Material::build(cd, facet, inner).map(|m| Material::finish(m.imp, *d, c))
-                });
-            }
+            // AUTO is resolved by `build`; it never picks itself.
+            Model::Auto => return Err(Error::Unsupported),
         };
-        let chosen = auto::Choice::own(d.model, d.estimator);
-        Ok(Material::finish(imp, *d, chosen))
+        Ok(imp)
     }
 
     /// The material of a built model, with its flags.
+    #[inline(always)]
     fn finish(imp: ModelImpl, desc: MaterialDesc, chosen: auto::Choice) -> Material {
         let stochastic = match &imp {
             ModelImpl::Base(b) => b.is_stochastic(),

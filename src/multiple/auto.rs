@@ -853,9 +853,23 @@ fn state(fronts: &FrontsHead, a: f32) -> usize {
 /// The best candidate for `d` from the precomputed fronts (no refusal
 /// yet); `None` when they do not cover `d` (the lookup then takes
 /// [`best`]). `Some(None)`: no candidate at all.
-fn best_from_fronts(d: &MaterialDesc) -> Option<Option<Choice>> {
-    let fc = code_of(&FACET_CODES, d.facet)?;
-    let nc = code_of(&NDF_CODES, d.ndf).unwrap_or(NDF_CODES.len());
+#[inline(always)]
+pub(crate) fn best_from_fronts(d: &MaterialDesc) -> Option<Option<Choice>> {
+    const _: () = assert!(
+        matches!(FACET_CODES, [FacetKind::Conductor, FacetKind::Dielectric])
+            && matches!(NDF_CODES, [NdfId::Beckmann, NdfId::Ggx]),
+        "the codes below are the table's"
+    );
+    let fc = match d.facet {
+        FacetKind::Conductor => 0,
+        FacetKind::Dielectric => 1,
+        _ => return None,
+    };
+    let nc = match d.ndf {
+        NdfId::Beckmann => 0,
+        NdfId::Ggx => 1,
+        _ => NDF_CODES.len(),
+    };
     let (fronts, entry) = FRONTS[nc][fc]?;
     if !fronts.usable {
         return None;
@@ -928,37 +942,19 @@ fn best(
         error,
         ns,
     };
-    // The cheapest candidate within tolerance (ties: the smaller error,
-    // then the first by cost). The predicted error and cost are the
-    // largest over the rows, so the first row's bound them from below: a
-    // candidate whose own error is over tolerance cannot meet it, and once
-    // the cost exceeds the best candidate's, none later can win.
-    let mut best: Option<(usize, f32, f32)> = None;
-    for &idx in order {
-        let idx = idx as usize;
-        let c = &cands[idx];
-        if best.is_some_and(|(_, _, ns)| c.cost * REFERENCE_NS > ns) {
-            break;
-        }
-        if c.error * scale > d.tolerance || excluded(c) {
-            continue;
-        }
-        let Some((err, ns)) = predict(rel, scale, idx, c) else {
-            continue;
-        };
-        if err <= d.tolerance
-            && best.is_none_or(|(_, b_err, b_ns)| ns < b_ns || (ns == b_ns && err < b_err))
-        {
-            best = Some((idx, err, ns));
-        }
-    }
-    if let Some((_, _, cheapest)) = best {
-        // Costs within COST_TIE of the cheapest are a tie: the smallest
-        // error among them (ties: the lower cost, then the first by cost).
-        let limit = cheapest * COST_TIE;
+    // Candidates within tolerance in order of cost, from `best` on, while
+    // the first row's cost is at most `limit` (or the best's cost): the
+    // predicted error and cost are the largest over the rows, so the first
+    // row's bound them from below: a candidate whose own error is over
+    // tolerance cannot meet it, and once the cost exceeds the limit none
+    // later can either. `by_error`: the smallest error wins (ties: the
+    // lower cost), else the lowest cost (ties: the smaller error); then the
+    // first by cost.
+    let scan = |mut best: Option<(usize, f32, f32)>, limit: Option<f32>, by_error: bool| {
         for &idx in order {
             let idx = idx as usize;
             let c = &cands[idx];
+            let limit = limit.or(best.map(|(_, _, ns)| ns)).unwrap_or(f32::INFINITY);
             if c.cost * REFERENCE_NS > limit {
                 break;
             }
@@ -968,15 +964,26 @@ fn best(
             let Some((err, ns)) = predict(rel, scale, idx, c) else {
                 continue;
             };
-            if err <= d.tolerance
-                && ns <= limit
-                && best.is_some_and(|(_, b_err, b_ns)| err < b_err || (err == b_err && ns < b_ns))
-            {
+            let better = best.is_none_or(|(_, b_err, b_ns)| {
+                if by_error {
+                    err < b_err || (err == b_err && ns < b_ns)
+                } else {
+                    ns < b_ns || (ns == b_ns && err < b_err)
+                }
+            });
+            if err <= d.tolerance && ns <= limit && better {
                 best = Some((idx, err, ns));
             }
         }
+        best
+    };
+    // The cheapest within tolerance; then, costs within COST_TIE of it
+    // being a tie, the smallest error among those.
+    if let Some(cheapest) = scan(None, None, false) {
+        let best = scan(Some(cheapest), Some(cheapest.2 * COST_TIE), true);
         return best.map(|(idx, err, ns)| choice(&cands[idx], (err, ns)));
     }
+    let mut best = None;
     // None within tolerance: the smallest error (ties: the lower cost, then
     // the first by cost).
     for &idx in order {
