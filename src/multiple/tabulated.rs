@@ -342,7 +342,7 @@ const _: () = {
 };
 
 /// Little-endian f32 values from `offset` (compile time).
-const fn decode<const N: usize>(raw: &[u8], offset: usize) -> [f32; N] {
+pub(crate) const fn decode<const N: usize>(raw: &[u8], offset: usize) -> [f32; N] {
     let mut out = [0.0f32; N];
     let mut i = 0;
     while i < N {
