@@ -104,7 +104,7 @@ use crate::facet::Facet;
 use crate::frame::flip_z;
 use crate::multiple::tabulated::tabulated_ndf;
 use crate::multiple::tabulated::{
-    MAX_ALPHA, MU_N, alpha_proj2, cos_phi, cosine_sample, decode, mu_coord, ndf_index, split,
+    MAX_ALPHA, MU_N, alpha_proj2, cos_phi, cosine_sample, decode, ndf_index, split, split_root,
     text_header,
 };
 use crate::ndf::Ndf;
@@ -541,8 +541,7 @@ fn lobe_cells<const W: usize, const SPAN: usize>(
 /// table's cosine grid.
 #[inline(always)]
 fn mu_nodes(root_mu: f32) -> (usize, f32) {
-    let (i0, _, f) = split(root_mu * (MU_N - 1) as f32, MU_N);
-    (i0, f)
+    split_root(root_mu, MU_N)
 }
 
 /// The 4-term cosine series `c_0 + c_1 cos phi + c_2 cos 2 phi + c_3 cos 3
@@ -558,7 +557,7 @@ fn series(v: Vec4, c: f32) -> f32 {
 /// at the lobe triangle `t` from a cosine on the given side (`dense`).
 #[inline]
 fn ms_albedo(t: &Tri, dense: bool, mu_i: f32) -> (f32, f32) {
-    let (i0, _, f) = split(mu_coord(mu_i), MU_N);
+    let (i0, f) = split_root(mu_i.clamp(0.0, 1.0).sqrt(), MU_N);
     let at = LOBE_LEN + (dense as usize * MU_N + i0) * 2;
     let (mut r, mut tr) = (0.0, 0.0);
     for &(n, w) in t {
@@ -698,7 +697,7 @@ impl TabulatedDielectric {
     /// of [`SCALE_STEP`].
     #[inline(always)]
     fn node_scale(&self, dense: bool, root_mu: f32) -> f32 {
-        let (i0, _, f) = split(root_mu * (SCALE_MU_N - 1) as f32, SCALE_MU_N);
+        let (i0, f) = split_root(root_mu, SCALE_MU_N);
         match self
             .scale
             .get(dense as usize * SCALE_MU_N + i0..)
