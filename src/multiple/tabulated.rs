@@ -877,7 +877,7 @@ impl Tabulated {
     /// F = 1, the Fresnel factor of the half vector, and the visible-normal
     /// pdf of `wo`, sharing `D` and `Lambda(wi)`:
     /// `pdf = D_wi(h) / (4 wi.h) = G1(wi) D(h) / (4 wi.z)`.
-    #[inline]
+    #[inline(always)]
     fn single_terms(&self, wi: Vec3, wo: Vec3) -> (f32, Vec3, f32) {
         if let Some(a2) = self.iso_ggx_a2 {
             let (_, f, p) = iso_ggx_reflection(a2, wi, wo);
