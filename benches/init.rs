@@ -140,6 +140,13 @@ const CASES: &[Case] = &[
         chosen: false,
     },
     Case {
+        name: "TABULATED dielectric",
+        model: MSBSDF_MODEL_TABULATED,
+        ndf: MSBSDF_NDF_GGX,
+        facet: MSBSDF_FACET_DIELECTRIC,
+        chosen: false,
+    },
+    Case {
         name: "VGROOVE conductor",
         model: MSBSDF_MODEL_VGROOVE,
         ndf: MSBSDF_NDF_GGX,

@@ -202,36 +202,54 @@ impl Single {
         want_f: bool,
         want_pdf: bool,
     ) -> (Vec3, f32) {
+        let (f, p, _) = self.eval_pdf_f1(wi, wo, lobes, want_f, want_pdf);
+        (f, p)
+    }
+
+    /// [`Single::eval_pdf`] and, for a dielectric reflection pair
+    /// (`want_f`), its value with F = 1, `D G2 / (4 |wi.z|)`, which it
+    /// computes anyway (the peaked part of TABULATED's dielectric lobe); 0
+    /// otherwise.
+    #[inline(always)]
+    pub fn eval_pdf_f1(
+        &self,
+        wi: Vec3,
+        wo: Vec3,
+        lobes: u32,
+        want_f: bool,
+        want_pdf: bool,
+    ) -> (Vec3, f32, f32) {
         let both = lobes & LOBE_ALL == LOBE_ALL;
         match self.facet {
             Facet::Dielectric { eta } => {
                 let (wi, wo, eta, _) = orient(wi, wo, eta);
                 if wo.z > 0.0 {
                     if lobes & LOBE_REFLECTION == 0 {
-                        return (Vec3::ZERO, 0.0);
+                        return (Vec3::ZERO, 0.0, 0.0);
                     }
                     let h = (wi + wo).normalize_or_zero();
                     let ci = wi.dot(h);
                     if ci <= 0.0 {
-                        return (Vec3::ZERO, 0.0);
+                        return (Vec3::ZERO, 0.0, 0.0);
                     }
                     let fr = fresnel::dielectric(sym_cos(wi, wo, h), eta);
                     let d = self.ndf.d(h);
-                    let f = if want_f {
-                        Vec3::splat(fr * (d * self.g2_reflection(wi, wo) / (4.0 * wi.z)))
+                    let f1 = if want_f {
+                        d * self.g2_reflection(wi, wo) / (4.0 * wi.z)
                     } else {
-                        Vec3::ZERO
+                        0.0
                     };
+                    let f = Vec3::splat(fr * f1);
                     let p = if want_pdf {
                         let p_lobe = if both { fr } else { 1.0 };
                         p_lobe * self.d_visible_from(wi, h, d) / (4.0 * ci)
                     } else {
                         0.0
                     };
-                    (f, p)
+                    (f, p, f1)
                 } else {
                     if lobes & LOBE_TRANSMISSION == 0 {
-                        return (Vec3::ZERO, 0.0);
+                        return (Vec3::ZERO, 0.0, 0.0);
                     }
                     let Some(RefractionHalf {
                         h,
@@ -240,7 +258,7 @@ impl Single {
                         jacobian: jac,
                     }) = refraction_half(wi, wo, eta)
                     else {
-                        return (Vec3::ZERO, 0.0);
+                        return (Vec3::ZERO, 0.0, 0.0);
                     };
                     let fr = fresnel::dielectric_pair(ci, co, eta);
                     let d = self.ndf.d(h);
@@ -255,7 +273,7 @@ impl Single {
                     } else {
                         0.0
                     };
-                    (f, p)
+                    (f, p, 0.0)
                 }
             }
             _ => {
@@ -265,7 +283,7 @@ impl Single {
                     (wi, wo)
                 };
                 if wo.z <= 0.0 || lobes & LOBE_REFLECTION == 0 {
-                    return (Vec3::ZERO, 0.0);
+                    return (Vec3::ZERO, 0.0, 0.0);
                 }
                 if let Some(a2) = self.iso_ggx_a2 {
                     let (_, f, p) = iso_ggx_reflection(a2, wi, wo);
@@ -280,12 +298,12 @@ impl Single {
                     } else {
                         Vec3::ZERO
                     };
-                    return (f, if want_pdf { p } else { 0.0 });
+                    return (f, if want_pdf { p } else { 0.0 }, 0.0);
                 }
                 let h = (wi + wo).normalize_or_zero();
                 let ci = wi.dot(h);
                 if ci <= 0.0 {
-                    return (Vec3::ZERO, 0.0);
+                    return (Vec3::ZERO, 0.0, 0.0);
                 }
                 let d = self.ndf.d(h);
                 let f = if want_f {
@@ -298,7 +316,7 @@ impl Single {
                 } else {
                     0.0
                 };
-                (f, p)
+                (f, p, 0.0)
             }
         }
     }

@@ -281,6 +281,22 @@ pub fn split(x: f32, n: usize) -> (usize, usize, f32) {
     (i, i + 1, x - i as f32)
 }
 
+/// [`split`] of `r (n - 1)` for `r` in `[0, 1]` (the square root of a
+/// cosine), as the lower node and the weight of the upper one, without the
+/// clamp and the saturating float-to-integer cast: `r (n - 1) - 1/2` is
+/// rounded to the nearest integer by adding `1.5 * 2^23` (an integer node
+/// coordinate may give the node below with weight 1, the same point of a
+/// linear interpolation).
+#[inline(always)]
+pub(crate) fn split_root(r: f32, n: usize) -> (usize, f32) {
+    const MAGIC: f32 = 12_582_912.0;
+    let x = r * (n - 1) as f32;
+    let t = (x - 0.5) + MAGIC;
+    // t >= MAGIC for x >= 0; a NaN gives some index, clamped.
+    let i = (t.to_bits().wrapping_sub(MAGIC.to_bits()) as usize).min(n - 2);
+    (i, x - i as f32)
+}
+
 /// The table values at `i`, `i + 1`, `i + ROW` and `i + ROW + 1` (two
 /// adjacent nodes in two adjacent rows) with one bounds check; `SPAN` must
 /// be `ROW + 2` (a smaller one does not compile). Zeros outside the table,
@@ -342,7 +358,7 @@ const _: () = {
 };
 
 /// Little-endian f32 values from `offset` (compile time).
-const fn decode<const N: usize>(raw: &[u8], offset: usize) -> [f32; N] {
+pub(crate) const fn decode<const N: usize>(raw: &[u8], offset: usize) -> [f32; N] {
     let mut out = [0.0f32; N];
     let mut i = 0;
     while i < N {
@@ -539,7 +555,8 @@ pub fn project_exit<const N: usize>(wo: Vec3, w: f64, moments: &mut [[f64; N]; M
 #[inline]
 pub fn ms_albedo(ndf: usize, alpha: (usize, usize, f32), mu_i: f32) -> f32 {
     let (a0, a1, fa) = alpha;
-    let (i0, i1, fi) = split(mu_coord(mu_i), MU_N);
+    let (i0, fi) = split_root(mu_i.clamp(0.0, 1.0).sqrt(), MU_N);
+    let i1 = i0 + 1;
     let v =
         |a| ALBEDO[albedo_index(ndf, a, i0)] * (1.0 - fi) + ALBEDO[albedo_index(ndf, a, i1)] * fi;
     v(a0) * (1.0 - fa) + v(a1) * fa
@@ -760,7 +777,7 @@ impl Tabulated {
             debug_assert!(s1 == s0 + 1);
             let r0 = scale_index(self.ndf_index, s0, 0);
             let row = |r: f32| {
-                let (i0, _, f) = split(r * (SCALE_MU_N - 1) as f32, SCALE_MU_N);
+                let (i0, f) = split_root(r, SCALE_MU_N);
                 let [a0, a1, b0, b1] = square::<SCALE_MU_N, { SCALE_MU_N + 2 }>(&SCALE, r0 + i0);
                 let (v0, v1) = (a0 + (a1 - a0) * f, b0 + (b1 - b0) * f);
                 v0 + (v1 - v0) * fs
@@ -785,10 +802,7 @@ impl Tabulated {
     fn multiple(&self, wi: Vec3, wo: Vec3, ss1: f32) -> Vec3 {
         let (ri, ro) = (wi.z.min(1.0).sqrt(), wo.z.min(1.0).sqrt());
         let (alpha, s) = self.alpha_and_scale(wi, wo, ri, ro);
-        let nodes = |r: f32| {
-            let (n0, _, f) = split(r * (MU_N - 1) as f32, MU_N);
-            (n0, f)
-        };
+        let nodes = |r: f32| split_root(r, MU_N);
         let (ni, no) = (nodes(ri), nodes(ro));
         let (f, peak, r) = lookup_nodes(self.ndf_index, alpha, ni, no, cos_phi(wi, wo));
         let b = Vec3A::from(self.fbar);
@@ -863,7 +877,7 @@ impl Tabulated {
     /// F = 1, the Fresnel factor of the half vector, and the visible-normal
     /// pdf of `wo`, sharing `D` and `Lambda(wi)`:
     /// `pdf = D_wi(h) / (4 wi.h) = G1(wi) D(h) / (4 wi.z)`.
-    #[inline]
+    #[inline(always)]
     fn single_terms(&self, wi: Vec3, wo: Vec3) -> (f32, Vec3, f32) {
         if let Some(a2) = self.iso_ggx_a2 {
             let (_, f, p) = iso_ggx_reflection(a2, wi, wo);
@@ -1006,4 +1020,36 @@ pub(crate) fn tabulated_ndf(d: &MaterialDesc) -> Result<Ndf, Error> {
         return Err(Error::InvalidArgument);
     }
     Ok(ndf)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `split_root` picks the same interpolation as `split`: for every `r`
+    /// in `[0, 1]` (a fine sweep plus every node coordinate, where the two
+    /// may pick neighbouring cells) the lower node is within the table, the
+    /// weight within `[0, 1]`, node plus weight is `r (n - 1)` (to f32
+    /// rounding), and off the node coordinates both give the same node.
+    #[test]
+    fn split_root_matches_split() {
+        let mut checked = 0;
+        for n in [MU_N, SCALE_MU_N, 32] {
+            let m = (n - 1) as f32;
+            let sweep = (0..=100_000).map(|k| k as f32 / 100_000.0);
+            let nodes = (0..n).map(|j| j as f32 / m);
+            for r in sweep.chain(nodes) {
+                let (i, f) = split_root(r, n);
+                let (j, _, g) = split(r * m, n);
+                assert!(i <= n - 2, "n {n} r {r}: node {i}");
+                assert!((0.0..=1.0).contains(&f), "n {n} r {r}: weight {f}");
+                assert!((i as f32 + f - r * m).abs() <= 1e-5 * m, "n {n} r {r}");
+                if g > 1e-4 && g < 1.0 - 1e-4 {
+                    assert_eq!(i, j, "n {n} r {r}");
+                }
+                checked += 1;
+            }
+        }
+        assert!(checked > 300_000, "{checked}");
+    }
 }

@@ -68,17 +68,19 @@
 //! found once, at construction; the square of `(sqrt(mu_i), sqrt(mu_o))`
 //! is cut the same way per query (symmetric in the two cosines, so the
 //! symmetric reflection lobes stay reciprocal). Nine cell reads per query
-//! instead of bilinear-times-bilinear's sixteen, and three scale reads per
-//! direction (triangle in roughness and index, linear in `sqrt(mu)`)
-//! instead of four; the furnace scale table is computed for exactly this
-//! interpolation. Roughness node 0 (a smooth surface) has no multiple
+//! instead of bilinear-times-bilinear's sixteen. The furnace scales are
+//! read on a triangle of their own table's `(alpha, eta)` plane (the table
+//! is computed for exactly this interpolation) at construction, for every
+//! cosine node of both sides, and kept in the material as 16-bit values
+//! (step 6.1e-5); per query they are interpolated linearly in `sqrt(mu)`
+//! (two reads per direction, anisotropic materials read the table). Roughness node 0 (a smooth surface) has no multiple
 //! scattering and is not stored: its corners read as 0. The cosine series
 //! is clamped at 0.
 //!
 //! The peaked part needs `f_ss1` of the pair; eval takes it from SINGLE's
-//! reflection `F f_ss1`, already computed for the single-scattering term,
-//! divided by the Fresnel factor at `wi.h = sqrt((1 + wi.wo) / 2)`,
-//! instead of evaluating `D` and `G2` again.
+//! reflection before its Fresnel factor (`Single::eval_pdf_f1`), already
+//! computed for the single-scattering term, instead of evaluating `D` and
+//! `G2` again.
 //!
 //! ## Anisotropic roughness
 //!
@@ -100,10 +102,10 @@ use crate::bsdf::{LOBE_ALL, Sample, ScatterModel};
 use crate::desc::MaterialDesc;
 use crate::facet::Facet;
 use crate::frame::flip_z;
-use crate::fresnel;
 use crate::multiple::tabulated::tabulated_ndf;
 use crate::multiple::tabulated::{
-    MAX_ALPHA, MU_N, alpha_proj2, cos_phi, cosine_sample, mu_coord, ndf_index, split, text_header,
+    MAX_ALPHA, MU_N, alpha_proj2, cos_phi, cosine_sample, decode, ndf_index, split, split_root,
+    text_header,
 };
 use crate::ndf::Ndf;
 use crate::rng::Rng;
@@ -276,9 +278,25 @@ const _: () = {
     }
 };
 
-/// The committed furnace scale table file (read in place like [`RAW`]).
-static RAW_SCALE: &[u8; SCALE_FILE_BYTES] =
+/// The committed furnace scale table file, used at compile time only: it
+/// is decoded into [`SCALE`] and [`SCALE_HEADER`] (f32 values, which init
+/// and eval read with vector loads; the library holds them once).
+const RAW_SCALE: &[u8; SCALE_FILE_BYTES] =
     include_bytes!("../../data/tabulated_dielectric_scale.bin");
+
+/// The furnace scale table (see [`scale_index`]).
+static SCALE: [f32; SCALE_LEN] = decode(RAW_SCALE, HEADER_BYTES);
+
+/// The text header of the furnace scale table file.
+static SCALE_HEADER: [u8; HEADER_BYTES] = {
+    let mut h = [0u8; HEADER_BYTES];
+    let mut i = 0;
+    while i < HEADER_BYTES {
+        h[i] = RAW_SCALE[i];
+        i += 1;
+    }
+    h
+};
 
 const _: () = {
     let mut i = 0;
@@ -315,12 +333,12 @@ fn floats<const N: usize, const B: usize>(raw: &[u8], i: usize) -> [f32; N] {
 /// Entry `i` of the furnace scale table (see [`scale_index`]).
 #[inline]
 pub fn scale_value(i: usize) -> f32 {
-    floats::<1, 4>(RAW_SCALE, i)[0]
+    SCALE.get(i).copied().unwrap_or(0.0)
 }
 
 /// The text header of the scale table file.
 pub fn scale_header() -> &'static str {
-    text_header(RAW_SCALE)
+    text_header(&SCALE_HEADER)
 }
 
 /// Entry `i` of the lobe block (see [`LOBE_LEN`], [`lobe_index`]).
@@ -406,39 +424,124 @@ fn scale_at(t: &Tri, dense: bool, root_mu: f32) -> f32 {
     let off = dense as usize * SCALE_MU_N + i0;
     let mut s = 0.0;
     for &(b, w) in t {
-        let [x, y] = floats::<2, 8>(RAW_SCALE, b as usize + off);
+        let [x, y] = SCALE
+            .get(b as usize + off..)
+            .and_then(|s| s.first_chunk::<2>())
+            .copied()
+            .unwrap_or([0.0; 2]);
         s += (x + (y - x) * f) * w;
     }
     s
+}
+
+/// Largest furnace scale (the generator clamps the scales to `[0.25, 4]`).
+pub const SCALE_MAX: f32 = 4.0;
+
+/// Step of the 16-bit furnace scales an isotropic material keeps: `s =
+/// q SCALE_STEP` (6.1e-5, 2.4e-4 of the smallest scale 0.25).
+const SCALE_STEP: f32 = SCALE_MAX / 65535.0;
+
+/// The furnace scales of one scale triangle at every cosine node of both
+/// sides, `[side][mu]` (what eval interpolates linearly in `sqrt(mu)`),
+/// rounded to multiples of [`SCALE_STEP`] (16 bits: as f32 they would add
+/// 128 bytes to every material, of any model).
+#[inline]
+fn node_scales(t: &Tri) -> [u16; 2 * SCALE_MU_N] {
+    // The sums in units of SCALE_STEP.
+    let mut sum = [0.0f32; 2 * SCALE_MU_N];
+    for &(b, w) in t {
+        let w = w * (1.0 / SCALE_STEP);
+        if let Some(row) = SCALE
+            .get(b as usize..)
+            .and_then(|s| s.first_chunk::<{ 2 * SCALE_MU_N }>())
+        {
+            for (s, x) in sum.iter_mut().zip(row) {
+                *s += x * w;
+            }
+        }
+    }
+    // Rounded to the nearest integer by the addition of 2^23 (the scales
+    // are in [0.25, 4], the sums in [0, 65535]): the low 16 bits of the
+    // result are that integer.
+    let mut out = [0u16; 2 * SCALE_MU_N];
+    for (o, s) in out.iter_mut().zip(sum) {
+        *o = (s + 8_388_608.0).to_bits() as u16;
+    }
+    out
 }
 
 /// The interpolated cell of `lobe` at the lobe triangle `t` from
 /// `sqrt(mu_i)` and `sqrt(mu_o)` (linear on a triangle of the `(alpha,
 /// eta)` square times linear on a triangle of the `(sqrt(mu_i),
 /// sqrt(mu_o))` square: nine reads; symmetric in the two cosines, so a
-/// symmetric lobe stays reciprocal): the 4 cosine terms and, for
-/// reflection, the weight `B` of the peaked part.
+/// symmetric lobe stays reciprocal), given the lower nodes and weights of
+/// both ([`mu_nodes`]): the 4 cosine terms and, for reflection, the
+/// weight `B` of the peaked part.
 #[inline(always)]
-fn lobe_cell(t: &Tri, lobe: usize, root_mu_i: f32, root_mu_o: f32) -> (Vec4, f32) {
-    let width = lobe_width(lobe);
-    let (i0, _, fi) = split(root_mu_i * (MU_N - 1) as f32, MU_N);
-    let (j0, _, fj) = split(root_mu_o * (MU_N - 1) as f32, MU_N);
-    let at = lobe_offset(lobe) + i0 * MU_N * width + j0 * width;
-    let (mut v, mut b) = (Vec4::ZERO, 0.0);
-    for ((di, dj), wm) in triangle(fi, fj) {
-        let off = at + di * MU_N * width + dj * width;
-        for &(n, w) in t {
-            let w = w * wm;
-            if lobe == T_THIN {
-                v += Vec4::from_array(floats::<4, 16>(RAW, n as usize + off)) * w;
-            } else {
-                let c = floats::<5, 20>(RAW, n as usize + off);
-                v += Vec4::new(c[0], c[1], c[2], c[3]) * w;
-                b += c[PEAK] * w;
+fn lobe_cell(t: &Tri, lobe: usize, (i0, fi): (usize, f32), (j0, fj): (usize, f32)) -> (Vec4, f32) {
+    if lobe == T_THIN {
+        lobe_cells::<K, { 4 * ((MU_N + 1) * K + R_CELL) }>(t, lobe, (i0, fi), (j0, fj))
+    } else {
+        lobe_cells::<R_CELL, { 4 * (MU_N + 2) * R_CELL }>(t, lobe, (i0, fi), (j0, fj))
+    }
+}
+
+/// [`lobe_cell`] for cells of `W` floats: per vertex of the lobe triangle
+/// `t`, the three cells of the cosine triangle lie in the `SPAN` bytes
+/// from the lower corner, read with one bounds check (`4 ((MU_N + 1) W +
+/// R_CELL)`, checked at compile time: each cell is read as `R_CELL` floats;
+/// a transmission cell's fifth, from the next cell or the albedo block
+/// that follows the lobes, is not used).
+#[inline(always)]
+fn lobe_cells<const W: usize, const SPAN: usize>(
+    t: &Tri,
+    lobe: usize,
+    (i0, fi): (usize, f32),
+    (j0, fj): (usize, f32),
+) -> (Vec4, f32) {
+    const { assert!(SPAN == 4 * ((MU_N + 1) * W + R_CELL) && (W == K || W == R_CELL)) };
+    let at = HEADER_BYTES + 4 * (lobe_offset(lobe) + (i0 * MU_N + j0) * W);
+    // The cosine triangle (see `triangle`): corners (0, 0), (1, 1) and
+    // (1, 0) or (0, 1), as float offsets from the lower corner.
+    let (mid, [w0, wm, w1]) = if fi >= fj {
+        (MU_N * W, [1.0 - fi, fi - fj, fj])
+    } else {
+        (W, [1.0 - fj, fj - fi, fi])
+    };
+    let cell = |c: &[u8; SPAN], o: usize| -> (Vec4, f32) {
+        match c.get(4 * o..).and_then(|s| s.first_chunk::<20>()) {
+            Some(b) => {
+                let f = |k: usize| {
+                    f32::from_le_bytes([b[4 * k], b[4 * k + 1], b[4 * k + 2], b[4 * k + 3]])
+                };
+                (
+                    Vec4::new(f(0), f(1), f(2), f(3)),
+                    if W == K { 0.0 } else { f(PEAK) },
+                )
             }
+            None => (Vec4::ZERO, 0.0),
         }
+    };
+    let (mut v, mut b) = (Vec4::ZERO, 0.0);
+    for &(n, w) in t {
+        let Some(c) = RAW
+            .get(at + 4 * n as usize..)
+            .and_then(|s| s.first_chunk::<SPAN>())
+        else {
+            continue;
+        };
+        let ((v0, b0), (vm, bm), (v1, b1)) = (cell(c, 0), cell(c, mid), cell(c, (MU_N + 1) * W));
+        v += (v0 * w0 + vm * wm + v1 * w1) * w;
+        b += (b0 * w0 + bm * wm + b1 * w1) * w;
     }
     (v, b)
+}
+
+/// Lower node and weight of the upper one of `sqrt(mu)` on the lobe
+/// table's cosine grid.
+#[inline(always)]
+fn mu_nodes(root_mu: f32) -> (usize, f32) {
+    split_root(root_mu, MU_N)
 }
 
 /// The 4-term cosine series `c_0 + c_1 cos phi + c_2 cos 2 phi + c_3 cos 3
@@ -454,7 +557,7 @@ fn series(v: Vec4, c: f32) -> f32 {
 /// at the lobe triangle `t` from a cosine on the given side (`dense`).
 #[inline]
 fn ms_albedo(t: &Tri, dense: bool, mu_i: f32) -> (f32, f32) {
-    let (i0, _, f) = split(mu_coord(mu_i), MU_N);
+    let (i0, f) = split_root(mu_i.clamp(0.0, 1.0).sqrt(), MU_N);
     let at = LOBE_LEN + (dense as usize * MU_N + i0) * 2;
     let (mut r, mut tr) = (0.0, 0.0);
     for &(n, w) in t {
@@ -475,9 +578,6 @@ pub struct TabulatedDielectric {
     ndf_index: usize,
     /// True when the outside (`z > 0`) is the thin side (`eta >= 1`).
     thin_outside: bool,
-    /// The relative index seen from the outside and from the inside
-    /// (`eta`, `1 / eta`).
-    eta_seen: [f32; 2],
     /// `1 / E^2`, `E = max(eta, 1 / eta)`.
     inv_e2: f32,
     /// Index nodes and weight of the upper one.
@@ -485,8 +585,10 @@ pub struct TabulatedDielectric {
     /// The lobe table's plane of an isotropic material (of the RMS
     /// roughness for an anisotropic one: the sampler's weights).
     plane: Tri,
-    /// The scale table's plane of an isotropic material.
-    scale_plane: Tri,
+    /// The furnace scales of an isotropic material at the cosine nodes
+    /// `[side][mu]` in units of [`SCALE_STEP`] (the scale table's plane
+    /// read once, at construction).
+    scale: [u16; 2 * SCALE_MU_N],
     /// Continuous scale-table coordinate of the index.
     scale_eta: f32,
     anisotropic: bool,
@@ -496,6 +598,7 @@ impl TabulatedDielectric {
     /// Builds the model: `ndf` Beckmann or GGX with roughness up to
     /// [`MAX_ALPHA`], dielectric facets with a relative index the table
     /// covers ([`covers_eta`]), both validated by the caller.
+    #[inline]
     pub fn new(ndf: Ndf, facet: Facet) -> Self {
         let ndf_index = ndf_index(ndf.kind).unwrap_or(1);
         let eta_m = match facet {
@@ -512,11 +615,10 @@ impl TabulatedDielectric {
             ndf,
             ndf_index,
             thin_outside: eta_m >= 1.0,
-            eta_seen: [eta_m, 1.0 / eta_m],
             inv_e2: 1.0 / (e * e),
             eta,
             plane: lobe_tri(ndf_index, alpha, eta),
-            scale_plane: scale_tri(ndf_index, alpha_rms, scale_eta),
+            scale: node_scales(&scale_tri(ndf_index, alpha_rms, scale_eta)),
             scale_eta,
             anisotropic: ndf.alpha_x != ndf.alpha_y,
         }
@@ -558,30 +660,55 @@ impl TabulatedDielectric {
             let a = (0.5 * (alpha_proj2(ax2, ay2, wi) + alpha_proj2(ax2, ay2, wo))).sqrt();
             aniso_plane = lobe_tri(self.ndf_index, split(alpha_coord(a), ALPHA_N), self.eta);
             aniso_scale = scale_tri(self.ndf_index, a, self.scale_eta);
-            (&aniso_plane, &aniso_scale)
+            (&aniso_plane, Some(&aniso_scale))
         } else {
-            (&self.plane, &self.scale_plane)
+            (&self.plane, None)
         };
         let dense = (wi.z > 0.0) != self.thin_outside;
         let (ri, ro) = (mu_i.sqrt(), mu_o.sqrt());
+        let (ni, no) = (mu_nodes(ri), mu_nodes(ro));
         let reflection = (wi.z > 0.0) == (wo.z > 0.0);
-        let s = if scaled {
-            scale_at(sp, dense, ri) * scale_at(sp, dense == reflection, ro)
-        } else {
-            1.0
+        let dense_o = dense == reflection;
+        let s = match (scaled, sp) {
+            (false, _) => 1.0,
+            (true, Some(sp)) => scale_at(sp, dense, ri) * scale_at(sp, dense_o, ro),
+            (true, None) => {
+                self.node_scale(dense, ri)
+                    * self.node_scale(dense_o, ro)
+                    * (SCALE_STEP * SCALE_STEP)
+            }
         };
         let cp = cos_phi(wi, wo);
         let f = if reflection {
-            let (v, b) = lobe_cell(p, if dense { R_DENSE } else { R_THIN }, ri, ro);
+            let (v, b) = lobe_cell(p, if dense { R_DENSE } else { R_THIN }, ni, no);
             let peak = if b > 0.0 { b * ss1() } else { 0.0 };
             series(v, cp) * mu_o + peak
         } else if dense {
             // f_T(dense -> thin)(wi, wo) = f_T(thin -> dense)(wo, wi) / E^2.
-            series(lobe_cell(p, T_THIN, ro, ri).0, cp) * self.inv_e2 * mu_o
+            series(lobe_cell(p, T_THIN, no, ni).0, cp) * self.inv_e2 * mu_o
         } else {
-            series(lobe_cell(p, T_THIN, ri, ro).0, cp) * mu_o
+            series(lobe_cell(p, T_THIN, ni, no).0, cp) * mu_o
         };
         s * f
+    }
+
+    /// The furnace scale of an isotropic material on one side (`dense`) at
+    /// `sqrt(mu)`, linear in `sqrt(mu)` between the node values, in units
+    /// of [`SCALE_STEP`].
+    #[inline(always)]
+    fn node_scale(&self, dense: bool, root_mu: f32) -> f32 {
+        let (i0, f) = split_root(root_mu, SCALE_MU_N);
+        match self
+            .scale
+            .get(dense as usize * SCALE_MU_N + i0..)
+            .and_then(|s| s.first_chunk::<2>())
+        {
+            Some(&[x, y]) => {
+                let (x, y) = (f32::from(x), f32::from(y));
+                x + (y - x) * f
+            }
+            None => 0.0,
+        }
     }
 
     /// The single-scattering reflection with F = 1, `f_ss1 |wo.z| =
@@ -600,25 +727,17 @@ impl TabulatedDielectric {
         self.ndf.d(h) * self.ndf.g2_correlated(wi, wo) / (4.0 * wi.z)
     }
 
-    /// `f_ss1 |wo.z|` of a reflection pair from SINGLE's value `fs = F
-    /// f_ss1 |wo.z|` of it: divided by the Fresnel factor at `wi.h =
-    /// sqrt((1 + wi.wo) / 2)` (symmetric in `wi` and `wo`, like SINGLE's).
-    #[inline(always)]
-    fn f1_from_single(&self, wi: Vec3, wo: Vec3, fs: f32) -> f32 {
-        let c = (0.5 * (1.0 + wi.dot(wo))).max(0.0).sqrt();
-        let fr = fresnel::dielectric(c, self.eta_seen[(wi.z < 0.0) as usize]);
-        if fr > 0.0 { fs / fr } else { 0.0 }
-    }
-
     /// `(f |wo.z|, pdf)` of a pair; `q` the mixture weights of `wi` when
     /// the pdf is wanted.
     #[inline(always)]
     fn eval_pdf_full(&self, wi: Vec3, wo: Vec3, q: Option<(f32, f32)>) -> (Vec3, f32) {
-        let (fs, ps) = self.single.eval_pdf(wi, wo, LOBE_ALL, true, q.is_some());
+        // SINGLE's value, pdf and, for reflection, its value with F = 1
+        // (the peaked part's f_ss1 |wo.z|).
+        let (fs, ps, f1) = self.single.eval_pdf_f1(wi, wo, LOBE_ALL, true, q.is_some());
         if wi.z == 0.0 || wo.z == 0.0 {
             return (fs, ps);
         }
-        let ms = self.multiple_with(wi, wo, || self.f1_from_single(wi, wo, fs.x), true);
+        let ms = self.multiple_with(wi, wo, || f1, true);
         let f = fs + Vec3::splat(ms);
         match q {
             Some(q) => (f, mix_pdf(q, wi, wo, ps)),
@@ -691,6 +810,7 @@ impl TabulatedDielectric {
     /// the conductor tables support (`tabulated::tabulated_ndf`) with
     /// `max(eta, 1 / eta)` in the tables' range ([`covers_eta`]);
     /// `Error::Unsupported` otherwise.
+    #[inline]
     pub(crate) fn from_desc(d: &MaterialDesc, facet: Facet) -> Result<Self, Error> {
         let ndf = tabulated_ndf(d)?;
         match facet {
@@ -714,13 +834,13 @@ mod tests {
         Vec3::new(r * c, r * s, z)
     }
 
-    /// The peaked part's `f_ss1 |wo.z|` that eval takes from SINGLE's value
-    /// divided by the Fresnel factor equals the direct `D G2 / (4 |wi.z|)`
-    /// (the generator's path), both NDFs, both sides, random pairs on one
-    /// side: within 2e-4 relative (f32 rounding; a wrong Fresnel factor,
-    /// such as the other side's index, is off by far more: glass 1.5 at
-    /// normal incidence has F = 0.04 from either side, but at 60 degrees
-    /// inside F = 1 against 0.09 outside).
+    /// The peaked part's `f_ss1 |wo.z|` that eval takes from SINGLE
+    /// (`Single::eval_pdf_f1`, its reflection before the Fresnel factor)
+    /// equals the direct `D G2 / (4 |wi.z|)` (the generator's path), both
+    /// NDFs, both sides, random pairs on one side: within 2e-4 relative
+    /// (f32 rounding; SINGLE's value with its Fresnel factor, which a
+    /// mix-up of the two would give, is off by far more: glass 1.5 has
+    /// F = 0.04 at normal incidence).
     #[test]
     fn peaked_part_from_single_equals_direct_formula() {
         let mut rng = Rng::new(16, 3);
@@ -745,8 +865,7 @@ mod tests {
                     if direct < 1e-6 {
                         continue;
                     }
-                    let fs = t.single.eval_pdf(wi, wo, LOBE_ALL, true, false).0.x;
-                    let via = t.f1_from_single(wi, wo, fs);
+                    let via = t.single.eval_pdf_f1(wi, wo, LOBE_ALL, true, false).2;
                     worst = worst.max((via / direct - 1.0).abs());
                     compared += 1;
                 }
