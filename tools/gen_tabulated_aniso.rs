@@ -26,7 +26,9 @@
 //! `-- --check [--quad N]` prints where the anisotropic furnace error of
 //! the committed table sits (default N = 400): the test's materials, 16
 //! random nodes and 32 random materials; `-- --scan NDF AX AY0 AY1 THETA
-//! PHI` the furnace error along `alpha_y` from `AY0` to `AY1` (11 steps).
+//! PHI` the furnace error along `alpha_y` from `AY0` to `AY1` (11 steps);
+//! `-- --ir MODEL NDF CALLS` the callgrind driver of anisotropic eval
+//! (`ir`).
 
 use glam::Vec3;
 use msbsdf::bsdf::ScatterModel;
@@ -179,6 +181,10 @@ fn main() {
         .position(|a| a == "--quad")
         .and_then(|p| args.get(p + 1))
         .and_then(|v| v.parse().ok());
+    if let Some(p) = args.iter().position(|a| a == "--ir") {
+        ir(&args[p + 1..]);
+        return;
+    }
     if let Some(p) = args.iter().position(|a| a == "--scan") {
         let v: Vec<f32> = args[p + 1..]
             .iter()
@@ -462,4 +468,54 @@ fn check(quad: usize) {
     println!(
         "worst |total - 1| {worst:.4}, |E_exact - E_tab| {worst_e:.4}, |A_ms - (1 - E_tab)| {worst_a:.4}"
     );
+}
+
+/// `--ir MODEL NDF CALLS` (MODEL `single` or `tabulated`, NDF `ggx` or
+/// `beckmann`): CALLS evals through `Material` of gold with roughness
+/// (0.1, 0.6) on 1024 fixed random pairs (both directions above, up to 85
+/// degrees), for callgrind: `(Ir(CALLS) - Ir(0)) / CALLS` is the cost per
+/// eval.
+fn ir(args: &[String]) {
+    use msbsdf::{FacetKind, Material, MaterialDesc, Model, NdfId};
+    let get = |i: usize| args.get(i).map(String::as_str).unwrap_or("");
+    let model = if get(0) == "tabulated" {
+        Model::Tabulated
+    } else {
+        Model::Single
+    };
+    let ndf = if get(1) == "beckmann" {
+        NdfId::Beckmann
+    } else {
+        NdfId::Ggx
+    };
+    let calls: usize = get(2).parse().unwrap_or(0);
+    let d = MaterialDesc {
+        model,
+        ndf,
+        facet: FacetKind::Conductor,
+        alpha_x: 0.1,
+        alpha_y: 0.6,
+        eta: Vec3::new(0.143, 0.374, 1.442),
+        k: Vec3::new(3.983, 2.385, 1.603),
+        ..Default::default()
+    };
+    let Ok(m) = Material::new(&d) else {
+        eprintln!("material refused");
+        return;
+    };
+    let mut r = Rng::new(3, 9);
+    let mut dir = || {
+        let z = 1.0 - r.next_f32() * (1.0 - 0.087);
+        let ph = r.next_f32() * std::f32::consts::TAU;
+        let s = (1.0 - z * z).max(0.0).sqrt();
+        Vec3::new(s * ph.cos(), s * ph.sin(), z)
+    };
+    let pairs: Vec<(Vec3, Vec3)> = (0..1024).map(|_| (dir(), dir())).collect();
+    let mut rng = Rng::new(5, 5);
+    let mut acc = Vec3::ZERO;
+    for j in 0..calls {
+        let (a, b) = pairs[j & 1023];
+        acc += m.eval(a, b, &mut rng);
+    }
+    std::hint::black_box(acc);
 }
