@@ -163,9 +163,10 @@ fn white_furnace_both_sides_eval_and_sample() {
     assert!(worst[1][1] < 5e-3, "{report}");
 }
 
-/// Anisotropic roughness reads the table at an effective roughness; its
-/// furnace error is measured (printed) and bounded apart from the
-/// isotropic 0.5% (a regression bound).
+/// Anisotropic roughness reads the table at an effective roughness and
+/// scales it by the anisotropic correction; its furnace error is measured
+/// (printed) and bounded apart from the isotropic 0.5% (see
+/// [`ANISO_FURNACE`]).
 #[test]
 fn white_furnace_anisotropic() {
     let mut report = String::new();
@@ -194,11 +195,14 @@ fn white_furnace_anisotropic() {
 }
 
 /// Bound on the anisotropic furnace error (see `white_furnace_anisotropic`):
-/// the multiply scattered part is read at an effective roughness and the
-/// furnace scale of that roughness, which normalise the isotropic table
-/// only; measured worst 0.152 (a regression bound, far from the isotropic
-/// 0.5%).
-const ANISO_FURNACE: f64 = 0.17;
+/// the multiply scattered part is read at an effective roughness with the
+/// furnace scales of that roughness (which normalise the isotropic table
+/// only) and scaled by the anisotropic correction
+/// `data/tabulated_aniso_dielectric.bin`, exact at its nodes (9 roughness
+/// nodes per axis, 6 indices) in the generator's quadrature; measured
+/// worst 0.0262 (Beckmann (0.3, 1) from outside at 85 degrees along y;
+/// 0.152 without the correction), bounded at 0.03.
+const ANISO_FURNACE: f64 = 0.03;
 
 /// Chi-square of sampled directions against `pdf`, binned directly in
 /// direction (the cosine lobes of the mixture reach transmitted directions

@@ -23,6 +23,8 @@
 //! residual after the rounding, the clamp hits and the time.
 //!
 //! `cargo run --release --example gen_tabulated_aniso [-- --quad N]`;
+//! `-- --dielectric [--quad N]` writes the dielectric tier's
+//! `data/tabulated_aniso_dielectric.bin` the same way ([`dielectric`]);
 //! `-- --check [--quad N]` prints where the anisotropic furnace error of
 //! the committed table sits (default N = 400): the test's materials, 16
 //! random nodes and 32 random materials; `-- --scan NDF AX AY0 AY1 THETA
@@ -133,45 +135,7 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<f32>, Stats) {
             }
         }
     }
-    // Rows without energy to correct keep s = 1 (and still enter the others'
-    // albedos as s_n).
-    let active: Vec<bool> = (0..CORR_BLOCK)
-        .map(|r| target[r] >= 1e-4 && m[r].iter().sum::<f64>() >= 1e-4)
-        .collect();
-    let (lo, hi) = (S_MIN as f64, CORR_MAX as f64);
-    let albedo = |s: &[f64], r: usize| s[r] * m[r].iter().zip(s).map(|(a, b)| a * b).sum::<f64>();
-    let mut s = vec![1.0f64; CORR_BLOCK];
-    let mut stats = Stats::default();
-    for step in 0..3000 {
-        let mut worst = 0.0f64;
-        let next: Vec<f64> = (0..CORR_BLOCK)
-            .map(|r| {
-                if !active[r] {
-                    return 1.0;
-                }
-                let a = albedo(&s, r);
-                worst = worst.max((a / target[r] - 1.0).abs());
-                (s[r] * (target[r] / a).sqrt()).clamp(lo, hi)
-            })
-            .collect();
-        s = next;
-        stats.steps = step + 1;
-        if worst < 1e-6 {
-            break;
-        }
-    }
-    // What eval reads: the rounded factors.
-    let s: Vec<f64> = s
-        .iter()
-        .map(|&v| corr_decode(corr_encode(v as f32)) as f64)
-        .collect();
-    for r in (0..CORR_BLOCK).filter(|&r| active[r]) {
-        stats.residual = stats
-            .residual
-            .max((albedo(&s, r) / target[r] - 1.0).abs() * target[r]);
-        stats.clamped += (s[r] <= lo * 1.001 || s[r] >= hi * 0.999) as usize;
-    }
-    (s.iter().map(|&v| v as f32).collect(), stats)
+    solve(&m, &target)
 }
 
 fn main() {
@@ -181,6 +145,10 @@ fn main() {
         .position(|a| a == "--quad")
         .and_then(|p| args.get(p + 1))
         .and_then(|v| v.parse().ok());
+    if args.iter().any(|a| a == "--dielectric") {
+        dielectric(&args, quad_arg.unwrap_or(48));
+        return;
+    }
     if let Some(p) = args.iter().position(|a| a == "--ir") {
         ir(&args[p + 1..]);
         return;
@@ -470,10 +438,11 @@ fn check(quad: usize) {
     );
 }
 
-/// `--ir MODEL NDF CALLS` (MODEL `single` or `tabulated`, NDF `ggx` or
-/// `beckmann`): CALLS evals through `Material` of gold with roughness
-/// (0.1, 0.6) on 1024 fixed random pairs (both directions above, up to 85
-/// degrees), for callgrind: `(Ir(CALLS) - Ir(0)) / CALLS` is the cost per
+/// `--ir MODEL NDF CALLS [glass]` (MODEL `single` or `tabulated`, NDF
+/// `ggx` or `beckmann`): CALLS evals through `Material` of gold (or glass
+/// 1.5) with roughness (0.1, 0.6) on 1024 fixed random pairs (directions
+/// up to 85 degrees, both above for gold, on either side for glass), for
+/// callgrind: `(Ir(CALLS) - Ir(0)) / CALLS` is the cost per
 /// eval.
 fn ir(args: &[String]) {
     use msbsdf::{FacetKind, Material, MaterialDesc, Model, NdfId};
@@ -489,15 +458,28 @@ fn ir(args: &[String]) {
         NdfId::Ggx
     };
     let calls: usize = get(2).parse().unwrap_or(0);
-    let d = MaterialDesc {
-        model,
-        ndf,
-        facet: FacetKind::Conductor,
-        alpha_x: 0.1,
-        alpha_y: 0.6,
-        eta: Vec3::new(0.143, 0.374, 1.442),
-        k: Vec3::new(3.983, 2.385, 1.603),
-        ..Default::default()
+    let glass = get(3) == "glass";
+    let d = if glass {
+        MaterialDesc {
+            model,
+            ndf,
+            facet: FacetKind::Dielectric,
+            alpha_x: 0.1,
+            alpha_y: 0.6,
+            eta: Vec3::splat(1.5),
+            ..Default::default()
+        }
+    } else {
+        MaterialDesc {
+            model,
+            ndf,
+            facet: FacetKind::Conductor,
+            alpha_x: 0.1,
+            alpha_y: 0.6,
+            eta: Vec3::new(0.143, 0.374, 1.442),
+            k: Vec3::new(3.983, 2.385, 1.603),
+            ..Default::default()
+        }
     };
     let Ok(m) = Material::new(&d) else {
         eprintln!("material refused");
@@ -510,7 +492,20 @@ fn ir(args: &[String]) {
         let s = (1.0 - z * z).max(0.0).sqrt();
         Vec3::new(s * ph.cos(), s * ph.sin(), z)
     };
-    let pairs: Vec<(Vec3, Vec3)> = (0..1024).map(|_| (dir(), dir())).collect();
+    // Glass: wi on either side, wo anywhere.
+    let mut flip = Rng::new(7, 7);
+    let pairs: Vec<(Vec3, Vec3)> = (0..1024)
+        .map(|_| {
+            let (mut a, mut b) = (dir(), dir());
+            if glass && flip.next_f32() < 0.5 {
+                a.z = -a.z;
+            }
+            if glass && flip.next_f32() < 0.5 {
+                b.z = -b.z;
+            }
+            (a, b)
+        })
+        .collect();
     let mut rng = Rng::new(5, 5);
     let mut acc = Vec3::ZERO;
     for j in 0..calls {
@@ -518,4 +513,253 @@ fn ir(args: &[String]) {
         acc += m.eval(a, b, &mut rng);
     }
     std::hint::black_box(acc);
+}
+
+/// One block of the dielectric correction: NDF `n`, lobe roughness nodes
+/// `1 <= jx <= jy`, index node `e` (glass-like material
+/// `eta = grid_eta(e)`, at least 1: the thin side outside). Rows and columns `side * 112 + node`.
+/// The target is `1 - E_ss` with `E_ss` SINGLE's reflected plus transmitted
+/// albedo (`quad` x `quad` normals); the uncorrected lobe's reflection is
+/// integrated over the same normals, its transmission over a `2 quad / 3
+/// x 4 quad / 3` grid of directions in `(sqrt(1 - |z|), phi)` (the
+/// transmitted multiply scattered lobe is broad).
+fn dielectric_block(n: usize, jx: usize, jy: usize, e: usize, quad: usize) -> (Vec<f32>, Stats) {
+    use msbsdf::multiple::tabulated_dielectric::{
+        DCORR_BLOCK, TabulatedDielectric, grid_alpha, grid_eta,
+    };
+    let (ax, ay) = (grid_alpha(jx), grid_alpha(jy));
+    let ay = if jx == jy { ay * 1.0001 } else { ay };
+    let eta = grid_eta(e);
+    let facet = Facet::Dielectric { eta };
+    let ndf = Ndf::new(NDFS[n], ax, ay);
+    let tab = TabulatedDielectric::new(ndf, facet).without_aniso_correction();
+    let single = Single::new(ndf, facet, G2Form::HeightCorrelated);
+    let mut rng = Rng::new(0, 0);
+    let rows = DCORR_BLOCK;
+    let half = rows / 2;
+    let mut target = vec![0.0f64; rows];
+    let mut m = vec![vec![0.0f64; rows]; rows];
+    let (nz, np) = (2 * quad / 3, 4 * quad / 3);
+    for r in 0..rows {
+        let side = r / half;
+        let sign = if side == 0 { 1.0 } else { -1.0 };
+        let up = node_dir(r % half);
+        let world = |v: Vec3| Vec3::new(v.x, v.y, v.z * sign);
+        let wi = world(up);
+        let eta_l = if side == 0 { eta } else { 1.0 / eta };
+        target[r] = 1.0
+            - single_albedo(
+                |a, b| single.eval(world(a), world(b), &mut rng).x,
+                ax,
+                ay,
+                up,
+                Some(eta_l),
+                quad,
+            );
+        let mut add = |wo: Vec3, w: f64, col_side: usize, rng: &mut Rng| {
+            let l0 = (tab.eval(wi, wo, rng).x - single.eval(wi, wo, rng).x).max(0.0);
+            if l0 > 0.0 {
+                for (node, b) in corr_dir_weights(wo) {
+                    m[r][col_side * half + node] += l0 as f64 * w * b as f64;
+                }
+            }
+        };
+        for (wo, w) in quadrature(ax, ay, up, quad) {
+            add(world(wo), w, side, &mut rng);
+        }
+        for a in 0..nz {
+            let u = (a as f64 + 0.5) / nz as f64;
+            let z = 1.0 - u * u;
+            let dz = 2.0 * u / nz as f64;
+            let sz = (1.0 - z * z).max(0.0).sqrt();
+            for b in 0..np {
+                let phi = 2.0 * std::f64::consts::PI * (b as f64 + 0.5) / np as f64;
+                let wo = Vec3::new(
+                    (sz * phi.cos()) as f32,
+                    (sz * phi.sin()) as f32,
+                    -(z as f32),
+                );
+                add(
+                    world(wo),
+                    dz * 2.0 * std::f64::consts::PI / np as f64,
+                    1 - side,
+                    &mut rng,
+                );
+            }
+        }
+    }
+    solve(&m, &target)
+}
+
+/// The symmetric Sinkhorn iteration `s_r <- s_r sqrt(target_r / albedo_r)`,
+/// `albedo_r = s_r (M s)_r`, to 1e-6 or 3000 steps, clamped to `[S_MIN,
+/// CORR_MAX]`, then rounded to the stored `u16`; rows without energy to
+/// correct keep 1.
+fn solve<R: AsRef<[f64]>>(m: &[R], target: &[f64]) -> (Vec<f32>, Stats) {
+    let rows = target.len();
+    let active: Vec<bool> = (0..rows)
+        .map(|r| target[r] >= 1e-4 && m[r].as_ref().iter().sum::<f64>() >= 1e-4)
+        .collect();
+    let (lo, hi) = (S_MIN as f64, CORR_MAX as f64);
+    let albedo =
+        |s: &[f64], r: usize| s[r] * m[r].as_ref().iter().zip(s).map(|(a, b)| a * b).sum::<f64>();
+    let mut s = vec![1.0f64; rows];
+    let mut stats = Stats::default();
+    for step in 0..3000 {
+        let mut worst = 0.0f64;
+        let next: Vec<f64> = (0..rows)
+            .map(|r| {
+                if !active[r] {
+                    return 1.0;
+                }
+                let a = albedo(&s, r);
+                worst = worst.max((a / target[r] - 1.0).abs());
+                (s[r] * (target[r] / a).sqrt()).clamp(lo, hi)
+            })
+            .collect();
+        s = next;
+        stats.steps = step + 1;
+        if worst < 1e-6 {
+            break;
+        }
+    }
+    let s: Vec<f64> = s
+        .iter()
+        .map(|&v| corr_decode(corr_encode(v as f32)) as f64)
+        .collect();
+    for r in (0..rows).filter(|&r| active[r]) {
+        stats.residual = stats.residual.max((albedo(&s, r) - target[r]).abs());
+        stats.clamped += (s[r] <= lo * 1.001 || s[r] >= hi * 0.999) as usize;
+    }
+    (s.iter().map(|&v| v as f32).collect(), stats)
+}
+
+/// `--dielectric`: `data/tabulated_aniso_dielectric.bin`, the anisotropic
+/// furnace correction of TABULATED's dielectric tier: per NDF, pair of the
+/// lobe table's roughness nodes `1 <= jx <= jy` (9 per axis), index node
+/// (6) and side, on ENERGY_COMPENSATED's azimuth and cosine grid, factors
+/// `s` such that the lobe (read at the pair's effective roughness, with
+/// its isotropic furnace scales) scaled by `s(wi) s(wo)` has the multiply
+/// scattered albedo `1 - E_ss` (reflected plus transmitted) at every node
+/// from both sides; solved per block like the conductor's (`block`).
+fn dielectric(args: &[String], quad: usize) {
+    use msbsdf::multiple::tabulated_dielectric::{
+        ALPHA_N, DCORR_BLOCK, DCORR_LEN, DCORR_MAGIC, ETA_N, dcorr_index,
+    };
+    let t0 = std::time::Instant::now();
+    let only: Option<usize> = args
+        .iter()
+        .position(|a| a == "--only")
+        .and_then(|p| args.get(p + 1))
+        .and_then(|v| v.parse().ok());
+    let mut jobs: Vec<(usize, usize, usize, usize)> = Vec::new();
+    for n in 0..2 {
+        for jx in 1..ALPHA_N {
+            for jy in jx..ALPHA_N {
+                for e in 0..ETA_N {
+                    jobs.push((n, jx, jy, e));
+                }
+            }
+        }
+    }
+    jobs.sort_by_key(|&(_, jx, jy, _)| usize::MAX - jx - jy);
+    if let Some(k) = only {
+        jobs.truncate(k);
+    }
+    let total = jobs.len();
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let results: Vec<Vec<(usize, Vec<f32>, Stats)>> = std::thread::scope(|sc| {
+        let handles: Vec<_> = (0..2)
+            .map(|_| {
+                let (jobs, next) = (&jobs, &next);
+                sc.spawn(move || {
+                    let mut out = Vec::new();
+                    loop {
+                        let idx = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                        let Some(&(n, jx, jy, e)) = jobs.get(idx) else {
+                            break;
+                        };
+                        let (s, st) = dielectric_block(n, jx, jy, e, quad);
+                        out.push((idx, s, st));
+                        let el = t0.elapsed().as_secs_f32();
+                        eprint!(
+                            "\r{}/{total} blocks, {el:.0} s, ETA {:.0} s   ",
+                            idx + 1,
+                            el / (idx + 1) as f32 * (total - idx - 1) as f32
+                        );
+                    }
+                    out
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().expect("worker"))
+            .collect()
+    });
+    eprintln!();
+    let one = corr_encode(1.0);
+    let mut table = vec![one; DCORR_LEN];
+    let (mut lo, mut hi) = (f32::MAX, f32::MIN);
+    let mut stats = Stats::default();
+    let half = DCORR_BLOCK / 2;
+    for (idx, block, st) in results.into_iter().flatten() {
+        let (n, jx, jy, e) = jobs[idx];
+        stats.residual = stats.residual.max(st.residual);
+        stats.clamped += st.clamped;
+        stats.steps = stats.steps.max(st.steps);
+        for (r, &v) in block.iter().enumerate() {
+            lo = lo.min(v);
+            hi = hi.max(v);
+            let (side, node) = (r / half, r % half);
+            table[dcorr_index(n, jx, jy, e, side, node / AN_MU, node % AN_MU)] = corr_encode(v);
+        }
+    }
+    let command: Vec<String> = args.iter().skip(1).cloned().collect();
+    let header = format!(
+        "DIELECTRIC ANISO_CORRECTION v1 (MSBSDF_MODEL_TABULATED, dielectric facets): factors s \
+         per [ndf: Beckmann, GGX][pair of the lobe table's roughness nodes 1 <= jx <= jy <= \
+         {}][index node: {ETA_N}][side: thin, dense][phi: {AN_PHI}][mu: {AN_MU}] \
+         (ENERGY_COMPENSATED's anisotropic azimuth and cosine grid) as little-endian u16 v, \
+         s = {CORR_MAX} (v / 65535)^2, after this {HEADER_BYTES}-byte header; (jx > jy, k) \
+         reads (jy, jx, {} - k); an axis at node 0 reads 1. The lobe \
+         (TabulatedDielectric::without_aniso_correction minus SINGLE) scaled by s(wi) s(wo) \
+         has the multiply scattered albedo 1 - E_ss (reflection plus transmission) at every \
+         node of both sides; E_ss and the reflection by quadrature over {quad} x {quad} \
+         normals, the transmission over a {} x {} direction grid; symmetric Sinkhorn \
+         iteration per block (residual 1e-6 or 3000 steps); no random numbers. Diagonal \
+         nodes at alpha_y (1 + 1e-4); clamped to [{S_MIN}, {CORR_MAX}]. Range {lo:.4} - \
+         {hi:.4}; worst |albedo - (1 - E_ss)| at the nodes after rounding {:.2e}; {} clamped \
+         factors; at most {} Sinkhorn steps.\n\
+         Command: cargo run --release --example gen_tabulated_aniso{}{}\nCommit: {}\n\
+         Time: {:.0} s\n",
+        ALPHA_N - 1,
+        AN_PHI - 1,
+        2 * quad / 3,
+        4 * quad / 3,
+        stats.residual,
+        stats.clamped,
+        stats.steps,
+        if command.is_empty() { "" } else { " -- " },
+        command.join(" "),
+        git::commit(),
+        t0.elapsed().as_secs_f32()
+    );
+    let mut bytes = DCORR_MAGIC.to_vec();
+    bytes.extend_from_slice(header.as_bytes());
+    assert!(bytes.len() < HEADER_BYTES, "header too long");
+    bytes.resize(HEADER_BYTES, 0);
+    for v in &table {
+        bytes.extend_from_slice(&v.to_le_bytes());
+    }
+    let path = format!(
+        "{}/data/tabulated_aniso_dielectric.bin",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    if only.is_some() {
+        eprintln!("{header}(--only: not written)");
+        return;
+    }
+    std::fs::write(&path, bytes).expect("write the table file");
+    eprintln!("{header}wrote {path}");
 }
