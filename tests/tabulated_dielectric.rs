@@ -163,42 +163,74 @@ fn white_furnace_both_sides_eval_and_sample() {
     assert!(worst[1][1] < 5e-3, "{report}");
 }
 
-/// Anisotropic roughness reads the table at an effective roughness; its
-/// furnace error is measured (printed) and bounded apart from the
-/// isotropic 0.5% (a regression bound).
-#[test]
-fn white_furnace_anisotropic() {
+/// The furnace of anisotropic glass `eta` for the roughness pairs `pairs`,
+/// both NDFs and sides, 0, 60 and 85 degrees along x and y (eval
+/// quadrature): the report and the worst `|albedo - 1|`.
+fn aniso_furnace(pairs: &[(f32, f32)], eta: f32) -> (String, f64) {
     let mut report = String::new();
     let mut worst: f64 = 0.0;
     for ndf in NDFS {
-        for (ax, ay) in [(0.1f32, 0.6f32), (0.3, 1.0)] {
-            let t = tab(ndf, ax, ay, 1.5);
-            let s = Material::new(&desc(Model::Single, ndf, ax, ay, 1.5)).expect("valid");
+        for &(ax, ay) in pairs {
+            let t = tab(ndf, ax, ay, eta);
+            let s = Material::new(&desc(Model::Single, ndf, ax, ay, eta)).expect("valid");
             for side in [1.0f32, -1.0] {
                 for theta in [0.0, 60.0, 85.0] {
                     for phi in [0.0f32, 90.0] {
                         let d = incident(theta, side);
                         let (sn, c) = phi.to_radians().sin_cos();
                         let wi = Vec3::new(d.x * c, d.x * sn, d.z);
-                        let q = albedo_quadrature(&t, &s, wi, ax, ay, 1.5);
-                        report +=
-                            &format!("{ndf:?} ({ax},{ay}) side {side} {theta} {phi}: {q:.4}\n");
+                        let q = albedo_quadrature(&t, &s, wi, ax, ay, eta);
+                        report += &format!(
+                            "{ndf:?} ({ax},{ay}) eta {eta} side {side} {theta} {phi}: {q:.4}\n"
+                        );
                         worst = worst.max((q - 1.0).abs());
                     }
                 }
             }
         }
     }
+    (report, worst)
+}
+
+/// Anisotropic roughness reads the table at an effective roughness and
+/// scales it by the anisotropic correction; its furnace error is measured
+/// (printed) and bounded apart from the isotropic 0.5% (see
+/// [`ANISO_FURNACE`]).
+#[test]
+fn white_furnace_anisotropic() {
+    let (report, worst) = aniso_furnace(&[(0.1, 0.6), (0.3, 1.0)], 1.5);
     println!("{report}worst |albedo - 1| = {worst:.4}");
     assert!(worst < ANISO_FURNACE, "{report}");
 }
 
+/// The anisotropic furnace at roughness and index nodes of the correction
+/// table (`data/tabulated_aniso_dielectric.bin`: lobe roughness nodes 3
+/// and 6, 2 and 4, index node 2, `eta` 1.598), the same directions as
+/// `white_furnace_anisotropic` (0 degrees is a cosine node, 60 and 85 lie
+/// between nodes; both azimuths are nodes). The generator solves the
+/// scaling at the nodes in its own quadrature (160 x 160 normals), so what
+/// is left here is that quadrature and the cosine interpolation: measured
+/// worst 0.0034 (GGX (0.28, 1.125) from inside at 60 degrees along y),
+/// bounded at 0.5%. Between index nodes the error is 2.2% at the same
+/// roughness (`docs/tabulated_dielectric.md`): the index axis is what
+/// limits `white_furnace_anisotropic`.
+#[test]
+fn anisotropic_furnace_at_correction_nodes() {
+    let (a3, a6, a2, a4) = (grid_alpha(3), grid_alpha(6), grid_alpha(2), grid_alpha(4));
+    let (report, worst) = aniso_furnace(&[(a3, a6), (a2, a4)], grid_eta(2));
+    println!("{report}worst |albedo - 1| at the nodes = {worst:.4}");
+    assert!(worst < 0.005, "{report}");
+}
+
 /// Bound on the anisotropic furnace error (see `white_furnace_anisotropic`):
-/// the multiply scattered part is read at an effective roughness and the
-/// furnace scale of that roughness, which normalise the isotropic table
-/// only; measured worst 0.152 (a regression bound, far from the isotropic
-/// 0.5%).
-const ANISO_FURNACE: f64 = 0.17;
+/// the multiply scattered part is read at an effective roughness with the
+/// furnace scales of that roughness (which normalise the isotropic table
+/// only) and scaled by the anisotropic correction
+/// `data/tabulated_aniso_dielectric.bin`, exact at its nodes (9 roughness
+/// nodes per axis, 6 indices) in the generator's quadrature; measured
+/// worst 0.0262 (Beckmann (0.3, 1) from outside at 85 degrees along y;
+/// 0.152 without the correction), bounded at 0.03.
+const ANISO_FURNACE: f64 = 0.03;
 
 /// Chi-square of sampled directions against `pdf`, binned directly in
 /// direction (the cosine lobes of the mixture reach transmitted directions

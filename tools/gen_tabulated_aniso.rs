@@ -1,26 +1,47 @@
 //! Generates `data/tabulated_aniso.bin`, the anisotropic furnace correction
-//! of `MSBSDF_MODEL_TABULATED` (`msbsdf::multiple::tabulated::ANISO_CORRECTION`):
-//! per (NDF, alpha_x, alpha_y, azimuth, mu) on the grid of
-//! ENERGY_COMPENSATED's anisotropic albedo table, `c = (1 - E) / A` with
-//! `E` that table's entry (SINGLE's albedo with F = 1) and `A` the multiply
-//! scattered albedo with F = 1 of TABULATED's uncorrected anisotropic lobe,
-//! both by the same deterministic quadrature over normals
-//! (`compensation::single_albedo`); no random numbers.
+//! of `MSBSDF_MODEL_TABULATED` (`msbsdf::multiple::tabulated::corr_value`):
+//! per NDF, roughness pair `(alpha_x, alpha_y)` on the grid
+//! `tabulated::corr_grid_alpha` (31 nodes per axis: ENERGY_COMPENSATED's 16
+//! and the midpoints between them) and node `(phi, mu)` of
+//! ENERGY_COMPENSATED's anisotropic grid, a factor `s` such that
+//! TABULATED's anisotropic lobe scaled by `s(wi) s(wo)` has the multiply
+//! scattered albedo `1 - E_ss(wi)` at every node, `E_ss` SINGLE's albedo
+//! with F = 1. No random numbers: both albedos by deterministic quadrature
+//! over normals (the mapping of `compensation::single_albedo`, `--quad N`
+//! per side, default 128).
 //!
-//! `cargo run --release --example gen_tabulated_aniso [-- --quad N]`
-//! (default N = 64; about 25 s on two threads), then
-//! `-- --update` (repeatable, after rebuilding with the new table): a
-//! Sinkhorn step, each entry multiplied by `(1 - E) / A` of the corrected
-//! lobe.
+//! Per roughness pair, the uncorrected lobe `L0` (TABULATED's eval without
+//! the correction, minus SINGLE's) is integrated once into a matrix
+//! `M[r][n] = int L0(w_r, wo) phi_n(wo) dwo`, `w_r` the incident direction
+//! of node `r` and `phi_n` the bilinear weight of node `n` at `wo` as eval
+//! interpolates `s` (`tabulated::corr_dir_weights`); the albedo of the
+//! corrected lobe from node `r` is then `s_r sum_n M[r][n] s_n` exactly, and
+//! the factors solve `s_r (M s)_r = 1 - E_ss(w_r)` by the symmetric
+//! Sinkhorn iteration `s_r <- s_r sqrt(target_r / albedo_r)` to a relative
+//! residual of 1e-6 (or 3000 steps), clamped to `[S_MIN, CORR_MAX]` and
+//! stored as `u16` (`tabulated::corr_encode`); the header records the
+//! residual after the rounding, the clamp hits and the time.
+//!
+//! `cargo run --release --example gen_tabulated_aniso [-- --quad N]`;
+//! `-- --dielectric [--quad N]` writes the dielectric tier's
+//! `data/tabulated_aniso_dielectric.bin` the same way ([`dielectric`]);
+//! `-- --check [--quad N]` prints where the anisotropic furnace error of
+//! the committed table sits (default N = 400): the test's materials, 16
+//! random nodes and 32 random materials; `-- --scan NDF AX AY0 AY1 THETA
+//! PHI` the furnace error along `alpha_y` from `AY0` to `AY1` (11 steps);
+//! `-- --ir MODEL NDF CALLS` the callgrind driver of anisotropic eval
+//! (`ir`).
 
 use glam::Vec3;
 use msbsdf::bsdf::ScatterModel;
 use msbsdf::facet::Facet;
-use msbsdf::multiple::compensation::{
-    aniso_grid_alpha, aniso_grid_mu, aniso_grid_phi, single_albedo,
-};
+use msbsdf::frame::reflect;
+use msbsdf::multiple::compensation::{aniso_grid_mu, aniso_grid_phi, single_albedo};
 use msbsdf::multiple::compensation_aniso_tables::{AN_A, AN_MU, AN_PHI, CONDUCTOR_E_ANISO};
-use msbsdf::multiple::tabulated::{ANISO_CORRECTION, Tabulated};
+use msbsdf::multiple::tabulated::{
+    CORR_A, CORR_BLOCK, CORR_LEN, CORR_MAGIC, CORR_MAX, HEADER_BYTES, Tabulated, corr_decode,
+    corr_dir_weights, corr_encode, corr_grid_alpha, corr_index,
+};
 use msbsdf::ndf::{Ndf, NdfKind};
 use msbsdf::rng::Rng;
 use msbsdf::single::{G2Form, Single};
@@ -30,109 +51,165 @@ mod git;
 
 const NDFS: [NdfKind; 2] = [NdfKind::Beckmann, NdfKind::Ggx];
 
-/// Range of the stored correction (a guard for nodes where the target and
-/// the albedo are both near 0; the uncorrected lobe's albedo is mostly
-/// within a factor 2 of the target).
-const CLAMP: (f32, f32) = (0.05, 20.0);
+/// Smallest stored factor (the lobe scaled by `S_MIN^2` at most).
+const S_MIN: f32 = 0.02;
 
-/// The correction at one node: `(1 - E) / A`, 1 where there is no multiply
-/// scattered energy to correct (an axis of roughness 0).
-#[allow(clippy::too_many_arguments)]
-fn entry(
-    kind: NdfKind,
-    n: usize,
-    jx: usize,
-    jy: usize,
-    k: usize,
-    i: usize,
-    quad: usize,
-    update: bool,
-) -> f32 {
-    let (ax, ay) = (aniso_grid_alpha(jx), aniso_grid_alpha(jy));
-    if ax < 1e-3 || ay < 1e-3 {
-        return 1.0;
+/// Reflected directions and weights of `compensation::single_albedo`'s
+/// quadrature (`n x n` normals from the GGX distribution of the same
+/// roughness, crowded towards large slopes): `int f dwo ~ sum w f(wo)` for
+/// a lobe `f |wo.z|` concentrated around the normals.
+fn quadrature(ax: f32, ay: f32, wi: Vec3, n: usize) -> Vec<(Vec3, f64)> {
+    let (ax, ay) = (ax as f64, ay as f64);
+    let mut out = Vec::with_capacity(n * n);
+    for i in 0..n {
+        for j in 0..n {
+            let s = (i as f64 + 0.5) / n as f64;
+            let u = 1.0 - (1.0 - s).powi(4);
+            let du_ds = 4.0 * (1.0 - s).powi(3);
+            let phi = 2.0 * std::f64::consts::PI * (j as f64 + 0.5) / n as f64;
+            let tan = (u / (1.0 - u)).sqrt();
+            let h = glam::DVec3::new(-ax * tan * phi.cos(), -ay * tan * phi.sin(), 1.0).normalize();
+            let tt = (h.x / ax).powi(2) + (h.y / ay).powi(2) + h.z * h.z;
+            let density = h.z / (std::f64::consts::PI * ax * ay * tt * tt) / du_ds;
+            let hf = h.as_vec3();
+            let ci = wi.dot(hf);
+            if ci <= 0.0 {
+                continue;
+            }
+            let wo = reflect(wi, hf);
+            if wo.z > 0.0 {
+                out.push((wo, 4.0 * ci as f64 / density / (n * n) as f64));
+            }
+        }
     }
-    // On the diagonal the model is isotropic; the correction there is read
-    // by anisotropic materials between nodes, so it is taken for a barely
+    out
+}
+
+/// Incident direction of node `r = k * AN_MU + i`.
+fn node_dir(r: usize) -> Vec3 {
+    let (mu, phi) = (aniso_grid_mu(r % AN_MU), aniso_grid_phi(r / AN_MU));
+    let st = (1.0 - mu * mu).max(0.0).sqrt();
+    Vec3::new(st * phi.cos(), st * phi.sin(), mu)
+}
+
+/// Statistics of one block: largest relative residual at the nodes after
+/// rounding, clamp hits, Sinkhorn steps.
+#[derive(Clone, Copy, Default)]
+struct Stats {
+    residual: f64,
+    clamped: usize,
+    steps: usize,
+}
+
+/// The factors of roughness pair `(jx, jy)` of NDF `n` (1 where an axis has
+/// roughness < 1e-3: no multiply scattered energy to correct).
+fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<f32>, Stats) {
+    let (ax, ay) = (corr_grid_alpha(jx), corr_grid_alpha(jy));
+    if ax < 1e-3 || ay < 1e-3 {
+        return (vec![1.0; CORR_BLOCK], Stats::default());
+    }
+    // On the diagonal the model is isotropic; the factors there are read by
+    // anisotropic materials between nodes, so they are taken for a barely
     // anisotropic one.
     let ay = if jx == jy { ay * 1.0001 } else { ay };
     let white = Facet::Conductor {
         eta: Vec3::ZERO,
         k: Vec3::ONE,
     };
-    let ndf = Ndf::new(kind, ax, ay);
-    // --update: the lobe with the committed correction, whose entry is then
-    // multiplied by target / albedo (a Sinkhorn step of the symmetric
-    // scaling); otherwise the uncorrected lobe.
-    let tab = if update {
-        Tabulated::new(ndf, white)
-    } else {
-        Tabulated::new(ndf, white).without_aniso_correction()
-    };
-    let old = if update {
-        ANISO_CORRECTION[n][jx][jy][k][i]
-    } else {
-        1.0
-    };
+    let ndf = Ndf::new(NDFS[n], ax, ay);
+    let tab = Tabulated::new(ndf, white).without_aniso_correction();
     let single = Single::new(ndf, white, G2Form::HeightCorrelated);
-    let (mu, phi) = (aniso_grid_mu(i), aniso_grid_phi(k));
-    let st = (1.0 - mu * mu).max(0.0).sqrt();
-    let wi = Vec3::new(st * phi.cos(), st * phi.sin(), mu);
     let mut rng = Rng::new(0, 0);
-    let a = single_albedo(
-        |x, y| {
-            let m = tab.eval(x, y, &mut rng).x - single.eval(x, y, &mut rng).x;
-            m.max(0.0)
-        },
-        ax,
-        ay,
-        wi,
-        None,
-        quad,
-    ) as f32;
-    let target = 1.0 - CONDUCTOR_E_ANISO[n][jx][jy][k][i];
-    if a < 1e-4 || target < 1e-4 {
-        return 1.0;
+    let mut target = vec![0.0f64; CORR_BLOCK];
+    let mut m = vec![[0.0f64; CORR_BLOCK]; CORR_BLOCK];
+    for r in 0..CORR_BLOCK {
+        let wi = node_dir(r);
+        target[r] =
+            1.0 - single_albedo(|x, y| single.eval(x, y, &mut rng).x, ax, ay, wi, None, quad);
+        for (wo, w) in quadrature(ax, ay, wi, quad) {
+            let l0 = (tab.eval(wi, wo, &mut rng).x - single.eval(wi, wo, &mut rng).x).max(0.0);
+            if l0 > 0.0 {
+                for (node, b) in corr_dir_weights(wo) {
+                    m[r][node] += l0 as f64 * w * b as f64;
+                }
+            }
+        }
     }
-    (old * target / a).clamp(CLAMP.0, CLAMP.1)
+    solve(&m, &target)
 }
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    let quad: usize = args
+    let quad_arg: Option<usize> = args
         .iter()
         .position(|a| a == "--quad")
         .and_then(|p| args.get(p + 1))
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(64);
-    let update = args.iter().any(|a| a == "--update");
+        .and_then(|v| v.parse().ok());
+    if args.iter().any(|a| a == "--dielectric") {
+        dielectric(&args, quad_arg.unwrap_or(48));
+        return;
+    }
+    if let Some(p) = args.iter().position(|a| a == "--ir") {
+        ir(&args[p + 1..]);
+        return;
+    }
+    if let Some(p) = args.iter().position(|a| a == "--scan") {
+        let v: Vec<f32> = args[p + 1..]
+            .iter()
+            .filter_map(|a| a.parse().ok())
+            .collect();
+        let white = Facet::Conductor {
+            eta: Vec3::ZERO,
+            k: Vec3::ONE,
+        };
+        for t in 0..=10 {
+            let ay = v[2] + (v[3] - v[2]) * t as f32 / 10.0;
+            let ndf = Ndf::new(NDFS[v[0] as usize], v[1], ay);
+            let tab = Tabulated::new(ndf, white);
+            let (th, ph) = (v[4].to_radians(), v[5].to_radians());
+            let wi = Vec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos());
+            let mut rng = Rng::new(0, 0);
+            let q = single_albedo(|x, y| tab.eval(x, y, &mut rng).x, v[1], ay, wi, None, 400);
+            println!("ay {ay:.4}: {:+.4}", q - 1.0);
+        }
+        return;
+    }
+    if args.iter().any(|a| a == "--check") {
+        check(quad_arg.unwrap_or(400));
+        return;
+    }
+    let quad = quad_arg.unwrap_or(128);
     let t0 = std::time::Instant::now();
-    // Jobs: (ndf, jx, jy) blocks with jx <= jy; the others by the symmetry
-    // (alpha_x, alpha_y, phi) -> (alpha_y, alpha_x, pi/2 - phi).
-    let jobs: Vec<(usize, usize, usize)> = (0..2)
-        .flat_map(|n| (0..AN_A).flat_map(move |jx| (jx..AN_A).map(move |jy| (n, jx, jy))))
+    // Jobs: (ndf, jx, jy) with jx <= jy (the stored pairs), the dearest
+    // (both axes rough: nothing skipped) first.
+    let mut jobs: Vec<(usize, usize, usize)> = (0..2)
+        .flat_map(|n| (0..CORR_A).flat_map(move |jx| (jx..CORR_A).map(move |jy| (n, jx, jy))))
         .collect();
+    jobs.sort_by_key(|&(_, jx, _)| usize::MAX - jx);
     let total = jobs.len();
-    let done = std::sync::atomic::AtomicUsize::new(0);
-    let results: Vec<Vec<(usize, Vec<f32>)>> = std::thread::scope(|sc| {
-        let handles: Vec<_> = (0..2)
-            .map(|th| {
-                let (jobs, done) = (&jobs, &done);
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let threads: usize = std::env::var("THREADS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(2);
+    let results: Vec<Vec<(usize, Vec<f32>, Stats)>> = std::thread::scope(|sc| {
+        let handles: Vec<_> = (0..threads)
+            .map(|_| {
+                let (jobs, next) = (&jobs, &next);
                 sc.spawn(move || {
                     let mut out = Vec::new();
-                    for (idx, &(n, jx, jy)) in jobs.iter().enumerate().filter(|(i, _)| i % 2 == th)
-                    {
-                        let block: Vec<f32> = (0..AN_PHI)
-                            .flat_map(|k| (0..AN_MU).map(move |i| (k, i)))
-                            .map(|(k, i)| entry(NDFS[n], n, jx, jy, k, i, quad, update))
-                            .collect();
-                        out.push((idx, block));
-                        let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+                    loop {
+                        let idx = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                        let Some(&(n, jx, jy)) = jobs.get(idx) else {
+                            break;
+                        };
+                        let (s, st) = block(n, jx, jy, quad);
+                        out.push((idx, s, st));
                         let el = t0.elapsed().as_secs_f32();
-                        let bar = "#".repeat(30 * d / total);
                         eprint!(
-                            "\r[{bar:<30}] {d}/{total} (alpha_x, alpha_y) blocks, {el:.0} s, ETA {:.0} s",
-                            el / d as f32 * (total - d) as f32
+                            "\r{}/{total} roughness pairs, {el:.0} s, ETA {:.0} s   ",
+                            idx + 1,
+                            el / (idx + 1) as f32 * (total - idx - 1) as f32
                         );
                     }
                     out
@@ -145,62 +222,544 @@ fn main() {
             .collect()
     });
     eprintln!();
-    let mut table = vec![0f32; 2 * AN_A * AN_A * AN_PHI * AN_MU];
-    let at = |n: usize, jx: usize, jy: usize, k: usize, i: usize| {
-        (((n * AN_A + jx) * AN_A + jy) * AN_PHI + k) * AN_MU + i
-    };
+    let mut table = vec![0u16; CORR_LEN];
     let (mut lo, mut hi) = (f32::MAX, f32::MIN);
-    for (idx, block) in results.into_iter().flatten() {
+    let mut stats = Stats::default();
+    for (idx, block, st) in results.into_iter().flatten() {
         let (n, jx, jy) = jobs[idx];
+        stats.residual = stats.residual.max(st.residual);
+        stats.clamped += st.clamped;
+        stats.steps = stats.steps.max(st.steps);
         for k in 0..AN_PHI {
             for i in 0..AN_MU {
                 let v = block[k * AN_MU + i];
                 lo = lo.min(v);
                 hi = hi.max(v);
-                table[at(n, jx, jy, k, i)] = v;
-                table[at(n, jy, jx, AN_PHI - 1 - k, i)] = v;
+                table[corr_index(n, jx, jy, k, i)] = corr_encode(v);
             }
         }
     }
     let command: Vec<String> = args.iter().skip(1).cloned().collect();
-    // With --update, the earlier passes' commands and commits (the history
-    // of the table this pass started from).
-    let history = if update {
-        let previous =
-            msbsdf::multiple::bintable::header_text(include_bytes!("../data/tabulated_aniso.bin"));
-        previous
-            .lines()
-            .filter(|l| {
-                l.starts_with("Command:") || l.starts_with("Commit:") || l.starts_with("Earlier")
-            })
-            .map(|l| format!("Earlier {}\n", l.trim_start_matches("Earlier ")))
-            .collect::<String>()
-    } else {
-        String::new()
-    };
     let header = format!(
-        "ANISO_CORRECTION (MSBSDF_MODEL_TABULATED): c = (1 - E) / A per [ndf: Beckmann, GGX]\
-         [alpha_x: {AN_A}][alpha_y: {AN_A}][phi: {AN_PHI}][mu: {AN_MU}] f32 on the grid of \
-         CONDUCTOR_E_ANISO; E that table's entry, A the multiply scattered albedo with F = 1 \
-         of the anisotropic lobe (Tabulated::without_aniso_correction minus SINGLE; with \
-         --update the previous table times (1 - E) / A of the corrected lobe) by \
-         deterministic quadrature (compensation::single_albedo, {quad} x {quad} \
-         normals per entry); no random numbers. 1 where an axis has roughness < 1e-3; \
-         clamped to [{}, {}]; diagonal nodes at alpha_y (1 + 1e-4). Range {lo:.4} - {hi:.4}.\n\
+        "ANISO_CORRECTION v2 (MSBSDF_MODEL_TABULATED): factors s per [ndf: Beckmann, GGX]\
+         [roughness pair (jx <= jy) of {CORR_A} x {CORR_A}: alpha = 2 (j / {})^2]\
+         [phi: {AN_PHI}][mu: {AN_MU}] (ENERGY_COMPENSATED's anisotropic azimuth and cosine \
+         grid) as little-endian u16 v, s = {CORR_MAX} (v / 65535)^2, after this \
+         {HEADER_BYTES}-byte header; (jx > jy, k) reads (jy, jx, {} - k). The lobe \
+         (Tabulated::without_aniso_correction minus SINGLE) scaled by s(wi) s(wo) has the \
+         multiply scattered albedo 1 - E_ss at every node, E_ss SINGLE's albedo with F = 1; \
+         both by deterministic quadrature (compensation::single_albedo's normals, {quad} x \
+         {quad} per node), s by the symmetric Sinkhorn iteration on the integrated \
+         interpolation weights (residual 1e-6 or 3000 steps); no random numbers. 1 where \
+         an axis has roughness < 1e-3; diagonal nodes at alpha_y (1 + 1e-4); clamped to \
+         [{S_MIN}, {CORR_MAX}]. Range {lo:.4} - {hi:.4}; worst |albedo - (1 - E_ss)| at \
+         the nodes after rounding {:.2e}; {} clamped factors; at most {} Sinkhorn steps.\n\
          Command: cargo run --release --example gen_tabulated_aniso{}{}\nCommit: {}\n\
-         Time: {:.0} s\n{history}",
-        CLAMP.0,
-        CLAMP.1,
+         Time: {:.0} s\n",
+        CORR_A - 1,
+        AN_PHI - 1,
+        stats.residual,
+        stats.clamped,
+        stats.steps,
         if command.is_empty() { "" } else { " -- " },
         command.join(" "),
         git::commit(),
         t0.elapsed().as_secs_f32()
     );
+    let mut bytes = CORR_MAGIC.to_vec();
+    bytes.extend_from_slice(header.as_bytes());
+    assert!(bytes.len() < HEADER_BYTES, "header too long");
+    bytes.resize(HEADER_BYTES, 0);
+    for v in &table {
+        bytes.extend_from_slice(&v.to_le_bytes());
+    }
     let path = format!("{}/data/tabulated_aniso.bin", env!("CARGO_MANIFEST_DIR"));
-    let bytes = msbsdf::multiple::bintable::encode(&header, &table);
     std::fs::write(&path, bytes).expect("write the table file");
-    eprintln!(
-        "wrote {path} in {:.0} s (range {lo:.4} - {hi:.4})",
+    eprintln!("{header}wrote {path}");
+}
+
+/// `CONDUCTOR_E_ANISO` read as eval reads it (bilinear in the two alpha
+/// coordinates, linear in azimuth and in the cosine coordinate).
+fn e_table(n: usize, ax: f32, ay: f32, w: Vec3) -> f32 {
+    let split = |x: f32, len: usize| {
+        let x = x.clamp(0.0, (len - 1) as f32);
+        let i = (x as usize).min(len - 2);
+        (i, x - i as f32)
+    };
+    let ac = |a: f32| (a / 2.0).clamp(0.0, 1.0).sqrt() * (AN_A - 1) as f32;
+    let (jx, fx) = split(ac(ax), AN_A);
+    let (jy, fy) = split(ac(ay), AN_A);
+    let phi = w.y.abs().atan2(w.x.abs());
+    let (k, fk) = split(
+        phi / std::f32::consts::FRAC_PI_2 * (AN_PHI - 1) as f32,
+        AN_PHI,
+    );
+    let m0 = aniso_grid_mu(0);
+    let (i, fi) = split(
+        ((w.z.abs() - m0) / (1.0 - m0)).clamp(0.0, 1.0).sqrt() * (AN_MU - 1) as f32,
+        AN_MU,
+    );
+    let mut v = 0.0;
+    for (dx, wx) in [(0, 1.0 - fx), (1, fx)] {
+        for (dy, wy) in [(0, 1.0 - fy), (1, fy)] {
+            for (dk, wk) in [(0, 1.0 - fk), (1, fk)] {
+                for (di, wi) in [(0, 1.0 - fi), (1, fi)] {
+                    v += wx * wy * wk * wi * CONDUCTOR_E_ANISO[n][jx + dx][jy + dy][k + dk][i + di];
+                }
+            }
+        }
+    }
+    v
+}
+
+/// `--check`: where the anisotropic furnace error sits. Per case (NDF,
+/// roughness pair, incident direction): the albedo of TABULATED's eval by
+/// quadrature (`--quad`, default 400) minus 1, split into SINGLE's albedo
+/// minus the interpolated `E` the lobe is normalised to (the target's
+/// error) and the multiply scattered albedo minus `1 - E` (the lobe's
+/// error), and the latter at the generator's quadrature (96).
+fn check(quad: usize) {
+    let white = Facet::Conductor {
+        eta: Vec3::ZERO,
+        k: Vec3::ONE,
+    };
+    let mut cases = Vec::new();
+    for n in 0..2 {
+        for (ax, ay) in [(0.1f32, 0.6f32), (0.3, 1.0)] {
+            for theta in [0.0f32, 45.0, 80.0, 89.0] {
+                for phi in [0.0f32, 45.0, 90.0] {
+                    cases.push((n, ax, ay, theta.to_radians(), phi.to_radians()));
+                }
+            }
+        }
+    }
+    let mut pick = Rng::new(2718, 2);
+    let mut nodes = 0;
+    while nodes < 16 {
+        let n = (pick.next_u32() % 2) as usize;
+        let jx = (pick.next_u32() % CORR_A as u32) as usize;
+        let jy = (pick.next_u32() % CORR_A as u32) as usize;
+        let (ax, ay) = (corr_grid_alpha(jx), corr_grid_alpha(jy));
+        if jx == jy || ax < 0.05 || ay < 0.05 {
+            continue;
+        }
+        nodes += 1;
+        let k = (pick.next_u32() % AN_PHI as u32) as usize;
+        let i = (pick.next_u32() % AN_MU as u32) as usize;
+        cases.push((n, ax, ay, aniso_grid_mu(i).acos(), aniso_grid_phi(k)));
+    }
+    // Random materials and directions (between nodes in general).
+    let mut pick = Rng::new(31415, 9);
+    for _ in 0..32 {
+        let n = (pick.next_u32() % 2) as usize;
+        let ax = 0.05 + 1.95 * pick.next_f32() * pick.next_f32();
+        let ay = 0.05 + 1.95 * pick.next_f32();
+        let theta = (89.0 * pick.next_f32().sqrt()).to_radians();
+        cases.push((
+            n,
+            ax,
+            ay,
+            theta,
+            std::f32::consts::FRAC_PI_2 * pick.next_f32(),
+        ));
+    }
+    println!("ndf (ax, ay) theta phi: total-1 | E_exact-E_tab | A_ms-(1-E_tab) | A_ms(96)-A_ms");
+    let (mut worst, mut worst_e, mut worst_a) = (0.0f64, 0.0f64, 0.0f64);
+    for (n, ax, ay, theta, phi) in cases {
+        let ndf = Ndf::new(NDFS[n], ax, ay);
+        let tab = Tabulated::new(ndf, white);
+        let single = Single::new(ndf, white, G2Form::HeightCorrelated);
+        let (st, ct) = theta.sin_cos();
+        let wi = Vec3::new(st * phi.cos(), st * phi.sin(), ct);
+        let mut rng = Rng::new(0, 0);
+        let mut r2 = Rng::new(0, 0);
+        let e_exact = single_albedo(|x, y| single.eval(x, y, &mut rng).x, ax, ay, wi, None, quad);
+        let ms = |q: usize, rng: &mut Rng| {
+            single_albedo(
+                |x, y| tab.eval(x, y, rng).x - single.eval(x, y, rng).x,
+                ax,
+                ay,
+                wi,
+                None,
+                q,
+            )
+        };
+        let a = ms(quad, &mut r2);
+        let a96 = ms(96, &mut r2);
+        let e_tab = e_table(n, ax, ay, wi) as f64;
+        // E_exact interpolated in azimuth and cosine only (the material's
+        // own roughness): the floor of any finer roughness grid.
+        let e_dir = {
+            let phi_c =
+                wi.y.abs().atan2(wi.x.abs()) / std::f32::consts::FRAC_PI_2 * (AN_PHI - 1) as f32;
+            let k = (phi_c as usize).min(AN_PHI - 2);
+            let fk = phi_c - k as f32;
+            let m0 = aniso_grid_mu(0);
+            let mc = ((wi.z - m0) / (1.0 - m0)).clamp(0.0, 1.0).sqrt() * (AN_MU - 1) as f32;
+            let i = (mc as usize).min(AN_MU - 2);
+            let fi = mc - i as f32;
+            let mut v = 0.0;
+            for (dk, wk) in [(0, 1.0 - fk), (1, fk)] {
+                for (di, wt) in [(0, 1.0 - fi), (1, fi)] {
+                    if wk * wt == 0.0 {
+                        continue;
+                    }
+                    let (mu, ph) = (aniso_grid_mu(i + di), aniso_grid_phi(k + dk));
+                    let s = (1.0 - mu * mu).max(0.0).sqrt();
+                    let w = Vec3::new(s * ph.cos(), s * ph.sin(), mu);
+                    let mut rr = Rng::new(0, 0);
+                    v += (wk * wt) as f64
+                        * single_albedo(|x, y| single.eval(x, y, &mut rr).x, ax, ay, w, None, quad);
+                }
+            }
+            v
+        };
+        println!(
+            "   E_exact - E interpolated in direction only: {:+.4}",
+            e_exact - e_dir
+        );
+        let total = e_exact + a - 1.0;
+        worst = worst.max(total.abs());
+        worst_e = worst_e.max((e_exact - e_tab).abs());
+        worst_a = worst_a.max((a - (1.0 - e_tab)).abs());
+        println!(
+            "{:?} ({ax:.3}, {ay:.3}) {:.1} {:.1}: {:+.4} | {:+.4} | {:+.4} | {:+.4}",
+            NDFS[n],
+            theta.to_degrees(),
+            phi.to_degrees(),
+            total,
+            e_exact - e_tab,
+            a - (1.0 - e_tab),
+            a96 - a
+        );
+    }
+    println!(
+        "worst |total - 1| {worst:.4}, |E_exact - E_tab| {worst_e:.4}, |A_ms - (1 - E_tab)| {worst_a:.4}"
+    );
+}
+
+/// `--ir MODEL NDF CALLS [glass]` (MODEL `single` or `tabulated`, NDF
+/// `ggx` or `beckmann`): CALLS evals through `Material` of gold (or glass
+/// 1.5) with roughness (0.1, 0.6) on 1024 fixed random pairs (directions
+/// up to 85 degrees, both above for gold, on either side for glass), for
+/// callgrind: `(Ir(CALLS) - Ir(0)) / CALLS` is the cost per
+/// eval.
+fn ir(args: &[String]) {
+    use msbsdf::{FacetKind, Material, MaterialDesc, Model, NdfId};
+    let get = |i: usize| args.get(i).map(String::as_str).unwrap_or("");
+    let model = if get(0) == "tabulated" {
+        Model::Tabulated
+    } else {
+        Model::Single
+    };
+    let ndf = if get(1) == "beckmann" {
+        NdfId::Beckmann
+    } else {
+        NdfId::Ggx
+    };
+    let calls: usize = get(2).parse().unwrap_or(0);
+    let glass = get(3) == "glass";
+    let d = if glass {
+        MaterialDesc {
+            model,
+            ndf,
+            facet: FacetKind::Dielectric,
+            alpha_x: 0.1,
+            alpha_y: 0.6,
+            eta: Vec3::splat(1.5),
+            ..Default::default()
+        }
+    } else {
+        MaterialDesc {
+            model,
+            ndf,
+            facet: FacetKind::Conductor,
+            alpha_x: 0.1,
+            alpha_y: 0.6,
+            eta: Vec3::new(0.143, 0.374, 1.442),
+            k: Vec3::new(3.983, 2.385, 1.603),
+            ..Default::default()
+        }
+    };
+    let Ok(m) = Material::new(&d) else {
+        eprintln!("material refused");
+        return;
+    };
+    let mut r = Rng::new(3, 9);
+    let mut dir = || {
+        let z = 1.0 - r.next_f32() * (1.0 - 0.087);
+        let ph = r.next_f32() * std::f32::consts::TAU;
+        let s = (1.0 - z * z).max(0.0).sqrt();
+        Vec3::new(s * ph.cos(), s * ph.sin(), z)
+    };
+    // Glass: wi on either side, wo anywhere.
+    let mut flip = Rng::new(7, 7);
+    let pairs: Vec<(Vec3, Vec3)> = (0..1024)
+        .map(|_| {
+            let (mut a, mut b) = (dir(), dir());
+            if glass && flip.next_f32() < 0.5 {
+                a.z = -a.z;
+            }
+            if glass && flip.next_f32() < 0.5 {
+                b.z = -b.z;
+            }
+            (a, b)
+        })
+        .collect();
+    let mut rng = Rng::new(5, 5);
+    let mut acc = Vec3::ZERO;
+    for j in 0..calls {
+        let (a, b) = pairs[j & 1023];
+        acc += m.eval(a, b, &mut rng);
+    }
+    std::hint::black_box(acc);
+}
+
+/// One block of the dielectric correction: NDF `n`, lobe roughness nodes
+/// `1 <= jx <= jy`, index node `e` (glass-like material
+/// `eta = grid_eta(e)`, at least 1: the thin side outside). Rows and columns `side * 112 + node`.
+/// The target is `1 - E_ss` with `E_ss` SINGLE's reflected plus transmitted
+/// albedo (`quad` x `quad` normals); the uncorrected lobe's reflection is
+/// integrated over the same normals, its transmission over a `2 quad / 3
+/// x 4 quad / 3` grid of directions in `(sqrt(1 - |z|), phi)` (the
+/// transmitted multiply scattered lobe is broad).
+fn dielectric_block(n: usize, jx: usize, jy: usize, e: usize, quad: usize) -> (Vec<f32>, Stats) {
+    use msbsdf::multiple::tabulated_dielectric::{
+        DCORR_BLOCK, TabulatedDielectric, grid_alpha, grid_eta,
+    };
+    let (ax, ay) = (grid_alpha(jx), grid_alpha(jy));
+    let ay = if jx == jy { ay * 1.0001 } else { ay };
+    let eta = grid_eta(e);
+    let facet = Facet::Dielectric { eta };
+    let ndf = Ndf::new(NDFS[n], ax, ay);
+    let tab = TabulatedDielectric::new(ndf, facet).without_aniso_correction();
+    let single = Single::new(ndf, facet, G2Form::HeightCorrelated);
+    let mut rng = Rng::new(0, 0);
+    let rows = DCORR_BLOCK;
+    let half = rows / 2;
+    let mut target = vec![0.0f64; rows];
+    let mut m = vec![vec![0.0f64; rows]; rows];
+    let (nz, np) = (2 * quad / 3, 4 * quad / 3);
+    for r in 0..rows {
+        let side = r / half;
+        let sign = if side == 0 { 1.0 } else { -1.0 };
+        let up = node_dir(r % half);
+        let world = |v: Vec3| Vec3::new(v.x, v.y, v.z * sign);
+        let wi = world(up);
+        let eta_l = if side == 0 { eta } else { 1.0 / eta };
+        target[r] = 1.0
+            - single_albedo(
+                |a, b| single.eval(world(a), world(b), &mut rng).x,
+                ax,
+                ay,
+                up,
+                Some(eta_l),
+                quad,
+            );
+        let mut add = |wo: Vec3, w: f64, col_side: usize, rng: &mut Rng| {
+            let l0 = (tab.eval(wi, wo, rng).x - single.eval(wi, wo, rng).x).max(0.0);
+            if l0 > 0.0 {
+                for (node, b) in corr_dir_weights(wo) {
+                    m[r][col_side * half + node] += l0 as f64 * w * b as f64;
+                }
+            }
+        };
+        for (wo, w) in quadrature(ax, ay, up, quad) {
+            add(world(wo), w, side, &mut rng);
+        }
+        for a in 0..nz {
+            let u = (a as f64 + 0.5) / nz as f64;
+            let z = 1.0 - u * u;
+            let dz = 2.0 * u / nz as f64;
+            let sz = (1.0 - z * z).max(0.0).sqrt();
+            for b in 0..np {
+                let phi = 2.0 * std::f64::consts::PI * (b as f64 + 0.5) / np as f64;
+                let wo = Vec3::new(
+                    (sz * phi.cos()) as f32,
+                    (sz * phi.sin()) as f32,
+                    -(z as f32),
+                );
+                add(
+                    world(wo),
+                    dz * 2.0 * std::f64::consts::PI / np as f64,
+                    1 - side,
+                    &mut rng,
+                );
+            }
+        }
+    }
+    solve(&m, &target)
+}
+
+/// The symmetric Sinkhorn iteration `s_r <- s_r sqrt(target_r / albedo_r)`,
+/// `albedo_r = s_r (M s)_r`, to 1e-6 or 3000 steps, clamped to `[S_MIN,
+/// CORR_MAX]`, then rounded to the stored `u16`; rows without energy to
+/// correct keep 1.
+fn solve<R: AsRef<[f64]>>(m: &[R], target: &[f64]) -> (Vec<f32>, Stats) {
+    let rows = target.len();
+    let active: Vec<bool> = (0..rows)
+        .map(|r| target[r] >= 1e-4 && m[r].as_ref().iter().sum::<f64>() >= 1e-4)
+        .collect();
+    let (lo, hi) = (S_MIN as f64, CORR_MAX as f64);
+    let albedo =
+        |s: &[f64], r: usize| s[r] * m[r].as_ref().iter().zip(s).map(|(a, b)| a * b).sum::<f64>();
+    let mut s = vec![1.0f64; rows];
+    let mut stats = Stats::default();
+    for step in 0..3000 {
+        let mut worst = 0.0f64;
+        let next: Vec<f64> = (0..rows)
+            .map(|r| {
+                if !active[r] {
+                    return 1.0;
+                }
+                let a = albedo(&s, r);
+                worst = worst.max((a / target[r] - 1.0).abs());
+                (s[r] * (target[r] / a).sqrt()).clamp(lo, hi)
+            })
+            .collect();
+        s = next;
+        stats.steps = step + 1;
+        if worst < 1e-6 {
+            break;
+        }
+    }
+    let s: Vec<f64> = s
+        .iter()
+        .map(|&v| corr_decode(corr_encode(v as f32)) as f64)
+        .collect();
+    for r in (0..rows).filter(|&r| active[r]) {
+        stats.residual = stats.residual.max((albedo(&s, r) - target[r]).abs());
+        stats.clamped += (s[r] <= lo * 1.001 || s[r] >= hi * 0.999) as usize;
+    }
+    (s.iter().map(|&v| v as f32).collect(), stats)
+}
+
+/// `--dielectric`: `data/tabulated_aniso_dielectric.bin`, the anisotropic
+/// furnace correction of TABULATED's dielectric tier: per NDF, pair of the
+/// lobe table's roughness nodes `1 <= jx <= jy` (9 per axis), index node
+/// (6) and side, on ENERGY_COMPENSATED's azimuth and cosine grid, factors
+/// `s` such that the lobe (read at the pair's effective roughness, with
+/// its isotropic furnace scales) scaled by `s(wi) s(wo)` has the multiply
+/// scattered albedo `1 - E_ss` (reflected plus transmitted) at every node
+/// from both sides; solved per block like the conductor's (`block`).
+fn dielectric(args: &[String], quad: usize) {
+    use msbsdf::multiple::tabulated_dielectric::{
+        ALPHA_N, DCORR_BLOCK, DCORR_LEN, DCORR_MAGIC, ETA_N, dcorr_index,
+    };
+    let t0 = std::time::Instant::now();
+    let only: Option<usize> = args
+        .iter()
+        .position(|a| a == "--only")
+        .and_then(|p| args.get(p + 1))
+        .and_then(|v| v.parse().ok());
+    let mut jobs: Vec<(usize, usize, usize, usize)> = Vec::new();
+    for n in 0..2 {
+        for jx in 1..ALPHA_N {
+            for jy in jx..ALPHA_N {
+                for e in 0..ETA_N {
+                    jobs.push((n, jx, jy, e));
+                }
+            }
+        }
+    }
+    jobs.sort_by_key(|&(_, jx, jy, _)| usize::MAX - jx - jy);
+    if let Some(k) = only {
+        jobs.truncate(k);
+    }
+    let total = jobs.len();
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let results: Vec<Vec<(usize, Vec<f32>, Stats)>> = std::thread::scope(|sc| {
+        let handles: Vec<_> = (0..2)
+            .map(|_| {
+                let (jobs, next) = (&jobs, &next);
+                sc.spawn(move || {
+                    let mut out = Vec::new();
+                    loop {
+                        let idx = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                        let Some(&(n, jx, jy, e)) = jobs.get(idx) else {
+                            break;
+                        };
+                        let (s, st) = dielectric_block(n, jx, jy, e, quad);
+                        out.push((idx, s, st));
+                        let el = t0.elapsed().as_secs_f32();
+                        eprint!(
+                            "\r{}/{total} blocks, {el:.0} s, ETA {:.0} s   ",
+                            idx + 1,
+                            el / (idx + 1) as f32 * (total - idx - 1) as f32
+                        );
+                    }
+                    out
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().expect("worker"))
+            .collect()
+    });
+    eprintln!();
+    let one = corr_encode(1.0);
+    let mut table = vec![one; DCORR_LEN];
+    let (mut lo, mut hi) = (f32::MAX, f32::MIN);
+    let mut stats = Stats::default();
+    let half = DCORR_BLOCK / 2;
+    for (idx, block, st) in results.into_iter().flatten() {
+        let (n, jx, jy, e) = jobs[idx];
+        stats.residual = stats.residual.max(st.residual);
+        stats.clamped += st.clamped;
+        stats.steps = stats.steps.max(st.steps);
+        for (r, &v) in block.iter().enumerate() {
+            lo = lo.min(v);
+            hi = hi.max(v);
+            let (side, node) = (r / half, r % half);
+            table[dcorr_index(n, jx, jy, e, side, node / AN_MU, node % AN_MU)] = corr_encode(v);
+        }
+    }
+    let command: Vec<String> = args.iter().skip(1).cloned().collect();
+    let header = format!(
+        "DIELECTRIC ANISO_CORRECTION v1 (MSBSDF_MODEL_TABULATED, dielectric facets): factors s \
+         per [ndf: Beckmann, GGX][pair of the lobe table's roughness nodes 1 <= jx <= jy <= \
+         {}][index node: {ETA_N}][side: thin, dense][phi: {AN_PHI}][mu: {AN_MU}] \
+         (ENERGY_COMPENSATED's anisotropic azimuth and cosine grid) as little-endian u16 v, \
+         s = {CORR_MAX} (v / 65535)^2, after this {HEADER_BYTES}-byte header; (jx > jy, k) \
+         reads (jy, jx, {} - k); an axis at node 0 reads 1. The lobe \
+         (TabulatedDielectric::without_aniso_correction minus SINGLE) scaled by s(wi) s(wo) \
+         has the multiply scattered albedo 1 - E_ss (reflection plus transmission) at every \
+         node of both sides; E_ss and the reflection by quadrature over {quad} x {quad} \
+         normals, the transmission over a {} x {} direction grid; symmetric Sinkhorn \
+         iteration per block (residual 1e-6 or 3000 steps); no random numbers. Diagonal \
+         nodes at alpha_y (1 + 1e-4); clamped to [{S_MIN}, {CORR_MAX}]. Range {lo:.4} - \
+         {hi:.4}; worst |albedo - (1 - E_ss)| at the nodes after rounding {:.2e}; {} clamped \
+         factors; at most {} Sinkhorn steps.\n\
+         Command: cargo run --release --example gen_tabulated_aniso{}{}\nCommit: {}\n\
+         Time: {:.0} s\n",
+        ALPHA_N - 1,
+        AN_PHI - 1,
+        2 * quad / 3,
+        4 * quad / 3,
+        stats.residual,
+        stats.clamped,
+        stats.steps,
+        if command.is_empty() { "" } else { " -- " },
+        command.join(" "),
+        git::commit(),
         t0.elapsed().as_secs_f32()
     );
+    let mut bytes = DCORR_MAGIC.to_vec();
+    bytes.extend_from_slice(header.as_bytes());
+    assert!(bytes.len() < HEADER_BYTES, "header too long");
+    bytes.resize(HEADER_BYTES, 0);
+    for v in &table {
+        bytes.extend_from_slice(&v.to_le_bytes());
+    }
+    let path = format!(
+        "{}/data/tabulated_aniso_dielectric.bin",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    if only.is_some() {
+        eprintln!("{header}(--only: not written)");
+        return;
+    }
+    std::fs::write(&path, bytes).expect("write the table file");
+    eprintln!("{header}wrote {path}");
 }

@@ -131,6 +131,31 @@ pub fn aniso_grid_alpha(j: usize) -> f32 {
 /// `[ndf][alpha_x][alpha_y][phi][mu]`.
 pub(crate) type AnisoTable = [[[[[f32; an::AN_MU]; an::AN_PHI]; an::AN_A]; an::AN_A]; 2];
 
+/// A direction's lower azimuth and cosine nodes on the anisotropic grid
+/// and the weights of the upper ones (the table is even in `w.x` and
+/// `w.y`: the azimuth is folded onto `[0, pi/2]`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct AnisoDir {
+    pub(crate) k0: usize,
+    pub(crate) fk: f32,
+    pub(crate) i0: usize,
+    pub(crate) fi: f32,
+}
+
+impl AnisoDir {
+    /// The nodes and weights of `w`.
+    #[inline]
+    pub(crate) fn new(w: Vec3) -> AnisoDir {
+        let phi = w.y.abs().atan2(w.x.abs());
+        let (k0, _, fk) = split(
+            phi / std::f32::consts::FRAC_PI_2 * (an::AN_PHI - 1) as f32,
+            an::AN_PHI,
+        );
+        let (i0, _, fi) = split(aniso_mu_coord(w.z.abs()), an::AN_MU);
+        AnisoDir { k0, fk, i0, fi }
+    }
+}
+
 /// Anisotropic roughness: the single-scattering albedo with F = 1 read from
 /// the 4D table `compensation_aniso_tables` (bilinear in the two alphas,
 /// fixed per material, and in azimuth and mu per direction).
@@ -193,16 +218,26 @@ impl Aniso {
     /// azimuth and cosine weights (also read by `MSBSDF_MODEL_TABULATED`).
     #[inline]
     pub(crate) fn read_all<const N: usize>(&self, tables: [&AnisoTable; N], w: Vec3) -> [f32; N] {
-        let phi = w.y.abs().atan2(w.x.abs());
-        let (k0, k1, fk) = split(
-            phi / std::f32::consts::FRAC_PI_2 * (an::AN_PHI - 1) as f32,
-            an::AN_PHI,
-        );
-        let (i0, i1, fi) = split(aniso_mu_coord(w.z.abs()), an::AN_MU);
+        self.read_at(tables, &AnisoDir::new(w))
+    }
+
+    /// [`Self::read_all`] at a direction's azimuth and cosine nodes
+    /// computed once ([`AnisoDir::new`]).
+    #[inline]
+    pub(crate) fn read_at<const N: usize>(
+        &self,
+        tables: [&AnisoTable; N],
+        d: &AnisoDir,
+    ) -> [f32; N] {
+        let (k0, fk, i0, fi) = (d.k0, d.fk, d.i0, d.fi);
         tables.map(|table| {
             lerp(
-                lerp(self.node(table, k0, i0), self.node(table, k0, i1), fi),
-                lerp(self.node(table, k1, i0), self.node(table, k1, i1), fi),
+                lerp(self.node(table, k0, i0), self.node(table, k0, i0 + 1), fi),
+                lerp(
+                    self.node(table, k0 + 1, i0),
+                    self.node(table, k0 + 1, i0 + 1),
+                    fi,
+                ),
                 fk,
             )
         })

@@ -86,7 +86,18 @@
 //!
 //! As for conductors: the single-scattering part is exact, the multiply
 //! scattered part is read at `alpha_eff = sqrt((alpha_wi^2 + alpha_wo^2) /
-//! 2)` from the projected roughness of each direction's azimuth.
+//! 2)` from the projected roughness of each direction's azimuth, with the
+//! furnace scales of that roughness. Those normalise the isotropic lobe
+//! only (15% off the furnace from inside at grazing angles), so the lobe is
+//! then scaled by `s(wi) s(wo)` from a correction table
+//! (`data/tabulated_aniso_dielectric.bin`, `gen_tabulated_aniso --
+//! --dielectric`): per NDF, pair of the lobe table's roughness nodes,
+//! index node and side, on ENERGY_COMPENSATED's anisotropic azimuth and
+//! cosine grid, the factors that give the lobe the albedo `1 - E_ss(w)`
+//! (SINGLE's reflected plus transmitted albedo by quadrature) at every
+//! node from both sides; linear on triangles in roughness, linear in
+//! `ln E`, bilinear in azimuth and cosine. A product `s(wi) s(wo)` keeps
+//! both reciprocity rules.
 //!
 //! ## Sampling
 //!
@@ -102,11 +113,13 @@ use crate::bsdf::{LOBE_ALL, Sample, ScatterModel};
 use crate::desc::MaterialDesc;
 use crate::facet::Facet;
 use crate::frame::flip_z;
-use crate::multiple::tabulated::tabulated_ndf;
+use crate::multiple::compensation::AnisoDir;
+use crate::multiple::compensation_aniso_tables::{AN_MU, AN_PHI};
 use crate::multiple::tabulated::{
     MAX_ALPHA, MU_N, alpha_proj2, cos_phi, cosine_sample, decode, ndf_index, split, split_root,
     text_header,
 };
+use crate::multiple::tabulated::{corr_decode, tabulated_ndf};
 use crate::ndf::Ndf;
 use crate::rng::Rng;
 use crate::single::{G2Form, Single};
@@ -201,6 +214,152 @@ pub fn scale_grid_mu(i: usize) -> f32 {
 #[inline]
 pub const fn scale_index(ndf: usize, a: usize, e: usize, side: usize, i: usize) -> usize {
     (((ndf * SCALE_ALPHA_N + a) * SCALE_ETA_N + e) * 2 + side) * SCALE_MU_N + i
+}
+
+/// Stored roughness pairs of the anisotropic furnace correction: lobe
+/// roughness nodes `1 <= jx <= jy` (an axis of roughness node 0 reads 1;
+/// `jx > jy` through the symmetry `(alpha_x, alpha_y, phi) -> (alpha_y,
+/// alpha_x, pi/2 - phi)`).
+pub const DCORR_PAIRS: usize = (ALPHA_N - 1) * ALPHA_N / 2;
+/// Values per roughness pair and index node: `[side][phi][mu]` on
+/// ENERGY_COMPENSATED's anisotropic azimuth and cosine grid (side 0
+/// thin, 1 dense).
+pub const DCORR_BLOCK: usize = 2 * AN_PHI * AN_MU;
+/// Values of the correction table `[ndf][pair][eta][side][phi][mu]`.
+pub const DCORR_LEN: usize = NDF_N * DCORR_PAIRS * ETA_N * DCORR_BLOCK;
+/// Size of the correction file: a text header of [`HEADER_BYTES`] and
+/// [`DCORR_LEN`] little-endian `u16` (`tabulated::corr_encode`).
+pub const DCORR_FILE_BYTES: usize = HEADER_BYTES + 2 * DCORR_LEN;
+/// First bytes of the correction file.
+pub const DCORR_MAGIC: &[u8; 37] = b"MSBSDF-TABULATED-DIELECTRIC-ANISO-v1\n";
+
+/// Index of the stored pair of lobe roughness nodes `1 <= jx <= jy`.
+#[inline]
+pub const fn dcorr_pair(jx: usize, jy: usize) -> usize {
+    let (a, b, n) = (jx - 1, jy - 1, ALPHA_N - 1);
+    a * n - a * (a + 1) / 2 + b
+}
+
+/// Index of the value of `(ndf, jx, jy, eta node e, side, phi node k, mu
+/// node i)` for roughness nodes `jx, jy >= 1` (through the symmetry for
+/// `jx > jy`).
+pub const fn dcorr_index(
+    ndf: usize,
+    jx: usize,
+    jy: usize,
+    e: usize,
+    side: usize,
+    k: usize,
+    i: usize,
+) -> usize {
+    let (lo, hi, k) = if jx <= jy {
+        (jx, jy, k)
+    } else {
+        (jy, jx, AN_PHI - 1 - k)
+    };
+    ((ndf * DCORR_PAIRS + dcorr_pair(lo, hi)) * ETA_N + e) * DCORR_BLOCK
+        + (side * AN_PHI + k) * AN_MU
+        + i
+}
+
+/// The committed anisotropic furnace correction
+/// (`data/tabulated_aniso_dielectric.bin`, `cargo run --release --example
+/// gen_tabulated_aniso -- --dielectric`), read in place.
+static RAW_DCORR: &[u8; DCORR_FILE_BYTES] =
+    include_bytes!("../../data/tabulated_aniso_dielectric.bin");
+
+const _: () = {
+    let mut i = 0;
+    while i < DCORR_MAGIC.len() {
+        assert!(
+            RAW_DCORR[i] == DCORR_MAGIC[i],
+            "dielectric correction magic"
+        );
+        i += 1;
+    }
+};
+
+/// The text header of the anisotropic correction file.
+pub fn dcorr_header() -> &'static str {
+    text_header(RAW_DCORR)
+}
+
+/// Bit of a [`DCorr`] corner: read through the symmetry (azimuth mirrored).
+const DCORR_MIRROR: u32 = 1 << 31;
+
+/// An anisotropic material's corners in the correction table: up to six
+/// blocks (three roughness corners of a triangle, see
+/// [`dcorr_corners`], times two index nodes) with their weights, and the
+/// weight of the corners with an axis at roughness node 0 (which read 1).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct DCorr {
+    corners: [(u32, f32); 6],
+    one: f32,
+}
+
+/// The corners of `(alpha_x, alpha_y)` and the index split `eta`: linear on
+/// the triangle of the roughness square cut along its diagonal (Kuhn; the
+/// lobe's interpolation in roughness is piecewise linear in the pair's
+/// effective roughness, smooth across isotropy, but triangles keep the two
+/// sides of the diagonal apart as in the conductor's correction) and
+/// linear in `ln E`.
+fn dcorr_corners(ndf: usize, ax: f32, ay: f32, eta: (usize, usize, f32)) -> DCorr {
+    let (jx, _, fx) = split(alpha_coord(ax), ALPHA_N);
+    let (jy, _, fy) = split(alpha_coord(ay), ALPHA_N);
+    let (e0, _, fe) = eta;
+    let mut out = DCorr {
+        corners: [(0, 0.0); 6],
+        one: 0.0,
+    };
+    for (c, ((dx, dy), w)) in triangle(fx, fy).into_iter().enumerate() {
+        let (a, b) = (jx + dx, jy + dy);
+        if a == 0 || b == 0 {
+            out.one += w;
+            continue;
+        }
+        let (lo, hi, m) = if a <= b {
+            (a, b, 0)
+        } else {
+            (b, a, DCORR_MIRROR)
+        };
+        for (de, we) in [(0, 1.0 - fe), (1, fe)] {
+            let block = ((ndf * DCORR_PAIRS + dcorr_pair(lo, hi)) * ETA_N + e0 + de) * DCORR_BLOCK;
+            out.corners[2 * c + de] = (block as u32 | m, w * we);
+        }
+    }
+    out
+}
+
+/// The correction `s` of a direction on `side` (0 thin, 1 dense) at its
+/// azimuth and cosine nodes.
+#[inline]
+fn dcorr_at(c: &DCorr, side: usize, d: &AnisoDir) -> f32 {
+    let mut s = c.one;
+    for &(b, w) in &c.corners {
+        if w == 0.0 {
+            continue;
+        }
+        let (k, fk) = if b & DCORR_MIRROR != 0 {
+            (AN_PHI - 2 - d.k0, 1.0 - d.fk)
+        } else {
+            (d.k0, d.fk)
+        };
+        let at =
+            HEADER_BYTES + 2 * ((b & !DCORR_MIRROR) as usize + (side * AN_PHI + k) * AN_MU + d.i0);
+        let [a0, a1, b0, b1] = match RAW_DCORR
+            .get(at..)
+            .and_then(|r| r.first_chunk::<{ 2 * AN_MU + 4 }>())
+        {
+            Some(r) => {
+                let v = |o: usize| corr_decode(u16::from_le_bytes([r[2 * o], r[2 * o + 1]]));
+                [v(0), v(1), v(AN_MU), v(AN_MU + 1)]
+            }
+            None => [1.0; 4],
+        };
+        let (u, v) = (a0 + (a1 - a0) * d.fi, b0 + (b1 - b0) * d.fi);
+        s += (u + (v - u) * fk) * w;
+    }
+    s
 }
 
 /// Roughness of node `a`.
@@ -592,6 +751,9 @@ pub struct TabulatedDielectric {
     /// Continuous scale-table coordinate of the index.
     scale_eta: f32,
     anisotropic: bool,
+    /// The anisotropic furnace correction's corners (anisotropic
+    /// materials; `None` also for the generator's uncorrected lobe).
+    dcorr: Option<DCorr>,
 }
 
 impl TabulatedDielectric {
@@ -621,6 +783,17 @@ impl TabulatedDielectric {
             scale: node_scales(&scale_tri(ndf_index, alpha_rms, scale_eta)),
             scale_eta,
             anisotropic: ndf.alpha_x != ndf.alpha_y,
+            dcorr: (ndf.alpha_x != ndf.alpha_y)
+                .then(|| dcorr_corners(ndf_index, ndf.alpha_x, ndf.alpha_y, eta)),
+        }
+    }
+
+    /// The model without the anisotropic furnace correction (what
+    /// `gen_tabulated_aniso -- --dielectric` integrates).
+    pub fn without_aniso_correction(self) -> Self {
+        TabulatedDielectric {
+            dcorr: None,
+            ..self
         }
     }
 
@@ -652,7 +825,9 @@ impl TabulatedDielectric {
             return 0.0;
         }
         let (aniso_plane, aniso_scale);
-        let (p, sp) = if self.anisotropic {
+        let dense = (wi.z > 0.0) != self.thin_outside;
+        let reflection = (wi.z > 0.0) == (wo.z > 0.0);
+        let (p, sp, corr) = if self.anisotropic {
             let (ax2, ay2) = (
                 self.ndf.alpha_x * self.ndf.alpha_x,
                 self.ndf.alpha_y * self.ndf.alpha_y,
@@ -660,18 +835,25 @@ impl TabulatedDielectric {
             let a = (0.5 * (alpha_proj2(ax2, ay2, wi) + alpha_proj2(ax2, ay2, wo))).sqrt();
             aniso_plane = lobe_tri(self.ndf_index, split(alpha_coord(a), ALPHA_N), self.eta);
             aniso_scale = scale_tri(self.ndf_index, a, self.scale_eta);
-            (&aniso_plane, Some(&aniso_scale))
+            // The anisotropic furnace correction s(wi) s(wo), each on its
+            // side (none for the generator's uncorrected lobe).
+            let corr = match (&self.dcorr, scaled) {
+                (Some(c), true) => {
+                    dcorr_at(c, dense as usize, &AnisoDir::new(wi))
+                        * dcorr_at(c, (dense == reflection) as usize, &AnisoDir::new(wo))
+                }
+                _ => 1.0,
+            };
+            (&aniso_plane, Some(&aniso_scale), corr)
         } else {
-            (&self.plane, None)
+            (&self.plane, None, 1.0)
         };
-        let dense = (wi.z > 0.0) != self.thin_outside;
         let (ri, ro) = (mu_i.sqrt(), mu_o.sqrt());
         let (ni, no) = (mu_nodes(ri), mu_nodes(ro));
-        let reflection = (wi.z > 0.0) == (wo.z > 0.0);
         let dense_o = dense == reflection;
         let s = match (scaled, sp) {
             (false, _) => 1.0,
-            (true, Some(sp)) => scale_at(sp, dense, ri) * scale_at(sp, dense_o, ro),
+            (true, Some(sp)) => scale_at(sp, dense, ri) * scale_at(sp, dense_o, ro) * corr,
             (true, None) => {
                 self.node_scale(dense, ri)
                     * self.node_scale(dense_o, ro)
