@@ -35,8 +35,9 @@
 use glam::Vec3;
 use msbsdf::bsdf::ScatterModel;
 use msbsdf::facet::Facet;
-use msbsdf::frame::reflect;
-use msbsdf::multiple::compensation::{aniso_grid_mu, aniso_grid_phi, single_albedo};
+use msbsdf::multiple::compensation::{
+    aniso_grid_mu, aniso_grid_phi, single_albedo, single_albedo_nodes,
+};
 use msbsdf::multiple::compensation_aniso_tables::{AN_A, AN_MU, AN_PHI, CONDUCTOR_E_ANISO};
 use msbsdf::multiple::tabulated::{
     CORR_A, CORR_BLOCK, CORR_LEN, CORR_MAGIC, CORR_MAX, HEADER_BYTES, Tabulated, corr_decode,
@@ -55,33 +56,12 @@ const NDFS: [NdfKind; 2] = [NdfKind::Beckmann, NdfKind::Ggx];
 const S_MIN: f32 = 0.02;
 
 /// Reflected directions and weights of `compensation::single_albedo`'s
-/// quadrature (`n x n` normals from the GGX distribution of the same
-/// roughness, crowded towards large slopes): `int f dwo ~ sum w f(wo)` for
-/// a lobe `f |wo.z|` concentrated around the normals.
+/// quadrature (`compensation::single_albedo_nodes`, reflection only):
+/// `int f dwo ~ sum w f(wo)` for a lobe `f |wo.z|` concentrated around the
+/// normals.
 fn quadrature(ax: f32, ay: f32, wi: Vec3, n: usize) -> Vec<(Vec3, f64)> {
-    let (ax, ay) = (ax as f64, ay as f64);
     let mut out = Vec::with_capacity(n * n);
-    for i in 0..n {
-        for j in 0..n {
-            let s = (i as f64 + 0.5) / n as f64;
-            let u = 1.0 - (1.0 - s).powi(4);
-            let du_ds = 4.0 * (1.0 - s).powi(3);
-            let phi = 2.0 * std::f64::consts::PI * (j as f64 + 0.5) / n as f64;
-            let tan = (u / (1.0 - u)).sqrt();
-            let h = glam::DVec3::new(-ax * tan * phi.cos(), -ay * tan * phi.sin(), 1.0).normalize();
-            let tt = (h.x / ax).powi(2) + (h.y / ay).powi(2) + h.z * h.z;
-            let density = h.z / (std::f64::consts::PI * ax * ay * tt * tt) / du_ds;
-            let hf = h.as_vec3();
-            let ci = wi.dot(hf);
-            if ci <= 0.0 {
-                continue;
-            }
-            let wo = reflect(wi, hf);
-            if wo.z > 0.0 {
-                out.push((wo, 4.0 * ci as f64 / density / (n * n) as f64));
-            }
-        }
-    }
+    single_albedo_nodes(ax, ay, wi, None, n, |wo, w| out.push((wo, w)));
     out
 }
 

@@ -1010,11 +1010,8 @@ impl ScatterModel for Compensated {
 /// (a single-scattering lobe) by deterministic quadrature over normals:
 /// `eval(wi, wo)` is `f |wo.z|` of one channel; reflection (and, with
 /// `transmission_eta = Some(eta)`, refraction with that relative index) for
-/// `wi.z > 0`. Normals are mapped from an `n x n` midpoint grid on the unit
-/// square by the GGX distribution of normals with the same roughness, with
-/// points crowded towards large slopes, which keeps the integrand smooth for
-/// any roughness. Used by the table generator and the tests; not for the
-/// hot path.
+/// `wi.z > 0`. The nodes are [`single_albedo_nodes`]'. Used by the table
+/// generators and the tests; not for the hot path.
 pub fn single_albedo(
     mut eval: impl FnMut(Vec3, Vec3) -> f32,
     alpha_x: f32,
@@ -1023,8 +1020,32 @@ pub fn single_albedo(
     transmission_eta: Option<f32>,
     n: usize,
 ) -> f64 {
-    let (ax, ay) = (alpha_x as f64, alpha_y as f64);
     let mut sum = 0.0;
+    single_albedo_nodes(alpha_x, alpha_y, wi, transmission_eta, n, |wo, w| {
+        sum += eval(wi, wo) as f64 * w;
+    });
+    sum
+}
+
+/// The quadrature of [`single_albedo`]: calls `node(wo, weight)` for each
+/// outgoing direction, so that `sum f(wi, wo) |wo.z| weight` is the
+/// directional albedo of a lobe concentrated around the microfacet
+/// normals. Normals are mapped from an `n x n` midpoint grid on the unit
+/// square by the GGX distribution of normals with roughness `(alpha_x,
+/// alpha_y)`, with points crowded towards large slopes, which keeps the
+/// integrand smooth for any roughness; each gives the reflected direction
+/// (when above) and, with `transmission_eta = Some(eta)`, the refracted one
+/// (when below), weighted by the Jacobian of the map from normals.
+pub fn single_albedo_nodes(
+    alpha_x: f32,
+    alpha_y: f32,
+    wi: Vec3,
+    transmission_eta: Option<f32>,
+    n: usize,
+    mut node: impl FnMut(Vec3, f64),
+) {
+    let (ax, ay) = (alpha_x as f64, alpha_y as f64);
+    let cells = (n * n) as f64;
     for i in 0..n {
         for j in 0..n {
             // u = 1 - (1 - s)^4 crowds points towards large slopes.
@@ -1043,7 +1064,7 @@ pub fn single_albedo(
             }
             let wo = reflect(wi, hf);
             if wo.z > 0.0 {
-                sum += eval(wi, wo) as f64 * 4.0 * ci as f64 / density;
+                node(wo, 4.0 * ci as f64 / density / cells);
             }
             if let Some(eta) = transmission_eta
                 && let Some(wt) = refract(wi, hf, eta)
@@ -1052,11 +1073,10 @@ pub fn single_albedo(
                 let co = wt.dot(hf) as f64;
                 let denom = ci as f64 + eta as f64 * co;
                 let jac = denom * denom / ((eta * eta) as f64 * co.abs());
-                sum += eval(wi, wt) as f64 * jac / density;
+                node(wt, jac / density / cells);
             }
         }
     }
-    sum / (n * n) as f64
 }
 
 impl Compensated {

@@ -344,27 +344,40 @@ fn corr_corners(ndf: usize, ax: f32, ay: f32) -> CorrCorners {
 fn corr_at(corners: &CorrCorners, d: &AnisoDir) -> f32 {
     let mut s = 0.0;
     for &(b, w) in corners {
-        let (k, fk) = if b & CORR_MIRROR != 0 {
-            (AN_PHI - 2 - d.k0, 1.0 - d.fk)
-        } else {
-            (d.k0, d.fk)
-        };
-        let at = HEADER_BYTES + 2 * ((b & !CORR_MIRROR) as usize + k * AN_MU + d.i0);
-        // Nodes (k, i0), (k, i0 + 1), (k + 1, i0), (k + 1, i0 + 1).
-        let [a0, a1, b0, b1] = match RAW_CORR
-            .get(at..)
-            .and_then(|r| r.first_chunk::<{ 2 * AN_MU + 4 }>())
-        {
-            Some(r) => {
-                let v = |o: usize| corr_decode(u16::from_le_bytes([r[2 * o], r[2 * o + 1]]));
-                [v(0), v(1), v(AN_MU), v(AN_MU + 1)]
-            }
-            None => [1.0; 4],
-        };
-        let (u, v) = (a0 + (a1 - a0) * d.fi, b0 + (b1 - b0) * d.fi);
-        s += (u + (v - u) * fk) * w;
+        let block = (b & !CORR_MIRROR) as usize;
+        s += corr_corner(RAW_CORR, block, b & CORR_MIRROR != 0, d) * w;
     }
     s
+}
+
+/// One roughness corner of an anisotropic correction table (`u16` values
+/// read in place from the file `raw`): the block of azimuth x cosine
+/// nodes starting at value `block`, read at a direction's nodes
+/// `(k, i0)`, `(k, i0 + 1)`, `(k + 1, i0)`, `(k + 1, i0 + 1)` (azimuth
+/// row `k` mirrored to `AN_PHI - 2 - k` when `mirror`: the symmetry
+/// `(alpha_x, alpha_y, phi) -> (alpha_y, alpha_x, pi/2 - phi)`),
+/// bilinear; 1 outside the file. Shared by the conductor and dielectric
+/// corrections.
+#[inline(always)]
+pub(crate) fn corr_corner(raw: &[u8], block: usize, mirror: bool, d: &AnisoDir) -> f32 {
+    let (k, fk) = if mirror {
+        (AN_PHI - 2 - d.k0, 1.0 - d.fk)
+    } else {
+        (d.k0, d.fk)
+    };
+    let at = HEADER_BYTES + 2 * (block + k * AN_MU + d.i0);
+    let [a0, a1, b0, b1] = match raw
+        .get(at..)
+        .and_then(|r| r.first_chunk::<{ 2 * AN_MU + 4 }>())
+    {
+        Some(r) => {
+            let v = |o: usize| corr_decode(u16::from_le_bytes([r[2 * o], r[2 * o + 1]]));
+            [v(0), v(1), v(AN_MU), v(AN_MU + 1)]
+        }
+        None => [1.0; 4],
+    };
+    let (u, v) = (a0 + (a1 - a0) * d.fi, b0 + (b1 - b0) * d.fi);
+    u + (v - u) * fk
 }
 
 /// The correction table's azimuth-cosine nodes of a direction and their

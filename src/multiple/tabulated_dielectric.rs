@@ -119,7 +119,7 @@ use crate::multiple::tabulated::{
     MAX_ALPHA, MU_N, alpha_proj2, cos_phi, cosine_sample, decode, ndf_index, split, split_root,
     text_header,
 };
-use crate::multiple::tabulated::{corr_decode, tabulated_ndf};
+use crate::multiple::tabulated::{corr_corner, tabulated_ndf};
 use crate::ndf::Ndf;
 use crate::rng::Rng;
 use crate::single::{G2Form, Single};
@@ -339,25 +339,8 @@ fn dcorr_at(c: &DCorr, side: usize, d: &AnisoDir) -> f32 {
         if w == 0.0 {
             continue;
         }
-        let (k, fk) = if b & DCORR_MIRROR != 0 {
-            (AN_PHI - 2 - d.k0, 1.0 - d.fk)
-        } else {
-            (d.k0, d.fk)
-        };
-        let at =
-            HEADER_BYTES + 2 * ((b & !DCORR_MIRROR) as usize + (side * AN_PHI + k) * AN_MU + d.i0);
-        let [a0, a1, b0, b1] = match RAW_DCORR
-            .get(at..)
-            .and_then(|r| r.first_chunk::<{ 2 * AN_MU + 4 }>())
-        {
-            Some(r) => {
-                let v = |o: usize| corr_decode(u16::from_le_bytes([r[2 * o], r[2 * o + 1]]));
-                [v(0), v(1), v(AN_MU), v(AN_MU + 1)]
-            }
-            None => [1.0; 4],
-        };
-        let (u, v) = (a0 + (a1 - a0) * d.fi, b0 + (b1 - b0) * d.fi);
-        s += (u + (v - u) * fk) * w;
+        let block = (b & !DCORR_MIRROR) as usize + side * AN_PHI * AN_MU;
+        s += corr_corner(RAW_DCORR, block, b & DCORR_MIRROR != 0, d) * w;
     }
     s
 }
