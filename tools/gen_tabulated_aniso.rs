@@ -81,6 +81,51 @@ struct Stats {
     steps: usize,
 }
 
+/// Runs `work` on every job on `threads` threads (each takes the next job
+/// not yet taken), with a progress line counting `what`; returns, per
+/// thread, `(job index, factors, statistics)`.
+fn run_jobs<J: Sync>(
+    jobs: &[J],
+    threads: usize,
+    what: &str,
+    t0: std::time::Instant,
+    work: impl Fn(&J) -> (Vec<f32>, Stats) + Sync,
+) -> Vec<Vec<(usize, Vec<f32>, Stats)>> {
+    let total = jobs.len();
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let results = std::thread::scope(|sc| {
+        let handles: Vec<_> = (0..threads)
+            .map(|_| {
+                let (next, work) = (&next, &work);
+                sc.spawn(move || {
+                    let mut out = Vec::new();
+                    loop {
+                        let idx = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                        let Some(job) = jobs.get(idx) else {
+                            break;
+                        };
+                        let (s, st) = work(job);
+                        out.push((idx, s, st));
+                        let el = t0.elapsed().as_secs_f32();
+                        eprint!(
+                            "\r{}/{total} {what}, {el:.0} s, ETA {:.0} s   ",
+                            idx + 1,
+                            el / (idx + 1) as f32 * (total - idx - 1) as f32
+                        );
+                    }
+                    out
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().expect("worker"))
+            .collect()
+    });
+    eprintln!();
+    results
+}
+
 /// The factors of roughness pair `(jx, jy)` of NDF `n` (1 where an axis has
 /// roughness < 1e-3: no multiply scattered energy to correct).
 fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<f32>, Stats) {
@@ -166,42 +211,13 @@ fn main() {
         .flat_map(|n| (0..CORR_A).flat_map(move |jx| (jx..CORR_A).map(move |jy| (n, jx, jy))))
         .collect();
     jobs.sort_by_key(|&(_, jx, _)| usize::MAX - jx);
-    let total = jobs.len();
-    let next = std::sync::atomic::AtomicUsize::new(0);
     let threads: usize = std::env::var("THREADS")
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(2);
-    let results: Vec<Vec<(usize, Vec<f32>, Stats)>> = std::thread::scope(|sc| {
-        let handles: Vec<_> = (0..threads)
-            .map(|_| {
-                let (jobs, next) = (&jobs, &next);
-                sc.spawn(move || {
-                    let mut out = Vec::new();
-                    loop {
-                        let idx = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                        let Some(&(n, jx, jy)) = jobs.get(idx) else {
-                            break;
-                        };
-                        let (s, st) = block(n, jx, jy, quad);
-                        out.push((idx, s, st));
-                        let el = t0.elapsed().as_secs_f32();
-                        eprint!(
-                            "\r{}/{total} roughness pairs, {el:.0} s, ETA {:.0} s   ",
-                            idx + 1,
-                            el / (idx + 1) as f32 * (total - idx - 1) as f32
-                        );
-                    }
-                    out
-                })
-            })
-            .collect();
-        handles
-            .into_iter()
-            .map(|h| h.join().expect("worker"))
-            .collect()
+    let results = run_jobs(&jobs, threads, "roughness pairs", t0, |&(n, jx, jy)| {
+        block(n, jx, jy, quad)
     });
-    eprintln!();
     let mut table = vec![0u16; CORR_LEN];
     let (mut lo, mut hi) = (f32::MAX, f32::MIN);
     let mut stats = Stats::default();
@@ -646,38 +662,9 @@ fn dielectric(args: &[String], quad: usize) {
     if let Some(k) = only {
         jobs.truncate(k);
     }
-    let total = jobs.len();
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let results: Vec<Vec<(usize, Vec<f32>, Stats)>> = std::thread::scope(|sc| {
-        let handles: Vec<_> = (0..2)
-            .map(|_| {
-                let (jobs, next) = (&jobs, &next);
-                sc.spawn(move || {
-                    let mut out = Vec::new();
-                    loop {
-                        let idx = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                        let Some(&(n, jx, jy, e)) = jobs.get(idx) else {
-                            break;
-                        };
-                        let (s, st) = dielectric_block(n, jx, jy, e, quad);
-                        out.push((idx, s, st));
-                        let el = t0.elapsed().as_secs_f32();
-                        eprint!(
-                            "\r{}/{total} blocks, {el:.0} s, ETA {:.0} s   ",
-                            idx + 1,
-                            el / (idx + 1) as f32 * (total - idx - 1) as f32
-                        );
-                    }
-                    out
-                })
-            })
-            .collect();
-        handles
-            .into_iter()
-            .map(|h| h.join().expect("worker"))
-            .collect()
+    let results = run_jobs(&jobs, 2, "blocks", t0, |&(n, jx, jy, e)| {
+        dielectric_block(n, jx, jy, e, quad)
     });
-    eprintln!();
     let one = corr_encode(1.0);
     let mut table = vec![one; DCORR_LEN];
     let (mut lo, mut hi) = (f32::MAX, f32::MIN);
