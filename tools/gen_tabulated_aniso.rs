@@ -81,6 +81,19 @@ struct Stats {
     steps: usize,
 }
 
+/// A correction table file: `magic`, the text `header` padded with zeros
+/// to `HEADER_BYTES`, then the values as little-endian `u16`.
+fn table_bytes(magic: &[u8], header: &str, table: &[u16]) -> Vec<u8> {
+    let mut bytes = magic.to_vec();
+    bytes.extend_from_slice(header.as_bytes());
+    assert!(bytes.len() < HEADER_BYTES, "header too long");
+    bytes.resize(HEADER_BYTES, 0);
+    for v in table {
+        bytes.extend_from_slice(&v.to_le_bytes());
+    }
+    bytes
+}
+
 /// Runs `work` on every job on `threads` threads (each takes the next job
 /// not yet taken), with a progress line counting `what`; returns, per
 /// thread, `(job index, factors, statistics)`.
@@ -262,13 +275,7 @@ fn main() {
         git::commit(),
         t0.elapsed().as_secs_f32()
     );
-    let mut bytes = CORR_MAGIC.to_vec();
-    bytes.extend_from_slice(header.as_bytes());
-    assert!(bytes.len() < HEADER_BYTES, "header too long");
-    bytes.resize(HEADER_BYTES, 0);
-    for v in &table {
-        bytes.extend_from_slice(&v.to_le_bytes());
-    }
+    let bytes = table_bytes(CORR_MAGIC, &header, &table);
     let path = format!("{}/data/tabulated_aniso.bin", env!("CARGO_MANIFEST_DIR"));
     std::fs::write(&path, bytes).expect("write the table file");
     eprintln!("{header}wrote {path}");
@@ -712,13 +719,7 @@ fn dielectric(args: &[String], quad: usize) {
         git::commit(),
         t0.elapsed().as_secs_f32()
     );
-    let mut bytes = DCORR_MAGIC.to_vec();
-    bytes.extend_from_slice(header.as_bytes());
-    assert!(bytes.len() < HEADER_BYTES, "header too long");
-    bytes.resize(HEADER_BYTES, 0);
-    for v in &table {
-        bytes.extend_from_slice(&v.to_le_bytes());
-    }
+    let bytes = table_bytes(DCORR_MAGIC, &header, &table);
     let path = format!(
         "{}/data/tabulated_aniso_dielectric.bin",
         env!("CARGO_MANIFEST_DIR")
