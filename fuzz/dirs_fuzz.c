@@ -11,7 +11,8 @@
  */
 #include "fuzz_common.h"
 
-#define N_MODELS 10
+/* Every model constant: 0 .. MSBSDF_MODEL_TABULATED. */
+#define N_MODELS (MSBSDF_MODEL_TABULATED + 1)
 #define N_NDFS 7
 #define N_FACETS 3
 #define N_ALPHAS 5

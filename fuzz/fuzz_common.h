@@ -150,7 +150,8 @@ static int fz_dir_valid(msbsdf_vec3 v)
 }
 
 /* Set by the harness: the material's model has an exact pdf (SINGLE,
-   ENERGY_COMPENSATED), so sample's pdf must equal msbsdf_pdf of its wo. */
+   ENERGY_COMPENSATED, TABULATED), so sample's pdf must equal msbsdf_pdf of
+   its wo. */
 static int fz_exact_pdf;
 
 /* Set by the harness: dielectric facets with |eta - 1| * alpha < 1e-5
@@ -186,7 +187,8 @@ static void fz_set_alpha(float ax, float ay)
 
 static int fz_model_has_exact_pdf(uint32_t model)
 {
-    return model == MSBSDF_MODEL_SINGLE || model == MSBSDF_MODEL_ENERGY_COMPENSATED;
+    return model == MSBSDF_MODEL_SINGLE || model == MSBSDF_MODEL_ENERGY_COMPENSATED ||
+           model == MSBSDF_MODEL_TABULATED;
 }
 
 /* eval, pdf and sample of `m` at (wi, wo) with the output contract. */
