@@ -9,7 +9,8 @@
 //! collection switched on inside `msbsdf_material_init` (then inside
 //! `msbsdf_eval`) only, and prints instructions per call: the
 //! load-independent figure, then each case's init instructions relative to
-//! SINGLE conductor's and AUTO's own overhead: AUTO's init minus that of
+//! SINGLE conductor's and to SINGLE's of the same facet, and AUTO's own
+//! overhead: AUTO's init minus that of
 //! the models it picks, built directly from the same descriptions (the
 //! `: chosen model` cases). A name filter may follow (`-- --callgrind
 //! AUTO`; the ratios need `SINGLE conductor` among the cases run).
@@ -475,9 +476,18 @@ fn main() {
     // overhead (AUTO minus the model it picks, built directly).
     let get = |n: &str| init_instr.iter().find(|x| x.0 == n).map(|x| x.1);
     if let Some(single) = get("SINGLE conductor") {
-        println!("\ninit instructions / SINGLE conductor's ({single:.0}):");
+        // Also against SINGLE of the same facet (dielectric cases against
+        // SINGLE dielectric's), the per-facet reading of the 2x rule.
+        let single_d = get("SINGLE dielectric");
+        println!(
+            "\ninit instructions / SINGLE conductor's ({single:.0}), / SINGLE of the same facet:"
+        );
         for (n, i) in &init_instr {
-            println!("  {n:<36} {:>6.2}", i / single);
+            let own = match single_d {
+                Some(sd) if n.contains("dielectric") => i / sd,
+                _ => i / single,
+            };
+            println!("  {n:<36} {:>6.2} {own:>6.2}", i / single);
         }
         for (n, i) in &init_instr {
             if let Some(chosen) = get(&format!("{n}: chosen model")) {
