@@ -8,7 +8,7 @@ mod common;
 use common::*;
 use glam::Vec3;
 use msbsdf::facet::Facet;
-use msbsdf::multiple::compensation::single_albedo;
+use msbsdf::multiple::compensation::{lower_hemisphere_nodes, single_albedo};
 use msbsdf::multiple::heitz::Heitz;
 use msbsdf::multiple::tabulated::{MU_N, grid_mu, hat_moment, project_exit};
 use msbsdf::multiple::tabulated_dielectric::{
@@ -86,24 +86,11 @@ fn albedo_quadrature(t: &Material, s: &Material, wi: Vec3, ax: f32, ay: f32, eta
     );
     let (nz, np) = (n / 3, 2 * n / 3);
     let mut t_ms = 0.0;
-    for a in 0..nz {
-        // |z| = 1 - u^2 crowds points towards the horizon.
-        let u = (a as f64 + 0.5) / nz as f64;
-        let z = 1.0 - u * u;
-        let dz = 2.0 * u / nz as f64;
-        let sz = (1.0 - z * z).max(0.0).sqrt();
-        for b in 0..np {
-            let phi = 2.0 * PI * (b as f64 + 0.5) / np as f64;
-            let wo = Vec3::new(
-                (sz * phi.cos()) as f32,
-                (sz * phi.sin()) as f32,
-                -(z as f32),
-            );
-            let (a, b) = (world(up), world(wo));
-            let v = t.eval(a, b, &mut rng).x - s.eval(a, b, &mut rng).x;
-            t_ms += v as f64 * dz * 2.0 * PI / np as f64;
-        }
-    }
+    lower_hemisphere_nodes(nz, np, |wo, w| {
+        let (a, b) = (world(up), world(wo));
+        let v = t.eval(a, b, &mut rng).x - s.eval(a, b, &mut rng).x;
+        t_ms += v as f64 * w;
+    });
     e_ss + r_ms + t_ms
 }
 

@@ -36,7 +36,7 @@ use glam::Vec3;
 use msbsdf::bsdf::ScatterModel;
 use msbsdf::facet::Facet;
 use msbsdf::multiple::compensation::{
-    aniso_grid_mu, aniso_grid_phi, single_albedo, single_albedo_nodes,
+    aniso_grid_mu, aniso_grid_phi, lower_hemisphere_nodes, single_albedo, single_albedo_nodes,
 };
 use msbsdf::multiple::compensation_aniso_tables::{AN_A, AN_MU, AN_PHI, CONDUCTOR_E_ANISO};
 use msbsdf::multiple::tabulated::{
@@ -570,26 +570,7 @@ fn dielectric_block(n: usize, jx: usize, jy: usize, e: usize, quad: usize) -> (V
         for (wo, w) in quadrature(ax, ay, up, quad) {
             add(world(wo), w, side, &mut rng);
         }
-        for a in 0..nz {
-            let u = (a as f64 + 0.5) / nz as f64;
-            let z = 1.0 - u * u;
-            let dz = 2.0 * u / nz as f64;
-            let sz = (1.0 - z * z).max(0.0).sqrt();
-            for b in 0..np {
-                let phi = 2.0 * std::f64::consts::PI * (b as f64 + 0.5) / np as f64;
-                let wo = Vec3::new(
-                    (sz * phi.cos()) as f32,
-                    (sz * phi.sin()) as f32,
-                    -(z as f32),
-                );
-                add(
-                    world(wo),
-                    dz * 2.0 * std::f64::consts::PI / np as f64,
-                    1 - side,
-                    &mut rng,
-                );
-            }
-        }
+        lower_hemisphere_nodes(nz, np, |wo, w| add(world(wo), w, 1 - side, &mut rng));
     }
     solve(&m, &target)
 }

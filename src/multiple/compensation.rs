@@ -1027,6 +1027,30 @@ pub fn single_albedo(
     sum
 }
 
+/// A midpoint grid of the lower hemisphere (`wo.z < 0`) for integrals of a
+/// smooth transmitted lobe: `nz` rings in `u` with `|z| = 1 - u^2` (crowded
+/// towards the horizon) times `np` azimuths; calls `node(wo, weight)` with
+/// weights summing to `2 pi` (the solid angle). Used by the table generator
+/// and the tests; not for the hot path.
+pub fn lower_hemisphere_nodes(nz: usize, np: usize, mut node: impl FnMut(Vec3, f64)) {
+    let tau = 2.0 * std::f64::consts::PI;
+    for a in 0..nz {
+        let u = (a as f64 + 0.5) / nz as f64;
+        let z = 1.0 - u * u;
+        let dz = 2.0 * u / nz as f64;
+        let sz = (1.0 - z * z).max(0.0).sqrt();
+        for b in 0..np {
+            let phi = tau * (b as f64 + 0.5) / np as f64;
+            let wo = Vec3::new(
+                (sz * phi.cos()) as f32,
+                (sz * phi.sin()) as f32,
+                -(z as f32),
+            );
+            node(wo, dz * tau / np as f64);
+        }
+    }
+}
+
 /// The quadrature of [`single_albedo`]: calls `node(wo, weight)` for each
 /// outgoing direction, so that `sum f(wi, wo) |wo.z| weight` is the
 /// directional albedo of a lobe concentrated around the microfacet
