@@ -7,32 +7,17 @@
 //!
 //! `cargo run --release --example auto_picks`
 
-use glam::Vec3;
+#[path = "../tools/harness/mod.rs"]
+mod harness;
+
+use harness::suite::{AUTO_PICK_ROUGHNESS, auto_pick_desc};
 use msbsdf::desc::{Estimator, FacetKind, MaterialDesc, Model, NdfId};
 use msbsdf::material::Material;
 use msbsdf::multiple::auto_table::REFERENCE_NS;
 use std::fmt::Write as _;
 
-/// Tolerances shown (the default first).
+/// Tolerances shown (the default's column is marked).
 const TOLERANCES: [f32; 5] = [0.02, 0.1, 0.05, 0.03, 0.01];
-
-/// Roughness pairs shown: isotropic, then anisotropic.
-const ROUGHNESS: [(f32, f32); 14] = [
-    (0.02, 0.02),
-    (0.05, 0.05),
-    (0.1, 0.1),
-    (0.2, 0.2),
-    (0.3, 0.3),
-    (0.4, 0.4),
-    (0.5, 0.5),
-    (0.7, 0.7),
-    (1.0, 1.0),
-    (1.5, 1.5),
-    (2.0, 2.0),
-    (0.05, 0.3),
-    (0.1, 0.6),
-    (0.3, 1.0),
-];
 
 fn short(m: Model, e: Estimator) -> String {
     let name = match m {
@@ -80,27 +65,14 @@ fn main() {
                 rule += "---|";
             }
             let _ = writeln!(out, "{head}\n{rule}");
-            for (ax, ay) in ROUGHNESS {
+            for (ax, ay) in AUTO_PICK_ROUGHNESS {
                 let mut line = if ax == ay {
                     format!("| {ax} |")
                 } else {
                     format!("| ({ax}, {ay}) |")
                 };
                 for tolerance in TOLERANCES {
-                    let d = MaterialDesc {
-                        model: Model::Auto,
-                        ndf,
-                        facet,
-                        alpha_x: ax,
-                        alpha_y: ay,
-                        eta: match facet {
-                            FacetKind::Dielectric => Vec3::new(1.5, 1.5, 1.5),
-                            _ => Vec3::new(0.143, 0.374, 1.442),
-                        },
-                        k: Vec3::new(3.983, 2.385, 1.603),
-                        tolerance,
-                        ..MaterialDesc::default()
-                    };
+                    let d = auto_pick_desc(ndf, facet, (ax, ay), tolerance);
                     let cell = match Material::new(&d) {
                         Ok(m) => {
                             let c = m.chosen();

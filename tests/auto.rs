@@ -217,44 +217,13 @@ fn auto_eval_is_the_mean_of_the_chosen_evaluations() {
 /// anisotropic Beckmann conductors on INVARIANCE x8-x32).
 #[test]
 fn default_tolerance_picks_the_analytic_tier() {
-    assert_eq!(MaterialDesc::default().tolerance, 0.03);
-    let roughness = [
-        (0.02f32, 0.02f32),
-        (0.05, 0.05),
-        (0.1, 0.1),
-        (0.2, 0.2),
-        (0.3, 0.3),
-        (0.5, 0.5),
-        (0.7, 0.7),
-        (1.0, 1.0),
-        (1.5, 1.5),
-        (2.0, 2.0),
-        (0.05, 0.3),
-        (0.1, 0.6),
-        (0.6, 0.1),
-        (0.3, 1.0),
-    ];
+    let tolerance = MaterialDesc::default().tolerance;
+    assert_eq!(tolerance, 0.03);
     let mut checked = 0;
     for ndf in [NdfId::Beckmann, NdfId::Ggx] {
-        for (facet, eta, k) in [
-            (
-                FacetKind::Conductor,
-                Vec3::new(0.143, 0.374, 1.442),
-                Vec3::new(3.983, 2.385, 1.603),
-            ),
-            (FacetKind::Dielectric, Vec3::splat(1.5), Vec3::ZERO),
-        ] {
-            for (ax, ay) in roughness {
-                let d = MaterialDesc {
-                    model: Model::Auto,
-                    ndf,
-                    facet,
-                    alpha_x: ax,
-                    alpha_y: ay,
-                    eta,
-                    k,
-                    ..MaterialDesc::default()
-                };
+        for facet in [FacetKind::Conductor, FacetKind::Dielectric] {
+            for (ax, ay) in suite::AUTO_PICK_ROUGHNESS {
+                let d = suite::auto_pick_desc(ndf, facet, (ax, ay), tolerance);
                 let c = *Material::new(&d).expect("AUTO").chosen();
                 let want = if facet == FacetKind::Dielectric && ax.max(ay) <= 0.1 {
                     Model::Single
@@ -268,7 +237,7 @@ fn default_tolerance_picks_the_analytic_tier() {
             }
         }
     }
-    assert_eq!(checked, 2 * 2 * roughness.len());
+    assert_eq!(checked, 2 * 2 * suite::AUTO_PICK_ROUGHNESS.len());
 }
 
 #[test]

@@ -231,6 +231,54 @@ pub const GLASS_ALPHAS: [f32; 3] = [0.1, 0.5, 1.0];
 /// Glass index.
 pub const GLASS_ETA: f32 = 1.5;
 
+/// Roughness pairs of the table of AUTO's picks (`examples/auto_picks.rs`,
+/// `docs/auto_picks.md`) and of the test of the default tolerance
+/// (`tests/auto.rs`): isotropic from 0.02 to the tables' largest, 2, then
+/// anisotropic pairs (both orientations of one).
+pub const AUTO_PICK_ROUGHNESS: [(f32, f32); 15] = [
+    (0.02, 0.02),
+    (0.05, 0.05),
+    (0.1, 0.1),
+    (0.2, 0.2),
+    (0.3, 0.3),
+    (0.4, 0.4),
+    (0.5, 0.5),
+    (0.7, 0.7),
+    (1.0, 1.0),
+    (1.5, 1.5),
+    (2.0, 2.0),
+    (0.05, 0.3),
+    (0.1, 0.6),
+    (0.6, 0.1),
+    (0.3, 1.0),
+];
+
+/// An AUTO description of gold (conductor facets) or glass of index
+/// [`GLASS_ETA`] (dielectric facets) at roughness `(ax, ay)` and
+/// `tolerance`.
+pub fn auto_pick_desc(
+    ndf: NdfId,
+    facet: FacetKind,
+    (ax, ay): (f32, f32),
+    tolerance: f32,
+) -> MaterialDesc {
+    let (eta, k) = match facet {
+        FacetKind::Dielectric => (Vec3::splat(GLASS_ETA), Vec3::ZERO),
+        _ => (Vec3::from(GOLD.0), Vec3::from(GOLD.1)),
+    };
+    MaterialDesc {
+        model: Model::Auto,
+        ndf,
+        facet,
+        alpha_x: ax,
+        alpha_y: ay,
+        eta,
+        k,
+        tolerance,
+        ..MaterialDesc::default()
+    }
+}
+
 fn metal(name: &str, ndf: NdfId, m: ([f32; 3], [f32; 3]), ax: f32, ay: f32) -> SuiteMaterial {
     let rough = if ax == ay {
         format!("{ax}")
