@@ -990,7 +990,7 @@ mod dielectric {
     use msbsdf::Rng;
     use msbsdf::bsdf::ScatterModel;
     use msbsdf::facet::Facet;
-    use msbsdf::multiple::compensation::single_albedo;
+    use msbsdf::multiple::compensation::{lower_hemisphere_nodes, single_albedo};
     use msbsdf::multiple::heitz::Heitz;
     use msbsdf::multiple::tabulated::{MU_N, hat_moment, project_exit};
     use msbsdf::multiple::tabulated_dielectric::{
@@ -1317,22 +1317,10 @@ mod dielectric {
                     }
                     // Transmission: grid over the other hemisphere.
                     let (nz, np) = (ng, 2 * ng);
-                    for p in 0..nz {
-                        let u = (p as f64 + 0.5) / nz as f64;
-                        let z = 1.0 - u * u;
-                        let dz = 2.0 * u / nz as f64;
-                        let r = (1.0 - z * z).max(0.0).sqrt();
-                        for q in 0..np {
-                            let ph = 2.0 * PI * (q as f64 + 0.5) / np as f64;
-                            let wo = Vec3::new(
-                                (r * ph.cos()) as f32,
-                                (r * ph.sin()) as f32,
-                                -(z as f32),
-                            );
-                            let g = tab.multiple_unscaled(wi, flip(wo)) as f64;
-                            add(row, 1 - sd, z as f32, g * dz * 2.0 * PI / np as f64);
-                        }
-                    }
+                    lower_hemisphere_nodes(nz, np, |wo, w| {
+                        let g = tab.multiple_unscaled(wi, flip(wo)) as f64;
+                        add(row, 1 - sd, -wo.z, g * w);
+                    });
                     let eta_rel = if sd == 1 { 1.0 / eta } else { eta };
                     let single = Single::new(
                         ndf,
