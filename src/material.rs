@@ -208,22 +208,21 @@ impl Material {
     #[inline(always)]
     fn build(d: &MaterialDesc, facet: Facet, inner: Option<&Material>) -> Result<Material, Error> {
         if d.model == Model::Auto {
-            // The choice comes from the measured table (multiple/auto.rs),
-            // which builds its candidates through this dispatch. The
-            // material keeps AUTO's description and the choice; the model
-            // alone is built for each candidate tried, and the material
-            // finished once.
-            // The common case, shaped like the direct path below so that
-            // the model is built in place: the precomputed fronts' pick,
+            // The choice comes from the measured table (multiple/auto.rs);
+            // the material keeps AUTO's description and the choice. The
+            // common case, shaped like the direct path below so that the
+            // model is built in place: the precomputed fronts' pick,
             // accepted by its model. Otherwise (no fronts for `d`, or the
-            // pick refused) the full lookup, which builds through a closure.
-            if let Some(Some(c)) = auto::best_from_fronts(d) {
+            // pick refused) the full lookup, which builds its candidates
+            // through this dispatch in a closure.
+            let pick = auto::best_from_fronts(d).flatten();
+            if let Some(c) = pick {
                 let cd = auto::concrete(d, c.model, c.estimator);
                 if let Ok(imp) = Material::build_model(&cd, facet, inner) {
                     return Ok(Material::finish(imp, *d, c));
                 }
             }
-            return auto::build(d, |cd, c| {
+            return auto::build(d, pick, |cd, c| {
                 Material::build_model(cd, facet, inner).map(|imp| Material::finish(imp, *d, c))
             });
         }

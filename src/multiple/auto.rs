@@ -1008,29 +1008,24 @@ fn best(
 /// model and estimator replaced and the choice, and returns `Ok` when that
 /// model accepts the description.
 ///
-/// The best candidate is found from the table alone and then built; only
+/// The common case never comes here: the caller builds the pick of
+/// [`best_from_fronts`] itself (in place, without this closure) and calls
+/// this only when the fronts do not cover `d` or that pick's model refused
+/// it, passing the refused pick in `refused_pick` (it is not built again).
+/// The best candidate is then found from the table alone and built; only
 /// when its model refuses it (e.g. NULL_SCATTERING below its smallest
 /// roughness) is its (model, estimator) excluded and the search repeated.
-/// So a lookup builds one model in the common case.
-#[inline(always)]
 pub fn build<T>(
     d: &MaterialDesc,
+    refused_pick: Option<Choice>,
     mut build: impl FnMut(&MaterialDesc, Choice) -> Result<T, Error>,
 ) -> Result<T, Error> {
-    // The common case: the precomputed fronts give the best candidate.
-    let fast = best_from_fronts(d);
-    if let Some(Some(c)) = fast {
-        match build(&concrete(d, c.model, c.estimator), c) {
-            Err(_) => {}
-            built => return built,
-        }
-    }
     let (rel, n_rel, scale) = relevant(d);
     let rel = &rel[..n_rel];
     let mut refused = [(Model::Auto, Estimator::Pt); MAX_REFUSED];
     // The fronts' candidate was refused: exclude it, as `best` would have.
     let mut n_refused = 0;
-    if let Some(Some(c)) = fast {
+    if let Some(c) = refused_pick {
         refused[0] = (c.model, c.estimator);
         n_refused = 1;
     }
