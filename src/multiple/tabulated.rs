@@ -293,7 +293,7 @@ pub fn corr_header() -> &'static str {
 
 /// Bit of a [`CorrCorners`] offset: the corner is read through the
 /// symmetry (azimuth mirrored).
-const CORR_MIRROR: u32 = 1 << 31;
+pub(crate) const CORR_MIRROR: u32 = 1 << 31;
 
 /// The three roughness corners of a material in the correction table: the
 /// index of each corner's block (with [`CORR_MIRROR`] when it is stored as
@@ -312,30 +312,36 @@ fn corr_corners(ndf: usize, ax: f32, ay: f32) -> CorrCorners {
     let coord = |a: f32| (a / MAX_ALPHA).clamp(0.0, 1.0).sqrt() * (CORR_A - 1) as f32;
     let (jx, _, fx) = split(coord(ax), CORR_A);
     let (jy, _, fy) = split(coord(ay), CORR_A);
-    let corner = |dx: usize, dy: usize, w: f32| {
-        let (a, b) = (jx + dx, jy + dy);
-        let (lo, hi, m) = if a <= b {
-            (a, b, 0)
-        } else {
-            (b, a, CORR_MIRROR)
-        };
+    triangle(fx, fy).map(|((dx, dy), w)| {
+        let (lo, hi, m) = stored_pair(jx + dx, jy + dy);
         (
-            (((ndf * CORR_PAIRS + corr_pair(lo, hi)) * CORR_BLOCK) as u32) | m,
+            ((ndf * CORR_PAIRS + corr_pair(lo, hi)) * CORR_BLOCK) as u32 | m,
             w,
         )
-    };
+    })
+}
+
+/// The triangle of the unit square holding `(fx, fy)` (Kuhn: the diagonal
+/// from `(0, 0)` to `(1, 1)`) as three vertices `(dx, dy)` and their
+/// weights. Symmetric: exchanging `fx` and `fy` exchanges `dx` and `dy`.
+#[inline(always)]
+pub(crate) fn triangle(fx: f32, fy: f32) -> [((usize, usize), f32); 3] {
     if fx >= fy {
-        [
-            corner(0, 0, 1.0 - fx),
-            corner(1, 0, fx - fy),
-            corner(1, 1, fy),
-        ]
+        [((0, 0), 1.0 - fx), ((1, 0), fx - fy), ((1, 1), fy)]
     } else {
-        [
-            corner(0, 0, 1.0 - fy),
-            corner(0, 1, fy - fx),
-            corner(1, 1, fx),
-        ]
+        [((0, 0), 1.0 - fy), ((0, 1), fy - fx), ((1, 1), fx)]
+    }
+}
+
+/// The stored roughness pair of the anisotropic corrections for the nodes
+/// `(a, b)`: `(min, max)` and, when they were exchanged, [`CORR_MIRROR`]
+/// (the block is then read through the symmetry in azimuth).
+#[inline(always)]
+pub(crate) fn stored_pair(a: usize, b: usize) -> (usize, usize, u32) {
+    if a <= b {
+        (a, b, 0)
+    } else {
+        (b, a, CORR_MIRROR)
     }
 }
 

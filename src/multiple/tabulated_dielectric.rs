@@ -115,11 +115,11 @@ use crate::facet::Facet;
 use crate::frame::flip_z;
 use crate::multiple::compensation::AnisoDir;
 use crate::multiple::compensation_aniso_tables::{AN_MU, AN_PHI};
+use crate::multiple::tabulated::{CORR_MIRROR, corr_corner, stored_pair, tabulated_ndf, triangle};
 use crate::multiple::tabulated::{
     MAX_ALPHA, MU_N, alpha_proj2, cos_phi, cosine_sample, decode, ndf_index, split, split_root,
     text_header,
 };
-use crate::multiple::tabulated::{corr_corner, tabulated_ndf};
 use crate::ndf::Ndf;
 use crate::rng::Rng;
 use crate::single::{G2Form, Single};
@@ -284,9 +284,6 @@ pub fn dcorr_header() -> &'static str {
     text_header(RAW_DCORR)
 }
 
-/// Bit of a [`DCorr`] corner: read through the symmetry (azimuth mirrored).
-const DCORR_MIRROR: u32 = 1 << 31;
-
 /// An anisotropic material's corners in the correction table: up to six
 /// blocks (three roughness corners of a triangle, see
 /// [`dcorr_corners`], times two index nodes) with their weights, and the
@@ -317,11 +314,7 @@ fn dcorr_corners(ndf: usize, ax: f32, ay: f32, eta: (usize, usize, f32)) -> DCor
             out.one += w;
             continue;
         }
-        let (lo, hi, m) = if a <= b {
-            (a, b, 0)
-        } else {
-            (b, a, DCORR_MIRROR)
-        };
+        let (lo, hi, m) = stored_pair(a, b);
         for (de, we) in [(0, 1.0 - fe), (1, fe)] {
             let block = ((ndf * DCORR_PAIRS + dcorr_pair(lo, hi)) * ETA_N + e0 + de) * DCORR_BLOCK;
             out.corners[2 * c + de] = (block as u32 | m, w * we);
@@ -339,8 +332,8 @@ fn dcorr_at(c: &DCorr, side: usize, d: &AnisoDir) -> f32 {
         if w == 0.0 {
             continue;
         }
-        let block = (b & !DCORR_MIRROR) as usize + side * AN_PHI * AN_MU;
-        s += corr_corner(RAW_DCORR, block, b & DCORR_MIRROR != 0, d) * w;
+        let block = (b & !CORR_MIRROR) as usize + side * AN_PHI * AN_MU;
+        s += corr_corner(RAW_DCORR, block, b & CORR_MIRROR != 0, d) * w;
     }
     s
 }
@@ -520,18 +513,6 @@ pub fn covers_eta(eta: f32) -> bool {
 /// continuous, exact at the nodes, and three table reads where bilinear
 /// interpolation needs four; decided once, at construction.
 type Tri = [(u32, f32); 3];
-
-/// The triangle of the unit square holding `(fx, fy)` (Kuhn: the diagonal
-/// from `(0, 0)` to `(1, 1)`) as three vertices `(dx, dy)` and their
-/// weights. Symmetric: exchanging `fx` and `fy` exchanges `dx` and `dy`.
-#[inline(always)]
-fn triangle(fx: f32, fy: f32) -> [((usize, usize), f32); 3] {
-    if fx >= fy {
-        [((0, 0), 1.0 - fx), ((1, 0), fx - fy), ((1, 1), fy)]
-    } else {
-        [((0, 0), 1.0 - fy), ((0, 1), fy - fx), ((1, 1), fx)]
-    }
-}
 
 /// The lobe table's triangle of a roughness and index (their splits):
 /// indices of node starts in the lobe block. Roughness node 0 is not
