@@ -1009,7 +1009,7 @@ fn best(
 /// model accepts the description.
 ///
 /// The common case never comes here: the caller builds the pick of
-/// [`best_from_fronts`] itself (in place, without this closure) and calls
+/// `best_from_fronts` (crate-private) itself (in place, without this closure) and calls
 /// this only when the fronts do not cover `d` or that pick's model refused
 /// it, passing the refused pick in `refused_pick` (it is not built again).
 /// The best candidate is then found from the table alone and built; only
