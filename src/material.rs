@@ -217,36 +217,51 @@ impl Material {
             // through this dispatch in a closure.
             let pick = auto::best_from_fronts(d).flatten();
             if let Some(c) = pick {
-                let cd = auto::concrete(d, c.model, c.estimator);
-                if let Ok(imp) = Material::build_model(&cd, facet, inner) {
+                // The pick's model and estimator over AUTO's description
+                // (no copy of it: only the walks' constructors read the
+                // estimator).
+                if let Ok(imp) = Material::build_model(c.model, c.estimator, d, facet, inner) {
                     return Ok(Material::finish(imp, *d, c));
                 }
             }
             return auto::build(d, pick, |cd, c| {
-                Material::build_model(cd, facet, inner).map(|imp| Material::finish(imp, *d, c))
+                Material::build_model(cd.model, cd.estimator, cd, facet, inner)
+                    .map(|imp| Material::finish(imp, *d, c))
             });
         }
-        let imp = Material::build_model(d, facet, inner)?;
+        let imp = Material::build_model(d.model, d.estimator, d, facet, inner)?;
         let chosen = auto::Choice::own(d.model, d.estimator);
         Ok(Material::finish(imp, *d, chosen))
     }
 
-    /// The model of [`Material::build`] for a concrete (not AUTO) model.
+    /// The model of [`Material::build`] for a concrete (not AUTO) `model`
+    /// with `estimator`, from the description `d` (whose own model and
+    /// estimator are ignored: AUTO's pick is built from AUTO's
+    /// description).
     #[inline(always)]
     fn build_model(
+        model: Model,
+        estimator: Estimator,
         d: &MaterialDesc,
         facet: Facet,
         inner: Option<&Material>,
     ) -> Result<ModelImpl, Error> {
         // Each model's constructor from the description owns its support
-        // checks (NDF, facet, ranges); this is dispatch only.
+        // checks (NDF, facet, ranges); this is dispatch only. The walks
+        // that take an estimator read it from a description with `model`
+        // and `estimator` in place; the other constructors read neither.
         let base = |m: BaseModel| ModelImpl::Base(m);
-        let imp = match d.model {
+        let walk = || auto::concrete(d, model, estimator);
+        let imp = match model {
             Model::Single => base(BaseModel::Single(Single::from_desc(d, facet)?)),
-            Model::Invariance => base(BaseModel::Invariance(Invariance::from_desc(d, facet)?)),
-            Model::BitterliDeon => {
-                base(BaseModel::BitterliDeon(BitterliDeon::from_desc(d, facet)?))
-            }
+            Model::Invariance => base(BaseModel::Invariance(Invariance::from_desc(
+                &walk(),
+                facet,
+            )?)),
+            Model::BitterliDeon => base(BaseModel::BitterliDeon(BitterliDeon::from_desc(
+                &walk(),
+                facet,
+            )?)),
             Model::NullScattering => {
                 let model = NullScattering::from_desc(d, facet)?;
                 ModelImpl::NullScattering(match inner.map(|m| m.imp) {
@@ -268,11 +283,12 @@ impl Material {
                 _ => BaseModel::Tabulated(Tabulated::from_desc(d, facet)?),
             }),
             Model::HeitzRandomWalk => base(BaseModel::Heitz(Heitz::from_desc(d, facet)?)),
-            Model::PositionFree => {
-                base(BaseModel::PositionFree(PositionFree::from_desc(d, facet)?))
-            }
+            Model::PositionFree => base(BaseModel::PositionFree(PositionFree::from_desc(
+                &walk(),
+                facet,
+            )?)),
             Model::VGroove | Model::VGrooveNonsymmetric => base(BaseModel::VGroove(
-                VGroove::from_desc(d, facet, d.model == Model::VGroove)?,
+                VGroove::from_desc(d, facet, model == Model::VGroove)?,
             )),
             // AUTO is resolved by `build`; it never picks itself.
             Model::Auto => return Err(Error::Unsupported),

@@ -530,6 +530,10 @@ struct FrontsHead {
     /// description measured exactly is left to [`best`].
     aniso_alpha: [(f32, f32); N_ROWS],
     n_aniso: usize,
+    /// Every roughness of the anisotropic rows is one of `alpha`: a
+    /// description measured exactly then has two odd bracket states (only
+    /// those need the search in `aniso_alpha`).
+    aniso_on_nodes: bool,
     /// Per bracket state of an isotropic description: (start, length) in
     /// the entries.
     iso: [(u16, u8); MAX_STATES],
@@ -558,6 +562,7 @@ impl<const P: usize> Fronts<P> {
             n_states: 0,
             aniso_alpha: [(f32::NAN, f32::NAN); N_ROWS],
             n_aniso: 0,
+            aniso_on_nodes: false,
             iso: [(0, 0); MAX_STATES],
             aniso: [[(0, 0); MAX_STATES]; MAX_STATES],
             used: 0,
@@ -595,7 +600,8 @@ impl<const P: usize> Fronts<P> {
         }
         let mut i = 1;
         while i < n {
-            if sorted.iso_alpha[i] == sorted.iso_alpha[i - 1] {
+            // Strictly increasing (`state` counts a prefix).
+            if sorted.iso_alpha[i] <= sorted.iso_alpha[i - 1] {
                 return f;
             }
             i += 1;
@@ -612,6 +618,21 @@ impl<const P: usize> Fronts<P> {
             i += 1;
         }
         f.head.n_aniso = sorted.n_aniso;
+        let mut on_nodes = true;
+        let mut i = 0;
+        while i < sorted.n_aniso {
+            let (ax, ay) = f.head.aniso_alpha[i];
+            let (mut hit_x, mut hit_y) = (false, false);
+            let mut j = 0;
+            while j < n {
+                hit_x = hit_x || sorted.iso_alpha[j] == ax;
+                hit_y = hit_y || sorted.iso_alpha[j] == ay;
+                j += 1;
+            }
+            on_nodes = on_nodes && hit_x && hit_y;
+            i += 1;
+        }
+        f.head.aniso_on_nodes = on_nodes;
         f.head.n_states = 2 * n;
         // State 2n (above the largest alpha) scales the errors: not here.
         let states = 2 * n;
@@ -843,12 +864,16 @@ static FRONTS: [[Option<FrontsRef>; FACET_CODES.len()]; NDF_CODES.len() + 1] = {
 /// Bracket state of `a` among the distinct isotropic alphas `fronts.alpha`.
 #[inline]
 fn state(fronts: &FrontsHead, a: f32) -> usize {
-    // Padded with infinities: two four-lane comparisons, no branches.
+    const _: () = assert!(MAX_ISO == 8, "two four-lane comparisons");
+    // Padded with infinities and strictly increasing (`Fronts::of`): the
+    // lanes below `a` are a prefix, counted by the trailing ones of their
+    // mask (no population count, which is a software loop on baseline
+    // x86-64), and at most one lane equals `a`. No branches.
     let [x0, x1] = [&fronts.alpha[..4], &fronts.alpha[4..]].map(Vec4::from_slice);
     let a = Vec4::splat(a);
-    let below = x0.cmplt(a).bitmask().count_ones() + x1.cmplt(a).bitmask().count_ones();
-    let equal = x0.cmpeq(a).bitmask().count_ones() + x1.cmpeq(a).bitmask().count_ones();
-    (2 * below + equal) as usize
+    let below = x0.cmplt(a).bitmask() | x1.cmplt(a).bitmask() << 4;
+    let equal = x0.cmpeq(a).bitmask() | x1.cmpeq(a).bitmask();
+    (2 * below.trailing_ones() + u32::from(equal != 0)) as usize
 }
 
 /// The best candidate for `d` from the precomputed fronts (no refusal
@@ -885,11 +910,16 @@ pub(crate) fn best_from_fronts(d: &MaterialDesc) -> Option<Option<Choice>> {
         fronts.iso[s_hi.min(MAX_STATES - 1)]
     } else {
         // An anisotropic row measured for exactly this roughness is used
-        // alone: left to `best`.
-        if fronts.aniso_alpha[..fronts.n_aniso.min(N_ROWS)].contains(&(d.alpha_x, d.alpha_y)) {
+        // alone: left to `best`. With the rows' roughness on the isotropic
+        // nodes, only a description with both states odd (each roughness
+        // on a node) can be one.
+        let s_lo = state(fronts, lo);
+        let may_be_measured = !fronts.aniso_on_nodes || s_lo & s_hi & 1 == 1;
+        if may_be_measured
+            && fronts.aniso_alpha[..fronts.n_aniso.min(N_ROWS)].contains(&(d.alpha_x, d.alpha_y))
+        {
             return None;
         }
-        let s_lo = state(fronts, lo);
         fronts.aniso[s_lo.min(MAX_STATES - 1)][s_hi.min(MAX_STATES - 1)]
     };
     let (start, len) = (start as usize, len as usize);
@@ -1116,5 +1146,10 @@ mod tests {
         assert_eq!(covered[1], (12 * 11 - 1) * 11, "{covered:?}");
         assert_eq!(covered[2], 12 * 12 * 11, "{covered:?}");
         assert!(compared > 1500, "{compared}");
+        // The measured anisotropic row's roughness lies on the isotropic
+        // nodes, so the lookup searches the measured pairs only for
+        // descriptions on two nodes (the exclusion above still found it).
+        assert!(FRONTS_GGX_CONDUCTOR.head.aniso_on_nodes);
+        assert!(FRONTS_GGX_CONDUCTOR.head.n_aniso > 0);
     }
 }
