@@ -30,6 +30,11 @@ pub const MAX_ETA: f32 = 100.0;
 /// Largest Student-T shape gamma (Beckmann to f32 precision beyond).
 pub const MAX_SHAPE: f32 = 1e4;
 
+/// The default error tolerance of [`Model::Auto`] (the knee of the
+/// measured speed-accuracy fronts: analytic models only; see the C field
+/// `msbsdf_material_desc::tolerance` for what it picks).
+pub const DEFAULT_TOLERANCE: f32 = 0.03;
+
 /// The scattering method (`MSBSDF_MODEL_*`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Model {
@@ -123,7 +128,7 @@ pub struct MaterialDesc {
     pub albedo: Vec3,
     /// Bounce limit, 0 for the model default.
     pub max_bounces: u32,
-    /// Error tolerance for [`Model::Auto`] (default 0.03; see the C field
+    /// Error tolerance for [`Model::Auto`] ([`DEFAULT_TOLERANCE`]; see the C field
     /// `msbsdf_material_desc::tolerance` for what it picks).
     pub tolerance: f32,
     /// [`FacetKind::Material`]: the facets scatter as this material
@@ -154,7 +159,7 @@ impl Default for MaterialDesc {
             k: Vec3::ONE,
             albedo: Vec3::splat(0.8),
             max_bounces: 0,
-            tolerance: 0.03,
+            tolerance: DEFAULT_TOLERANCE,
             inner: None,
             one_sided: false,
         }

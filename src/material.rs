@@ -28,8 +28,8 @@ use crate::status::Error;
 use glam::Vec3;
 
 pub use crate::desc::{
-    Estimator, FacetKind, MAX_ALPHA, MAX_BOUNCES, MAX_ETA, MAX_SHAPE, MIN_ALPHA, MaterialDesc,
-    Model, NdfId, SPECULAR_ALPHA,
+    DEFAULT_TOLERANCE, Estimator, FacetKind, MAX_ALPHA, MAX_BOUNCES, MAX_ETA, MAX_SHAPE, MIN_ALPHA,
+    MaterialDesc, Model, NdfId, SPECULAR_ALPHA,
 };
 
 /// The model of a material: any base model, or the null-scattering walk

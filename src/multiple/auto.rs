@@ -58,7 +58,7 @@
 //! it can accept, since its own samples average the noise.
 
 use super::auto_table::{FACET_CODES, NDF_CODES, REFERENCE_NS, ROWS};
-use crate::desc::{Estimator, FacetKind, MaterialDesc, Model, NdfId};
+use crate::desc::{DEFAULT_TOLERANCE, Estimator, FacetKind, MaterialDesc, Model, NdfId};
 use crate::status::Error;
 use glam::Vec4;
 
@@ -518,13 +518,13 @@ const POOL: usize = 1536;
 /// finds, without the per-candidate work. Compile time.
 #[derive(Clone, Copy)]
 struct FrontsHead {
-    /// False when the list has repeated or too many isotropic alphas (the
-    /// lookup then takes [`best`]).
-    usable: bool,
     /// The isotropic alphas, padded with infinities.
-    alpha: [f32; MAX_ISO],
+    /// (one more infinity: `state` reads the entry after those below).
+    alpha: [f32; MAX_ISO + 1],
     /// Twice the number of isotropic rows: states from it on (above the
-    /// largest alpha) scale the errors and are left to [`best`].
+    /// largest alpha) scale the errors and are left to [`best`]. 0 when
+    /// the fronts are unusable (repeated or too many isotropic alphas, or
+    /// out of room): every description is then left to [`best`].
     n_states: usize,
     /// (alpha_x, alpha_y) of the anisotropic rows, and how many: a
     /// description measured exactly is left to [`best`].
@@ -536,10 +536,10 @@ struct FrontsHead {
     aniso_on_nodes: bool,
     /// Per bracket state of an isotropic description: (start, length) in
     /// the entries.
-    iso: [(u16, u8); MAX_STATES],
+    iso: [FrontRef; MAX_STATES],
     /// Per bracket states of `min(alpha)` and `max(alpha)` of an
     /// anisotropic description.
-    aniso: [[(u16, u8); MAX_STATES]; MAX_STATES],
+    aniso: [[FrontRef; MAX_STATES]; MAX_STATES],
     /// Entries used.
     used: usize,
     overflow: bool,
@@ -557,14 +557,13 @@ struct Fronts<const P: usize> {
 impl<const P: usize> Fronts<P> {
     const EMPTY: Fronts<P> = Fronts {
         head: FrontsHead {
-            usable: false,
-            alpha: [f32::INFINITY; MAX_ISO],
+            alpha: [f32::INFINITY; MAX_ISO + 1],
             n_states: 0,
             aniso_alpha: [(f32::NAN, f32::NAN); N_ROWS],
             n_aniso: 0,
             aniso_on_nodes: false,
-            iso: [(0, 0); MAX_STATES],
-            aniso: [[(0, 0); MAX_STATES]; MAX_STATES],
+            iso: [FrontRef::EMPTY; MAX_STATES],
+            aniso: [[FrontRef::EMPTY; MAX_STATES]; MAX_STATES],
             used: 0,
             overflow: false,
         },
@@ -648,16 +647,18 @@ impl<const P: usize> Fronts<P> {
             }
             lo += 1;
         }
-        f.head.usable = !f.head.overflow;
+        if f.head.overflow {
+            f.head.n_states = 0;
+        }
         f
     }
 
-    /// Appends the front of the rows `rel[..k]`; returns its (start,
-    /// length).
-    const fn push_front(&mut self, rel: &[u8; MAX_RELEVANT], k: usize) -> (u16, u8) {
+    /// Appends the front of the rows `rel[..k]`; returns where it is and
+    /// its pick at [`DEFAULT_TOLERANCE`].
+    const fn push_front(&mut self, rel: &[u8; MAX_RELEVANT], k: usize) -> FrontRef {
         let start = self.head.used;
         if k == 0 {
-            return (start as u16, 0);
+            return FrontRef::EMPTY;
         }
         let first = rel[0] as usize;
         let cands = ROWS[first].candidates;
@@ -701,7 +702,7 @@ impl<const P: usize> Fronts<P> {
                 // Out of room (a larger table): `of` marks the list
                 // unusable and the lookup takes `best`.
                 self.head.overflow = true;
-                return (start as u16, 0);
+                return FrontRef::EMPTY;
             }
             let c = &cands[BY_COST[first][b] as usize];
             self.entry[self.head.used] = Candidate {
@@ -716,11 +717,57 @@ impl<const P: usize> Fronts<P> {
             any = true;
         }
         let len = self.head.used - start;
-        if len > u8::MAX as usize {
+        if len > u8::MAX as usize || start > u16::MAX as usize {
             self.head.overflow = true;
+            return FrontRef::EMPTY;
         }
-        (start as u16, len as u8)
+        FrontRef {
+            start: start as u16,
+            len: len as u8,
+            default_pick: front_pick(&self.entry, start, len, DEFAULT_TOLERANCE) as u8,
+        }
     }
+}
+
+/// Where a front is among a [`Fronts`]' entries, and its pick at the
+/// default tolerance (so that a description with the default tolerance
+/// needs no scan).
+#[derive(Clone, Copy)]
+struct FrontRef {
+    start: u16,
+    /// 0: no candidate.
+    len: u8,
+    /// [`front_pick`] at [`DEFAULT_TOLERANCE`].
+    default_pick: u8,
+}
+
+impl FrontRef {
+    const EMPTY: FrontRef = FrontRef {
+        start: 0,
+        len: 0,
+        default_pick: 0,
+    };
+}
+
+/// The pick among the `len >= 1` entries of a front from `start` in
+/// `entry` (by increasing cost and decreasing error) for the tolerance
+/// `tol`, as an offset from `start`: the first entry within tolerance,
+/// else the smallest error (the last); then the last entry (the smallest
+/// error) that costs at most [`COST_TIE`] times as much. Compile time
+/// (each front's [`FrontRef::default_pick`]) and the lookup of other
+/// tolerances.
+#[inline(always)]
+const fn front_pick(entry: &[Candidate], start: usize, len: usize, tol: f32) -> usize {
+    let mut first = 0;
+    while first + 1 < len && entry[start + first].error > tol {
+        first += 1;
+    }
+    let limit = entry[start + first].cost * COST_TIE;
+    let mut pick = first;
+    while pick + 1 < len && entry[start + pick + 1].cost <= limit {
+        pick += 1;
+    }
+    pick
 }
 
 /// The rows of bracket state `s` (see [`MAX_STATES`]): below, above.
@@ -845,20 +892,24 @@ static FRONTS_GGX_DIELECTRIC: Fronts<{ FULL_GGX_DIELECTRIC.head.used }> =
 /// Stored fronts: the head and the entries used.
 type FrontsRef = (&'static FrontsHead, &'static [Candidate]);
 
-/// The fronts a description uses, per NDF code (the last slot: an NDF
-/// without rows) and facet code; `None`: no fronts stored.
-static FRONTS: [[Option<FrontsRef>; FACET_CODES.len()]; NDF_CODES.len() + 1] = {
-    const _: () = assert!(NDF_CODES.len() == 2 && FACET_CODES.len() == 2);
+/// The fronts a description uses, indexed by its NDF and facet
+/// (`[ndf as usize][facet as usize]`: no matching at init); `None`: no
+/// fronts stored.
+static FRONTS: [[Option<FrontsRef>; FacetKind::Material as usize + 1]; NdfId::Vmf as usize + 1] = {
+    const _: () = assert!(
+        matches!(FACET_CODES, [FacetKind::Conductor, FacetKind::Dielectric])
+            && matches!(NDF_CODES, [NdfId::Beckmann, NdfId::Ggx]),
+        "GGX is NDF code 1, conductors and dielectrics facet codes 0 and 1"
+    );
     const _: () = assert!(OWN_ROWS[1][0].len > 0, "GGX conductors use their own rows");
     const _: () = assert!(OWN_ROWS[1][1].len > 0, "GGX dielectrics use their own rows");
-    [
-        [None, None],
-        [
-            Some((&FRONTS_GGX_CONDUCTOR.head, &FRONTS_GGX_CONDUCTOR.entry)),
-            Some((&FRONTS_GGX_DIELECTRIC.head, &FRONTS_GGX_DIELECTRIC.entry)),
-        ],
-        [None, None],
-    ]
+    let mut t: [[Option<FrontsRef>; FacetKind::Material as usize + 1]; NdfId::Vmf as usize + 1] =
+        [[None; FacetKind::Material as usize + 1]; NdfId::Vmf as usize + 1];
+    t[NdfId::Ggx as usize][FacetKind::Conductor as usize] =
+        Some((&FRONTS_GGX_CONDUCTOR.head, &FRONTS_GGX_CONDUCTOR.entry));
+    t[NdfId::Ggx as usize][FacetKind::Dielectric as usize] =
+        Some((&FRONTS_GGX_DIELECTRIC.head, &FRONTS_GGX_DIELECTRIC.entry));
+    t
 };
 
 /// Bracket state of `a` among the distinct isotropic alphas `fronts.alpha`.
@@ -867,13 +918,13 @@ fn state(fronts: &FrontsHead, a: f32) -> usize {
     const _: () = assert!(MAX_ISO == 8, "two four-lane comparisons");
     // Padded with infinities and strictly increasing (`Fronts::of`): the
     // lanes below `a` are a prefix, counted by the trailing ones of their
-    // mask (no population count, which is a software loop on baseline
-    // x86-64), and at most one lane equals `a`. No branches.
-    let [x0, x1] = [&fronts.alpha[..4], &fronts.alpha[4..]].map(Vec4::from_slice);
-    let a = Vec4::splat(a);
-    let below = x0.cmplt(a).bitmask() | x1.cmplt(a).bitmask() << 4;
-    let equal = x0.cmpeq(a).bitmask() | x1.cmpeq(a).bitmask();
-    (2 * below.trailing_ones() + u32::from(equal != 0)) as usize
+    // eight-bit mask (no population count, which is a software loop on
+    // baseline x86-64), and only the next alpha can equal `a`.
+    let [x0, x1] = [&fronts.alpha[..4], &fronts.alpha[4..8]].map(Vec4::from_slice);
+    let av = Vec4::splat(a);
+    let below = (x0.cmplt(av).bitmask() | x1.cmplt(av).bitmask() << 4) as u8;
+    let below = below.trailing_ones() as usize;
+    2 * below + usize::from(fronts.alpha[below] == a)
 }
 
 /// The best candidate for `d` from the precomputed fronts (no refusal
@@ -881,32 +932,18 @@ fn state(fronts: &FrontsHead, a: f32) -> usize {
 /// [`best`]). `Some(None)`: no candidate at all.
 #[inline(always)]
 pub(crate) fn best_from_fronts(d: &MaterialDesc) -> Option<Option<Choice>> {
-    const _: () = assert!(
-        matches!(FACET_CODES, [FacetKind::Conductor, FacetKind::Dielectric])
-            && matches!(NDF_CODES, [NdfId::Beckmann, NdfId::Ggx]),
-        "the codes below are the table's"
-    );
-    let fc = match d.facet {
-        FacetKind::Conductor => 0,
-        FacetKind::Dielectric => 1,
-        _ => return None,
-    };
-    let nc = match d.ndf {
-        NdfId::Beckmann => 0,
-        NdfId::Ggx => 1,
-        _ => NDF_CODES.len(),
-    };
-    let (fronts, entry) = FRONTS[nc][fc]?;
-    if !fronts.usable {
-        return None;
-    }
+    let (fronts, entry) = *FRONTS
+        .get(d.ndf as usize)?
+        .get(d.facet as usize)?
+        .as_ref()?;
     let (lo, hi) = (d.alpha_x.min(d.alpha_y), d.alpha_x.max(d.alpha_y));
     let s_hi = state(fronts, hi);
     if s_hi >= fronts.n_states {
-        // Above the largest measured roughness: errors are scaled.
+        // Above the largest measured roughness (errors are scaled), or
+        // unusable fronts.
         return None;
     }
-    let (start, len) = if d.alpha_x == d.alpha_y {
+    let f = if d.alpha_x == d.alpha_y {
         fronts.iso[s_hi.min(MAX_STATES - 1)]
     } else {
         // An anisotropic row measured for exactly this roughness is used
@@ -914,7 +951,7 @@ pub(crate) fn best_from_fronts(d: &MaterialDesc) -> Option<Option<Choice>> {
         // nodes, only a description with both states odd (each roughness
         // on a node) can be one.
         let s_lo = state(fronts, lo);
-        let may_be_measured = !fronts.aniso_on_nodes || s_lo & s_hi & 1 == 1;
+        let may_be_measured = (s_lo & s_hi | usize::from(!fronts.aniso_on_nodes)) & 1 == 1;
         if may_be_measured
             && fronts.aniso_alpha[..fronts.n_aniso.min(N_ROWS)].contains(&(d.alpha_x, d.alpha_y))
         {
@@ -922,24 +959,18 @@ pub(crate) fn best_from_fronts(d: &MaterialDesc) -> Option<Option<Choice>> {
         }
         fronts.aniso[s_lo.min(MAX_STATES - 1)][s_hi.min(MAX_STATES - 1)]
     };
-    let (start, len) = (start as usize, len as usize);
+    let (start, len) = (f.start as usize, f.len as usize);
     if len == 0 || start + len > entry.len() {
         return Some(None);
     }
-    let front = &entry[start..start + len];
-    // The first entry within tolerance, else the smallest error (the last);
-    // then the last entry (the smallest error: the front's errors
-    // decrease) that costs at most COST_TIE times as much.
-    let first = front
-        .iter()
-        .position(|c| c.error <= d.tolerance)
-        .unwrap_or(len - 1);
-    let limit = front[first].cost * COST_TIE;
-    let tied = front[first + 1..]
-        .iter()
-        .take_while(|c| c.cost <= limit)
-        .count();
-    let c = &front[first + tied];
+    let pick = if d.tolerance == DEFAULT_TOLERANCE {
+        f.default_pick as usize
+    } else {
+        front_pick(entry, start, len, d.tolerance)
+    };
+    let Some(c) = entry.get(start + pick) else {
+        return Some(None);
+    };
     Some(Some(Choice {
         model: c.model,
         estimator: c.estimator,

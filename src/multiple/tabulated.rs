@@ -233,6 +233,18 @@ pub const fn corr_pair(jx: usize, jy: usize) -> usize {
     jx * CORR_A - jx * (jx + 1) / 2 + jy
 }
 
+/// [`corr_pair`]`(jx, 0)` per `jx` (material init reads three pairs: no
+/// multiplications).
+const CORR_PAIR_BASE: [u32; CORR_A] = {
+    let mut out = [0u32; CORR_A];
+    let mut j = 0;
+    while j < CORR_A {
+        out[j] = corr_pair(j, 0) as u32;
+        j += 1;
+    }
+    out
+};
+
 /// Index of the value of `(ndf, jx, jy, phi node k, mu node i)` for any
 /// `jx`, `jy` (through the symmetry for `jx > jy`).
 pub const fn corr_index(ndf: usize, jx: usize, jy: usize, k: usize, i: usize) -> usize {
@@ -314,10 +326,8 @@ fn corr_corners(ndf: usize, ax: f32, ay: f32) -> CorrCorners {
     let (jy, _, fy) = split(coord(ay), CORR_A);
     triangle(fx, fy).map(|((dx, dy), w)| {
         let (lo, hi, m) = stored_pair(jx + dx, jy + dy);
-        (
-            ((ndf * CORR_PAIRS + corr_pair(lo, hi)) * CORR_BLOCK) as u32 | m,
-            w,
-        )
+        let pair = CORR_PAIR_BASE[lo.min(CORR_A - 1)] as usize + hi;
+        (((ndf * CORR_PAIRS + pair) * CORR_BLOCK) as u32 | m, w)
     })
 }
 
