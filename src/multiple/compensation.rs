@@ -143,10 +143,11 @@ pub(crate) struct AnisoDir {
 }
 
 impl AnisoDir {
-    /// The nodes and weights of `w`.
+    /// The nodes and weights of `w` (the azimuth by
+    /// [`crate::math::atan2_pos`], without a libm call).
     #[inline]
     pub(crate) fn new(w: Vec3) -> AnisoDir {
-        let phi = w.y.abs().atan2(w.x.abs());
+        let phi = crate::math::atan2_pos(f64::from(w.y.abs()), f64::from(w.x.abs())) as f32;
         let (k0, _, fk) = split(
             phi / std::f32::consts::FRAC_PI_2 * (an::AN_PHI - 1) as f32,
             an::AN_PHI,
@@ -162,42 +163,43 @@ impl AnisoDir {
 /// Also read by `MSBSDF_MODEL_TABULATED` for anisotropic conductors.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct Aniso {
-    ndf: usize,
-    /// Lower alpha nodes and weights along x and y.
-    jx: usize,
-    jy: usize,
+    ndf: u32,
+    /// Lower alpha nodes along x and y.
+    jx: u32,
+    jy: u32,
+    /// Index of the block `[ndf][jx][jy]` (azimuth x cosine values) in
+    /// the flattened table: the per-direction reads start there.
+    base: u32,
+    /// Weights of the upper alpha nodes along x and y.
     fx: f32,
     fy: f32,
 }
+
+/// Values per roughness pair of an [`AnisoTable`] (azimuth x cosine).
+const AN_BLOCK: usize = an::AN_PHI * an::AN_MU;
+/// Offset in a flattened [`AnisoTable`] from `[ndf][jx][jy]` to
+/// `[ndf][jx][jy + 1]`.
+const AN_DY: usize = AN_BLOCK;
+/// Offset from `[ndf][jx][jy]` to `[ndf][jx + 1][jy]`.
+const AN_DX: usize = an::AN_A * AN_BLOCK;
+/// Values an [`Aniso::read_at`] spans from its first: the four roughness
+/// corners' 2 x 2 direction nodes.
+const AN_SPAN: usize = AN_DX + AN_DY + an::AN_MU + 2;
 
 impl Aniso {
     /// The table for NDF index `ndf` (0 Beckmann, 1 GGX) at `(ax, ay)`.
     pub(crate) fn new(ndf: usize, ax: f32, ay: f32) -> Aniso {
         let (jx, _, fx) = split(aniso_alpha_coord(ax), an::AN_A);
         let (jy, _, fy) = split(aniso_alpha_coord(ay), an::AN_A);
+        let ndf = ndf.min(1);
         Aniso {
-            ndf,
-            jx,
-            jy,
+            ndf: ndf as u32,
+            jx: jx as u32,
+            jy: jy as u32,
+            base: (((ndf * an::AN_A + jx) * an::AN_A + jy) * AN_BLOCK) as u32,
             fx,
             fy,
         }
-    }
-
-    /// The table at (phi node `k`, mu node `i`), bilinear in the alphas.
-    #[inline]
-    fn node(&self, table: &AnisoTable, k: usize, i: usize) -> f32 {
-        let e = &table[self.ndf];
-        let at = |jx: usize, jy: usize| e[jx][jy][k][i];
-        lerp(
-            lerp(at(self.jx, self.jy), at(self.jx, self.jy + 1), self.fy),
-            lerp(
-                at(self.jx + 1, self.jy),
-                at(self.jx + 1, self.jy + 1),
-                self.fy,
-            ),
-            self.fx,
-        )
     }
 
     /// Albedo seen from `w` (the table is even in `w.x` and `w.y`).
@@ -222,23 +224,35 @@ impl Aniso {
     }
 
     /// [`Self::read_all`] at a direction's azimuth and cosine nodes
-    /// computed once ([`AnisoDir::new`]).
+    /// computed once ([`AnisoDir::new`]): bilinear in azimuth and cosine
+    /// at each of the four roughness corners, then bilinear in the
+    /// roughness, read from the flattened table with one bounds check.
     #[inline]
     pub(crate) fn read_at<const N: usize>(
         &self,
         tables: [&AnisoTable; N],
         d: &AnisoDir,
     ) -> [f32; N] {
-        let (k0, fk, i0, fi) = (d.k0, d.fk, d.i0, d.fi);
+        let (fk, fi) = (d.fk, d.fi);
+        let at = self.base as usize + d.k0 * an::AN_MU + d.i0;
         tables.map(|table| {
+            let flat = table
+                .as_flattened()
+                .as_flattened()
+                .as_flattened()
+                .as_flattened();
+            let Some(c) = flat.get(at..).and_then(|s| s.first_chunk::<AN_SPAN>()) else {
+                return 0.0;
+            };
+            let corner = |o: usize| {
+                let u = lerp(c[o], c[o + 1], fi);
+                let v = lerp(c[o + an::AN_MU], c[o + an::AN_MU + 1], fi);
+                lerp(u, v, fk)
+            };
             lerp(
-                lerp(self.node(table, k0, i0), self.node(table, k0, i0 + 1), fi),
-                lerp(
-                    self.node(table, k0 + 1, i0),
-                    self.node(table, k0 + 1, i0 + 1),
-                    fi,
-                ),
-                fk,
+                lerp(corner(0), corner(AN_DY), self.fy),
+                lerp(corner(AN_DX), corner(AN_DX + AN_DY), self.fy),
+                self.fx,
             )
         })
     }
@@ -246,14 +260,11 @@ impl Aniso {
     /// `E_avg = (1 / pi) int E(w) cos dw` of exactly the interpolant `e`,
     /// bilinear in the alphas like `e` itself (it is linear in the nodes).
     fn e_avg(&self) -> f32 {
-        let e = &E_AVG_ANISO[self.ndf];
+        let e = &E_AVG_ANISO[self.ndf as usize];
+        let (jx, jy) = (self.jx as usize, self.jy as usize);
         lerp(
-            lerp(e[self.jx][self.jy], e[self.jx][self.jy + 1], self.fy),
-            lerp(
-                e[self.jx + 1][self.jy],
-                e[self.jx + 1][self.jy + 1],
-                self.fy,
-            ),
+            lerp(e[jx][jy], e[jx][jy + 1], self.fy),
+            lerp(e[jx + 1][jy], e[jx + 1][jy + 1], self.fy),
             self.fx,
         )
     }
