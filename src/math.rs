@@ -123,80 +123,9 @@ pub fn beta(a: f64, b: f64) -> f64 {
     (ln_gamma(a) + ln_gamma(b) - ln_gamma(a + b)).exp()
 }
 
-/// `atan(j / 8)`, `j = 0..=8`.
-const ATAN_EIGHTHS: [f64; 9] = [
-    0.0,
-    0.124_354_994_546_761_44,
-    0.244_978_663_126_864_14,
-    0.358_770_670_270_572_25,
-    0.463_647_609_000_806_1,
-    0.558_599_315_343_562_4,
-    0.643_501_108_793_284_4,
-    0.718_829_999_621_624_5,
-    std::f64::consts::FRAC_PI_4,
-];
-
-/// `atan2(y, x)` for `x > 0` (or `x = y = 0`), without a libm call: the
-/// ratio `r = min / max` of `|y|` and `x` in `[0, 1]` is reduced to
-/// `u = (r - c) / (1 + r c)`, `|u| <= 1/16`, about the nearest `c = j / 8`,
-/// `atan r = atan c + atan u`, and `atan u` is its Taylor series to `u^15`
-/// (truncation below `(1/16)^17 / 17 < 2e-22`). Within `5e-16` of
-/// `f64::atan2` (`atan2_pos_matches_libm`).
-#[inline]
-pub(crate) fn atan2_pos(y: f64, x: f64) -> f64 {
-    let ay = y.abs();
-    let swap = ay > x;
-    let (num, den) = if swap { (x, ay) } else { (ay, x) };
-    if den.is_nan() || den <= 0.0 {
-        return 0.0;
-    }
-    let r = num / den;
-    // Nearest eighth, 0..=8 (an i32 cast is cheaper than a usize one).
-    let j = ((r * 8.0 + 0.5) as i32).clamp(0, 8) as usize;
-    let c = j as f64 * 0.125;
-    let u = (r - c) / (1.0 + r * c);
-    let u2 = u * u;
-    // u (1 - u^2/3 + u^4/5 - ... - u^14/15)
-    let mut p = -1.0 / 15.0;
-    for d in [13.0, -11.0, 9.0, -7.0, 5.0, -3.0] {
-        p = p * u2 + 1.0 / d;
-    }
-    let at = ATAN_EIGHTHS[j] + u * (p * u2 + 1.0);
-    let at = if swap {
-        std::f64::consts::FRAC_PI_2 - at
-    } else {
-        at
-    };
-    at.copysign(y)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rng::Rng;
-
-    /// [`atan2_pos`] agrees with libm for `x > 0`, including the
-    /// extremes.
-    #[test]
-    fn atan2_pos_matches_libm() {
-        let mut rng = Rng::new(13, 0);
-        let mut worst = 0.0f64;
-        for n in 0..1_000_000 {
-            let x = rng.next_f64() * 10f64.powi((n % 7) - 3) + 1e-300;
-            let y = (rng.next_f64() - 0.5) * 10f64.powi(((n / 7) % 9) - 4);
-            worst = worst.max((atan2_pos(y, x) - y.atan2(x)).abs());
-        }
-        for (y, x) in [
-            (0.0, 1.0),
-            (1.0, 1.0),
-            (-1.0, 1.0),
-            (1.0, 1e-300),
-            (-1e-300, 1.0),
-        ] {
-            worst = worst.max((atan2_pos(y, x) - f64::atan2(y, x)).abs());
-        }
-        assert!(worst < 5e-16, "{worst}");
-    }
 
     #[test]
     fn erfinv_inverts_erf() {

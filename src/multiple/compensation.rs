@@ -143,11 +143,13 @@ pub(crate) struct AnisoDir {
 }
 
 impl AnisoDir {
-    /// The nodes and weights of `w` (the azimuth by
-    /// [`crate::math::atan2_pos`], without a libm call).
+    /// The nodes and weights of `w`. (The azimuth by libm's `atan2f`: the
+    /// V-groove module's f64 `atan2_pos` takes fewer instructions but,
+    /// with two dependent divisions, measured 8% more time per anisotropic
+    /// TABULATED eval.)
     #[inline]
     pub(crate) fn new(w: Vec3) -> AnisoDir {
-        let phi = crate::math::atan2_pos(f64::from(w.y.abs()), f64::from(w.x.abs())) as f32;
+        let phi = w.y.abs().atan2(w.x.abs());
         let (k0, _, fk) = split(
             phi / std::f32::consts::FRAC_PI_2 * (an::AN_PHI - 1) as f32,
             an::AN_PHI,
