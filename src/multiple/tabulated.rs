@@ -405,20 +405,39 @@ pub fn corr_dir_weights(w: Vec3) -> [(usize, f32); 4] {
 pub const SCALE_ALPHA_N: usize = 64;
 /// Cosine nodes of the furnace scale table (uniform in `sqrt(mu)`).
 pub const SCALE_MU_N: usize = 64;
-/// Floats of the furnace scale table `[ndf][scale alpha][scale mu]`.
+/// Nodes of the furnace scale table `[ndf][scale alpha][scale mu]`; each
+/// holds two `u16`: the furnace scale `s` and the first-facet Schlick
+/// weight (see [`SCALE_MAX`]).
 pub const SCALE_LEN: usize = NDF_N * SCALE_ALPHA_N * SCALE_MU_N;
-/// Floats of the first-facet Schlick block `[ndf][alpha][mu]` of the scale
-/// file: the mean of `(1 - c)^5` over the first facets (cosine `c`) of the
-/// multiply scattered paths from `mu`.
+/// Bytes of a node of the scale table (two little-endian `u16`).
+pub const SCALE_NODE: usize = 4;
+/// Values of the generator's first-facet Schlick estimates `[ndf][alpha][mu]`
+/// on the lobe grid (indexed like [`albedo_index`]): the mean of
+/// `(1 - c)^5` over the first facets (cosine `c`) of the multiply
+/// scattered paths from `mu`. The scale file holds them resampled
+/// (bilinearly in the two grids' coordinates) onto the scale grid.
 pub const FIRST_LEN: usize = NDF_N * ALPHA_N * MU_N;
 /// Floats of the all-facets Schlick block `[ndf][alpha]`: the mean of
 /// `(1 - c)^5` over every facet of multiply scattered paths from
 /// cosine-distributed directions.
 pub const SBAR_LEN: usize = NDF_N * ALPHA_N;
-/// Total size of the scale table file in bytes.
-pub const SCALE_FILE_BYTES: usize = HEADER_BYTES + 4 * (SCALE_LEN + FIRST_LEN + SBAR_LEN);
+/// Total size of the scale table file in bytes: the text header, the
+/// [`SCALE_LEN`] nodes of [`SCALE_NODE`] bytes, then [`SBAR_LEN`] f32.
+pub const SCALE_FILE_BYTES: usize = HEADER_BYTES + SCALE_NODE * SCALE_LEN + 4 * SBAR_LEN;
 /// First bytes of the scale table file.
-pub const SCALE_MAGIC: &[u8; 26] = b"MSBSDF-TABULATED-SCALE-v1\n";
+pub const SCALE_MAGIC: &[u8; 26] = b"MSBSDF-TABULATED-SCALE-v2\n";
+/// Largest furnace scale the scale file encodes: a stored `u16` `v` is the
+/// scale `SCALE_MAX (v / 65535)^2` (a relative step of `2 / v`: 1.5e-4 at
+/// `s` = 1, 1e-3 at 0.02) and the first-facet Schlick weight
+/// `(v / 65535)^2`. Squares of the stored values are interpolated, so the
+/// constant factors apply once after the interpolation.
+pub const SCALE_MAX: f32 = 20.0;
+
+/// The stored `u16` of a value `x` in `[0, max]` of the scale file (see
+/// [`SCALE_MAX`]).
+pub fn scale_encode(x: f64, max: f64) -> u16 {
+    ((x / max).clamp(0.0, 1.0).sqrt() * 65535.0).round() as u16
+}
 
 /// Roughness of node `a` of the scale table.
 pub fn scale_grid_alpha(a: usize) -> f32 {
@@ -489,18 +508,6 @@ pub(crate) fn split_root(r: f32, n: usize) -> (usize, f32) {
     (i, x - i as f32)
 }
 
-/// The table values at `i`, `i + 1`, `i + ROW` and `i + ROW + 1` (two
-/// adjacent nodes in two adjacent rows) with one bounds check; `SPAN` must
-/// be `ROW + 2` (a smaller one does not compile). Zeros outside the table,
-/// which the grid splits never reach.
-#[inline]
-fn square<const ROW: usize, const SPAN: usize>(table: &[f32], i: usize) -> [f32; 4] {
-    match table.get(i..).and_then(|s| s.first_chunk::<SPAN>()) {
-        Some(c) => [c[0], c[1], c[ROW], c[ROW + 1]],
-        None => [0.0; 4],
-    }
-}
-
 /// Index of the first float of a lobe cell.
 #[inline]
 pub const fn lobe_index(ndf: usize, a: usize, i: usize, j: usize) -> usize {
@@ -534,14 +541,11 @@ const _: () = {
     }
 };
 
-/// The committed furnace scale table file.
-const RAW_SCALE: &[u8] = include_bytes!("../../data/tabulated_scale.bin");
+/// The committed furnace scale table file (read in place: the `u16`
+/// nodes are decoded by eval).
+static RAW_SCALE: &[u8; SCALE_FILE_BYTES] = include_bytes!("../../data/tabulated_scale.bin");
 
 const _: () = {
-    assert!(
-        RAW_SCALE.len() == SCALE_FILE_BYTES,
-        "scale file size does not match the grid"
-    );
     let mut i = 0;
     while i < SCALE_MAGIC.len() {
         assert!(RAW_SCALE[i] == SCALE_MAGIC[i], "scale file magic");
@@ -569,15 +573,8 @@ pub static ALBEDO: [f32; ALBEDO_LEN] = decode(RAW, HEADER_BYTES + 4 * LOBE_LEN);
 pub static FRESNEL_COS: [f32; FRESNEL_LEN] =
     decode(RAW, HEADER_BYTES + 4 * (LOBE_LEN + ALBEDO_LEN));
 
-/// The furnace scale table (see [`SCALE_LEN`]): `s(alpha, mu)` with
-/// `f_ms(wi, wo) s(mu_i) s(mu_o)` normalised to `1 - E_ss(alpha, mu_i)` at
-/// the 64 mu nodes of this table, for 64 roughness values.
-pub static SCALE: [f32; SCALE_LEN] = decode(RAW_SCALE, HEADER_BYTES);
-/// The first-facet Schlick block (see [`FIRST_LEN`]), indexed like
-/// [`albedo_index`].
-pub static FIRST: [f32; FIRST_LEN] = decode(RAW_SCALE, HEADER_BYTES + 4 * SCALE_LEN);
 /// The all-facets Schlick block (see [`SBAR_LEN`]), `[ndf * ALPHA_N + a]`.
-pub static SBAR: [f32; SBAR_LEN] = decode(RAW_SCALE, HEADER_BYTES + 4 * (SCALE_LEN + FIRST_LEN));
+pub static SBAR: [f32; SBAR_LEN] = decode(RAW_SCALE, HEADER_BYTES + SCALE_NODE * SCALE_LEN);
 
 pub(crate) fn text_header(raw: &'static [u8]) -> &'static str {
     let h = &raw[..HEADER_BYTES];
@@ -595,23 +592,51 @@ pub fn scale_header() -> &'static str {
     text_header(RAW_SCALE)
 }
 
-/// Index of a scale table entry.
+/// Index of a scale table node.
 #[inline]
 pub const fn scale_index(ndf: usize, a: usize, i: usize) -> usize {
     (ndf * SCALE_ALPHA_N + a) * SCALE_MU_N + i
 }
 
-/// The furnace scale `s(alpha, mu)` (linear in the scale table's alpha
-/// coordinate and in `sqrt(mu)`).
+/// The squares of the stored `u16` of scale nodes `n` and `n + 1` and of
+/// the same two nodes one roughness row up, each as
+/// `[s(n), S(n), s(n + 1), S(n + 1)]` (before the factors of
+/// [`SCALE_DECODE`]); zeros outside the file, which the grid splits never
+/// reach.
+#[inline(always)]
+fn scale_squares(n: usize) -> (Vec4, Vec4) {
+    const ROW: usize = SCALE_NODE * SCALE_MU_N;
+    const SPAN: usize = ROW + 2 * SCALE_NODE;
+    let at = HEADER_BYTES + SCALE_NODE * n;
+    match RAW_SCALE.get(at..).and_then(|r| r.first_chunk::<SPAN>()) {
+        Some(r) => {
+            let q = |o: usize| {
+                let v = |k: usize| u16::from_le_bytes([r[o + 2 * k], r[o + 2 * k + 1]]) as f32;
+                let x = Vec4::new(v(0), v(1), v(2), v(3));
+                x * x
+            };
+            (q(0), q(ROW))
+        }
+        None => (Vec4::ZERO, Vec4::ZERO),
+    }
+}
+
+/// Factors of the interpolated squares `[s, S, s, S]` of [`scale_squares`].
+const SCALE_DECODE: Vec4 = {
+    let (s, f) = (SCALE_MAX / (65535.0 * 65535.0), 1.0 / (65535.0 * 65535.0));
+    Vec4::new(s, f, s, f)
+};
+
+/// The furnace scale `s(alpha, mu)` and the first-facet Schlick weight
+/// `S(alpha, mu)` (both linear in the scale table's alpha coordinate and
+/// in `sqrt(mu)`).
 #[inline]
-pub fn scale(ndf: usize, alpha_sc: f32, mu: f32) -> f32 {
-    let (a0, a1, fa) = split(alpha_sc, SCALE_ALPHA_N);
-    let (i0, i1, fi) = split(
-        mu.clamp(0.0, 1.0).sqrt() * (SCALE_MU_N - 1) as f32,
-        SCALE_MU_N,
-    );
-    let v = |a| SCALE[scale_index(ndf, a, i0)] * (1.0 - fi) + SCALE[scale_index(ndf, a, i1)] * fi;
-    v(a0) * (1.0 - fa) + v(a1) * fa
+pub fn scale(ndf: usize, alpha_sc: f32, mu: f32) -> (f32, f32) {
+    let (a0, _, fa) = split(alpha_sc, SCALE_ALPHA_N);
+    let (i0, fi) = split_root(mu.clamp(0.0, 1.0).sqrt(), SCALE_MU_N);
+    let (lo, hi) = scale_squares(scale_index(ndf, a0, i0));
+    let v = (lo + (hi - lo) * fa) * SCALE_DECODE;
+    (v.x + (v.z - v.x) * fi, v.y + (v.w - v.y) * fi)
 }
 
 /// Table index of an NDF (`None`: not tabulated).
@@ -785,8 +810,9 @@ pub struct Tabulated {
     /// Lower and upper roughness nodes of the table and the weight of the
     /// upper one (isotropic materials; the RMS roughness otherwise).
     alpha: (usize, usize, f32),
-    /// Scale-table roughness nodes and weight (isotropic materials).
-    scale_alpha: (usize, usize, f32),
+    /// Scale-table node of the lower roughness node at `mu = 0` and the
+    /// weight of the upper roughness node (isotropic materials).
+    scale_alpha: (usize, f32),
     /// Anisotropic roughness: SINGLE's albedo table, the weight of the
     /// energy-split peaked lobe, the NDF of that lobe and its albedo table
     /// (see [`aniso_peak`]).
@@ -925,7 +951,10 @@ impl Tabulated {
             ndf_index,
             alpha,
             fresnel_curve,
-            scale_alpha: split(root * (SCALE_ALPHA_N - 1) as f32, SCALE_ALPHA_N),
+            scale_alpha: {
+                let (s0, _, fs) = split(root * (SCALE_ALPHA_N - 1) as f32, SCALE_ALPHA_N);
+                (scale_index(ndf_index, s0, 0), fs)
+            },
             aniso,
             aniso_corrected: true,
             fbar,
@@ -960,22 +989,32 @@ impl Tabulated {
         self.fbar
     }
 
-    /// Table roughness nodes and furnace scales `s(mu_i) s(mu_o)` for a
-    /// pair of directions.
+    /// Table roughness nodes, furnace scales `s(mu_i) s(mu_o)` and the
+    /// first-facet Schlick weights `S(mu_i)`, `S(mu_o)` for a pair of
+    /// directions (`ri`, `ro` the square roots of their cosines).
     #[inline]
-    fn alpha_and_scale(&self, wi: Vec3, wo: Vec3, ri: f32, ro: f32) -> ((usize, usize, f32), f32) {
+    fn alpha_and_scale(
+        &self,
+        wi: Vec3,
+        wo: Vec3,
+        ri: f32,
+        ro: f32,
+    ) -> ((usize, usize, f32), f32, [f32; 2]) {
         if self.aniso.is_none() {
-            let (s0, s1, fs) = self.scale_alpha;
-            // split: s1 = s0 + 1, the next row of the table.
-            debug_assert!(s1 == s0 + 1);
-            let r0 = scale_index(self.ndf_index, s0, 0);
-            let row = |r: f32| {
-                let (i0, f) = split_root(r, SCALE_MU_N);
-                let [a0, a1, b0, b1] = square::<SCALE_MU_N, { SCALE_MU_N + 2 }>(&SCALE, r0 + i0);
-                let (v0, v1) = (a0 + (a1 - a0) * f, b0 + (b1 - b0) * f);
-                v0 + (v1 - v0) * fs
-            };
-            return (self.alpha, row(ri) * row(ro));
+            let (n0, fs) = self.scale_alpha;
+            let (i0, fi) = split_root(ri, SCALE_MU_N);
+            let (o0, fo) = split_root(ro, SCALE_MU_N);
+            // Both directions' nodes: [s, S, s, S] at the lower and upper
+            // cosine node, linear in roughness, then in the cosine for
+            // both directions at once.
+            let (a, b) = scale_squares(n0 + i0);
+            let vi = a + (b - a) * fs;
+            let (a, b) = scale_squares(n0 + o0);
+            let vo = a + (b - a) * fs;
+            let lo = Vec4::new(vi.x, vi.y, vo.x, vo.y);
+            let hi = Vec4::new(vi.z, vi.w, vo.z, vo.w);
+            let v = (lo + (hi - lo) * Vec4::new(fi, fi, fo, fo)) * SCALE_DECODE;
+            return (self.alpha, v.x * v.z, [v.y, v.w]);
         }
         let (ax2, ay2) = (
             self.ndf.alpha_x * self.ndf.alpha_x,
@@ -983,10 +1022,9 @@ impl Tabulated {
         );
         let a = (0.5 * (alpha_proj2(ax2, ay2, wi) + alpha_proj2(ax2, ay2, wo))).sqrt();
         let asc = scale_alpha_coord(a);
-        (
-            split(alpha_coord(a), ALPHA_N),
-            scale(self.ndf_index, asc, wi.z) * scale(self.ndf_index, asc, wo.z),
-        )
+        let (si, fi) = scale(self.ndf_index, asc, wi.z);
+        let (so, fo) = scale(self.ndf_index, asc, wo.z);
+        (split(alpha_coord(a), ALPHA_N), si * so, [fi, fo])
     }
 
     /// The multiply scattered `f |wo.z|` for `wi.z > 0`, `wo.z > 0`, given
@@ -994,23 +1032,16 @@ impl Tabulated {
     #[inline]
     fn multiple(&self, wi: Vec3, wo: Vec3, ss1: f32) -> Vec3 {
         let (ri, ro) = (wi.z.min(1.0).sqrt(), wo.z.min(1.0).sqrt());
-        let (alpha, s) = self.alpha_and_scale(wi, wo, ri, ro);
+        let (alpha, s, [si, so]) = self.alpha_and_scale(wi, wo, ri, ro);
         let nodes = |r: f32| split_root(r, MU_N);
-        let (ni, no) = (nodes(ri), nodes(ro));
-        let (f, peak, r) = lookup_nodes(self.ndf_index, alpha, ni, no, cos_phi(wi, wo));
+        let (f, peak, r) =
+            lookup_nodes(self.ndf_index, alpha, nodes(ri), nodes(ro), cos_phi(wi, wo));
         let b = Vec3A::from(self.fbar);
         // First and last facets: the reflectance at the cosines seen from
         // mu_i and mu_o (Schlick-shaped deviation from fbar).
-        let fe = |(i0, fi): (usize, f32)| {
-            let (a0, _, fa) = alpha;
-            let [u0, u1, v0, v1] =
-                square::<MU_N, { MU_N + 2 }>(&FIRST, albedo_index(self.ndf_index, a0, i0));
-            let (s0, s1) = (u0 + (u1 - u0) * fi, v0 + (v1 - v0) * fi);
-            let sf = s0 + (s1 - s0) * fa;
-            self.fresnel_curve.at(sf).clamp(Vec3A::ZERO, Vec3A::ONE)
-        };
+        let fe = |sf: f32| self.fresnel_curve.at(sf).clamp(Vec3A::ZERO, Vec3A::ONE);
         let r5 = (1.0 - r[0] - r[1] - r[2]).max(0.0);
-        let tint = fe(ni) * fe(no) * (b * (b * (b * r5 + r[2]) + r[1]) + r[0]);
+        let tint = fe(si) * fe(so) * (b * (b * (b * r5 + r[2]) + r[1]) + r[0]);
         // The smooth part is clamped at 0 (its cosine series can dip below 0
         // next to a strong peaked part); the scale table integrates the
         // clamped series, so the furnace holds with the clamp.
