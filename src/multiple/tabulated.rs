@@ -541,9 +541,8 @@ const _: () = {
     }
 };
 
-/// The committed furnace scale table file (read in place: the `u16`
-/// nodes are decoded by eval).
-static RAW_SCALE: &[u8; SCALE_FILE_BYTES] = include_bytes!("../../data/tabulated_scale.bin");
+/// The committed furnace scale table file.
+const RAW_SCALE: &[u8; SCALE_FILE_BYTES] = include_bytes!("../../data/tabulated_scale.bin");
 
 const _: () = {
     let mut i = 0;
@@ -552,6 +551,22 @@ const _: () = {
         i += 1;
     }
 };
+
+/// Little-endian `u16` values from `offset` (compile time).
+const fn decode_u16<const N: usize>(raw: &[u8], offset: usize) -> [u16; N] {
+    let mut out = [0u16; N];
+    let mut i = 0;
+    while i < N {
+        out[i] = u16::from_le_bytes([raw[offset + 2 * i], raw[offset + 2 * i + 1]]);
+        i += 1;
+    }
+    out
+}
+
+/// The nodes of the scale file (see [`SCALE_LEN`]): the stored `u16` of
+/// the furnace scale and of the first-facet Schlick weight of node `n` at
+/// `2 n` and `2 n + 1` (see [`SCALE_MAX`]).
+pub static SCALE_NODES: [u16; 2 * SCALE_LEN] = decode_u16(RAW_SCALE, HEADER_BYTES);
 
 /// Little-endian f32 values from `offset` (compile time).
 pub(crate) const fn decode<const N: usize>(raw: &[u8], offset: usize) -> [f32; N] {
@@ -605,14 +620,19 @@ pub const fn scale_index(ndf: usize, a: usize, i: usize) -> usize {
 /// reach.
 #[inline(always)]
 fn scale_squares(n: usize) -> (Vec4, Vec4) {
-    const ROW: usize = SCALE_NODE * SCALE_MU_N;
-    const SPAN: usize = ROW + 2 * SCALE_NODE;
-    let at = HEADER_BYTES + SCALE_NODE * n;
-    match RAW_SCALE.get(at..).and_then(|r| r.first_chunk::<SPAN>()) {
+    const ROW: usize = 2 * SCALE_MU_N;
+    match SCALE_NODES
+        .get(2 * n..)
+        .and_then(|r| r.first_chunk::<{ ROW + 4 }>())
+    {
         Some(r) => {
             let q = |o: usize| {
-                let v = |k: usize| u16::from_le_bytes([r[o + 2 * k], r[o + 2 * k + 1]]) as f32;
-                let x = Vec4::new(v(0), v(1), v(2), v(3));
+                let x = Vec4::new(
+                    r[o] as f32,
+                    r[o + 1] as f32,
+                    r[o + 2] as f32,
+                    r[o + 3] as f32,
+                );
                 x * x
             };
             (q(0), q(ROW))
