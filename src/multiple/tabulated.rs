@@ -714,15 +714,22 @@ fn lookup_nodes(
     else {
         return (0.0, 0.0, [0.0; 3]);
     };
-    let (mut lo, mut hi) = (Vec4::ZERO, Vec4::ZERO);
-    for (oa, wa) in [(0, 1.0 - fa), (DA, fa)] {
-        for (oi, wi) in [(0, 1.0 - fi), (DI, fi)] {
-            let o = oa + oi;
-            let (w0, w1) = (wa * wi * (1.0 - fj), wa * wi * fj);
-            let v = |k: usize| Vec4::new(c[o + k], c[o + k + 1], c[o + k + 2], c[o + k + 3]);
-            lo += v(0) * w0 + v(CELL) * w1;
-            hi += v(4) * w0 + v(CELL + 4) * w1;
-        }
+    // The eight corners, the sums started at the first pair (a zero start
+    // costs an addition: -0 + 0 is not -0).
+    let corner = |o: usize, w: f32| {
+        let (w0, w1) = (w * (1.0 - fj), w * fj);
+        let v = |k: usize| Vec4::new(c[o + k], c[o + k + 1], c[o + k + 2], c[o + k + 3]);
+        (v(0) * w0 + v(CELL) * w1, v(4) * w0 + v(CELL + 4) * w1)
+    };
+    let (mut lo, mut hi) = corner(0, (1.0 - fa) * (1.0 - fi));
+    for (o, w) in [
+        (DI, (1.0 - fa) * fi),
+        (DA, fa * (1.0 - fi)),
+        (DA + DI, fa * fi),
+    ] {
+        let (l, h) = corner(o, w);
+        lo += l;
+        hi += h;
     }
     // sum_k c_k cos(k phi): cos 2 phi = 2 c^2 - 1, cos 3 phi = (4 c^2 - 3) c.
     let c = cos_phi;
