@@ -853,9 +853,12 @@ pub struct Tabulated {
     /// facets.
     fresnel_curve: FresnelCurve,
     /// `(eta^2 - k^2, 4 eta^2 k^2)` per channel for the closed-form
-    /// Fresnel factor of the single-scattering term in SIMD lanes (`None`:
-    /// the perfect reflector, F = 1).
-    fresnel_lanes: Option<fresnel::ConductorLanes>,
+    /// Fresnel factor of the single-scattering term in SIMD lanes
+    /// (ignored when `unit_fresnel`).
+    fresnel_lanes: (Vec3A, Vec3A),
+    /// The perfect reflector (eta 0, k 1) or facets other than a
+    /// conductor: F = 1.
+    unit_fresnel: bool,
     /// `alpha^2` of an isotropic GGX material: its single-scattering term
     /// takes SINGLE's closed form (`single::iso_ggx_reflection`).
     iso_ggx_a2: Option<f32>,
@@ -919,16 +922,15 @@ impl Tabulated {
         // The exact Fresnel at the three quantile cosines of the facets of
         // multiply scattered paths, against the Schlick weight w = (1 - c)^5.
         let mut curve = [(0.0f32, Vec3::ONE); FRESNEL_Q];
-        let mut fresnel_lanes = None;
+        let (mut fresnel_lanes, mut unit_fresnel) = ((Vec3A::ZERO, Vec3A::ZERO), true);
         if let Facet::Conductor { eta, k } = facet {
             let (a0, a1, fa) = alpha;
             let (q0, q1) = (fresnel_index(ndf_index, a0), fresnel_index(ndf_index, a1));
             // The three channels in one SIMD lane vector per cosine.
             let (eta2, k2) = (Vec3A::from(eta * eta), Vec3A::from(k * k));
             let (e2k2, four_e2k2) = (eta2 - k2, 4.0 * eta2 * k2);
-            if !(eta == Vec3::ZERO && k == Vec3::ONE) {
-                fresnel_lanes = Some(fresnel::ConductorLanes::new(eta, k));
-            }
+            fresnel_lanes = (e2k2, four_e2k2);
+            unit_fresnel = eta == Vec3::ZERO && k == Vec3::ONE;
             let cells = |q: usize| {
                 FRESNEL_COS
                     .get(q..)
@@ -986,6 +988,7 @@ impl Tabulated {
             aniso_corrected: true,
             fbar,
             fresnel_lanes,
+            unit_fresnel,
             iso_ggx_a2: (ndf.kind == NdfKind::Ggx && ndf.alpha_x == ndf.alpha_y)
                 .then_some(ndf.alpha_x * ndf.alpha_x),
         }
@@ -1000,13 +1003,30 @@ impl Tabulated {
         }
     }
 
-    /// The conductor's Fresnel factor at the cosine `c` ([`Facet::conductor_fresnel`]
-    /// through the shared closed form in SIMD lanes, with the squares of
-    /// the index precomputed).
+    /// The conductor's Fresnel factor at the cosine `c` (the closed form of
+    /// [`fresnel::conductor_rgb`] in SIMD lanes with the squares of the
+    /// index precomputed; the complex form where it is not finite).
     #[inline]
     fn fresnel(&self, c: f32) -> Vec3 {
-        match (&self.fresnel_lanes, self.facet) {
-            (Some(l), Facet::Conductor { eta, k }) => l.eval(c, eta, k),
+        let c = c.clamp(0.0, 1.0);
+        let (e2k2, four_e2k2) = self.fresnel_lanes;
+        let f = fresnel::conductor_closed_form(Vec3A::splat(c), e2k2, four_e2k2);
+        // One scalar test for the three lanes (a sum of finite values in
+        // [0, 1]-like ranges is finite; a NaN or infinite lane is not).
+        if (f.x + f.y + f.z).is_finite() {
+            Vec3::from(f.clamp(Vec3A::ZERO, Vec3A::ONE))
+        } else {
+            self.fresnel_complex(c)
+        }
+    }
+
+    /// [`fresnel::conductor`], the complex form (the cold path of
+    /// [`Self::fresnel`]).
+    #[cold]
+    #[inline(never)]
+    fn fresnel_complex(&self, c: f32) -> Vec3 {
+        match self.facet {
+            Facet::Conductor { eta, k } => fresnel::conductor(c, eta, k),
             _ => Vec3::ONE,
         }
     }
@@ -1137,7 +1157,7 @@ impl Tabulated {
     fn single_terms(&self, wi: Vec3, wo: Vec3) -> (f32, Vec3, f32) {
         if let Some(a2) = self.iso_ggx_a2 {
             let (_, f, p) = iso_ggx_reflection(a2, wi, wo);
-            if self.fresnel_lanes.is_none() {
+            if self.unit_fresnel {
                 return (f, Vec3::ONE, p);
             }
             // wi.H = 1 + wi.wo > 0 for two directions above.
@@ -1153,7 +1173,12 @@ impl Tabulated {
         let li = self.ndf.lambda(wi);
         let lo = self.ndf.lambda(wo);
         let base = d / (4.0 * wi.z);
-        (base / (1.0 + li + lo), self.fresnel(ci), base / (1.0 + li))
+        let fresnel = if self.unit_fresnel {
+            Vec3::ONE
+        } else {
+            self.fresnel(ci)
+        };
+        (base / (1.0 + li + lo), fresnel, base / (1.0 + li))
     }
 
     /// The visible-normal pdf of `wo` alone (what [`Self::single_terms`]
