@@ -684,14 +684,22 @@ pub fn lookup(
 ) -> (f32, f32, [f32; 3]) {
     let (i0, _, fi) = split(root_mu_i * (MU_N - 1) as f32, MU_N);
     let (j0, _, fj) = split(root_mu_o * (MU_N - 1) as f32, MU_N);
-    lookup_nodes(ndf, alpha, (i0, fi), (j0, fj), cos_phi)
+    lookup_nodes(
+        lobe_index(ndf, alpha.0, 0, 0),
+        alpha.2,
+        (i0, fi),
+        (j0, fj),
+        cos_phi,
+    )
 }
 
-/// [`lookup`] given the lower cosine nodes and weights from [`split`].
+/// [`lookup`] given the index of the lower roughness node's first cell
+/// (`lobe_index(ndf, a0, 0, 0)`), the weight of the upper roughness node and
+/// the lower cosine nodes and weights from [`split`].
 #[inline]
 fn lookup_nodes(
-    ndf: usize,
-    alpha: (usize, usize, f32),
+    base: usize,
+    fa: f32,
     (i0, fi): (usize, f32),
     (j0, fj): (usize, f32),
     cos_phi: f32,
@@ -706,10 +714,8 @@ fn lookup_nodes(
     const SPAN: usize = lobe_index(0, 1, 1, 2);
     const DA: usize = lobe_index(0, 1, 0, 0);
     const DI: usize = lobe_index(0, 0, 1, 0);
-    let (a0, a1, fa) = alpha;
-    debug_assert!(a1 == a0 + 1);
     let Some(c) = LOBE
-        .get(lobe_index(ndf, a0, i0, j0)..)
+        .get(base + lobe_index(0, 0, i0, j0)..)
         .and_then(|s| s.first_chunk::<SPAN>())
     else {
         return (0.0, 0.0, [0.0; 3]);
@@ -837,6 +843,9 @@ pub struct Tabulated {
     /// Lower and upper roughness nodes of the table and the weight of the
     /// upper one (isotropic materials; the RMS roughness otherwise).
     alpha: (usize, usize, f32),
+    /// Index of the first lobe cell of the lower roughness node
+    /// (isotropic materials).
+    lobe_base: usize,
     /// Scale-table node of the lower roughness node at `mu = 0` and the
     /// weight of the upper roughness node (isotropic materials).
     scale_alpha: (usize, f32),
@@ -979,6 +988,7 @@ impl Tabulated {
             facet,
             ndf_index,
             alpha,
+            lobe_base: lobe_index(ndf_index, alpha.0, 0, 0),
             fresnel_curve,
             scale_alpha: {
                 let (s0, _, fs) = split(root * (SCALE_ALPHA_N - 1) as f32, SCALE_ALPHA_N);
@@ -1046,7 +1056,7 @@ impl Tabulated {
         wo: Vec3,
         ri: f32,
         ro: f32,
-    ) -> ((usize, usize, f32), f32, [f32; 2]) {
+    ) -> ((usize, f32), f32, [f32; 2]) {
         if self.aniso.is_none() {
             let (n0, fs) = self.scale_alpha;
             let (i0, fi) = split_root(ri, SCALE_MU_N);
@@ -1061,7 +1071,7 @@ impl Tabulated {
             let lo = Vec4::new(vi.x, vi.y, vo.x, vo.y);
             let hi = Vec4::new(vi.z, vi.w, vo.z, vo.w);
             let v = (lo + (hi - lo) * Vec4::new(fi, fi, fo, fo)) * SCALE_DECODE;
-            return (self.alpha, v.x * v.z, [v.y, v.w]);
+            return ((self.lobe_base, self.alpha.2), v.x * v.z, [v.y, v.w]);
         }
         let (ax2, ay2) = (
             self.ndf.alpha_x * self.ndf.alpha_x,
@@ -1071,7 +1081,12 @@ impl Tabulated {
         let asc = scale_alpha_coord(a);
         let (si, fi) = scale(self.ndf_index, asc, wi.z);
         let (so, fo) = scale(self.ndf_index, asc, wo.z);
-        (split(alpha_coord(a), ALPHA_N), si * so, [fi, fo])
+        let (a0, _, fa) = split(alpha_coord(a), ALPHA_N);
+        (
+            (lobe_index(self.ndf_index, a0, 0, 0), fa),
+            si * so,
+            [fi, fo],
+        )
     }
 
     /// The multiply scattered `f |wo.z|` for `wi.z > 0`, `wo.z > 0`, given
@@ -1079,10 +1094,9 @@ impl Tabulated {
     #[inline]
     fn multiple(&self, wi: Vec3, wo: Vec3, ss1: f32) -> Vec3 {
         let (ri, ro) = (wi.z.min(1.0).sqrt(), wo.z.min(1.0).sqrt());
-        let (alpha, s, [si, so]) = self.alpha_and_scale(wi, wo, ri, ro);
+        let ((base, fa), s, [si, so]) = self.alpha_and_scale(wi, wo, ri, ro);
         let nodes = |r: f32| split_root(r, MU_N);
-        let (f, peak, r) =
-            lookup_nodes(self.ndf_index, alpha, nodes(ri), nodes(ro), cos_phi(wi, wo));
+        let (f, peak, r) = lookup_nodes(base, fa, nodes(ri), nodes(ro), cos_phi(wi, wo));
         let b = Vec3A::from(self.fbar);
         // First and last facets: the reflectance at the cosines seen from
         // mu_i and mu_o (Schlick-shaped deviation from fbar).
