@@ -510,7 +510,7 @@ fn scale_main(args: &[String]) {
         )
     });
     let mut first = vec![0.0f32; FIRST_LEN];
-    let mut sbar = vec![0.0f32; SBAR_LEN];
+    let mut sbar = [0.0f32; SBAR_LEN];
     for (&(n, a, i), v) in sjobs.iter().zip(&schlick) {
         match i {
             Some(i) => first[albedo_index(n, a, i)] = *v as f32,
