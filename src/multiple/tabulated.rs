@@ -856,8 +856,12 @@ pub struct Tabulated {
     /// Whether the anisotropic lobe is scaled by the correction table
     /// (off only for the table generator).
     aniso_corrected: bool,
-    /// Effective Fresnel reflectance of inter-reflections per channel.
-    fbar: Vec3,
+    /// The tint of the middle facets as a function of the order fractions
+    /// (module docs): with `b` the effective reflectance of
+    /// inter-reflections `fbar` per channel, `r2 + r3 b + r4 b^2 + r5 b^3`
+    /// with `r5 = 1 - r2 - r3 - r4` is `1 - (1 - r2) q2 + r3 q3 + r4 q4`
+    /// for `[q2, q3, q4] = [1 - b^3, b - b^3, b^2 - b^3]`.
+    order_tint: [Vec3A; 3],
     /// The reflectance against the Schlick weight, for the first and last
     /// facets.
     fresnel_curve: FresnelCurve,
@@ -996,7 +1000,11 @@ impl Tabulated {
             },
             aniso,
             aniso_corrected: true,
-            fbar,
+            order_tint: {
+                let b = Vec3A::from(fbar);
+                let b3 = b * b * b;
+                [1.0 - b3, b - b3, b * b - b3]
+            },
             fresnel_lanes,
             unit_fresnel,
             iso_ggx_a2: (ndf.kind == NdfKind::Ggx && ndf.alpha_x == ndf.alpha_y)
@@ -1043,7 +1051,8 @@ impl Tabulated {
 
     /// The effective Fresnel reflectance of inter-reflections (per channel).
     pub fn fbar(&self) -> Vec3 {
-        self.fbar
+        // q3 - q2 + 1 = (b - b^3) - (1 - b^3) + 1.
+        Vec3::from(self.order_tint[1] - self.order_tint[0] + 1.0)
     }
 
     /// Table roughness nodes, furnace scales `s(mu_i) s(mu_o)` and the
@@ -1097,12 +1106,13 @@ impl Tabulated {
         let ((base, fa), s, [si, so]) = self.alpha_and_scale(wi, wo, ri, ro);
         let nodes = |r: f32| split_root(r, MU_N);
         let (f, peak, r) = lookup_nodes(base, fa, nodes(ri), nodes(ro), cos_phi(wi, wo));
-        let b = Vec3A::from(self.fbar);
         // First and last facets: the reflectance at the cosines seen from
         // mu_i and mu_o (Schlick-shaped deviation from fbar).
         let fe = |sf: f32| self.fresnel_curve.at(sf).clamp(Vec3A::ZERO, Vec3A::ONE);
-        let r5 = (1.0 - r[0] - r[1] - r[2]).max(0.0);
-        let tint = fe(si) * fe(so) * (b * (b * (b * r5 + r[2]) + r[1]) + r[0]);
+        // The order fractions interpolate stored ones whose sum is at most 1
+        // (to f32 rounding), so r5 = 1 - r2 - r3 - r4 >= 0 needs no clamp.
+        let [q2, q3, q4] = self.order_tint;
+        let tint = fe(si) * fe(so) * (Vec3A::ONE - q2 * (1.0 - r[0]) + q3 * r[1] + q4 * r[2]);
         // The smooth part is clamped at 0 (its cosine series can dip below 0
         // next to a strong peaked part); the scale table integrates the
         // clamped series, so the furnace holds with the clamp.
