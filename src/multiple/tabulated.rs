@@ -43,7 +43,11 @@
 //! (Sinkhorn) scaling of the alpha-interpolated table, which keeps the lobe
 //! reciprocal. It corrects both the Monte Carlo noise of the albedo and the
 //! interpolation in alpha and `mu_i` where `1 - E_ss` is strongly curved
-//! (low roughness at grazing incidence).
+//! (low roughness at grazing incidence). Each node of that grid holds two
+//! `u16`: the scale and the first-facet Schlick weight `S(mu)` of the
+//! coloured conductors (below; estimated on the lobe grid and resampled
+//! bilinearly onto this one), both as `max (v / 65535)^2` ([`SCALE_MAX`]),
+//! so that one split and one read per direction give both.
 //!
 //! Lookups are linear in `alpha` (fixed per material), and in `sqrt(mu_i)`
 //! and `sqrt(mu_o)`; the tables are symmetric in `(mu_i, mu_o)` and read the
@@ -64,7 +68,8 @@
 //! the Schlick curve with the same mean (`F0 (1 - Sbar) + Sbar = Fbar`),
 //! where `S(mu)` is the mean Schlick weight `(1 - c)^5` of the first facets
 //! of multiply scattered paths from `mu` and `Sbar` the mean over all their
-//! facets (both tabulated from an instrumented walk): grazing incidence
+//! facets (both tabulated from an instrumented walk; `S` is read from the
+//! furnace scale table's nodes): grazing incidence
 //! meets more grazing facets, which a single `Fbar` missed by up to 2.4% of
 //! the albedo of gold's blue channel.
 //!
