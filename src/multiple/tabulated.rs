@@ -1030,14 +1030,14 @@ impl Tabulated {
     /// [`fresnel::conductor_rgb`] in SIMD lanes with the squares of the
     /// index precomputed; the complex form where it is not finite).
     #[inline]
-    fn fresnel(&self, c: f32) -> Vec3 {
+    fn fresnel(&self, c: f32) -> Vec3A {
         let c = c.clamp(0.0, 1.0);
         let (e2k2, four_e2k2) = self.fresnel_lanes;
         let f = fresnel::conductor_closed_form(Vec3A::splat(c), e2k2, four_e2k2);
         // One scalar test for the three lanes (a sum of finite values in
         // [0, 1]-like ranges is finite; a NaN or infinite lane is not).
         if (f.x + f.y + f.z).is_finite() {
-            Vec3::from(f.clamp(Vec3A::ZERO, Vec3A::ONE))
+            f.clamp(Vec3A::ZERO, Vec3A::ONE)
         } else {
             self.fresnel_complex(c)
         }
@@ -1047,10 +1047,10 @@ impl Tabulated {
     /// [`Self::fresnel`]).
     #[cold]
     #[inline(never)]
-    fn fresnel_complex(&self, c: f32) -> Vec3 {
+    fn fresnel_complex(&self, c: f32) -> Vec3A {
         match self.facet {
-            Facet::Conductor { eta, k } => fresnel::conductor(c, eta, k),
-            _ => Vec3::ONE,
+            Facet::Conductor { eta, k } => fresnel::conductor(c, eta, k).into(),
+            _ => Vec3A::ONE,
         }
     }
 
@@ -1106,7 +1106,7 @@ impl Tabulated {
     /// The multiply scattered `f |wo.z|` for `wi.z > 0`, `wo.z > 0`, given
     /// the single-scattering `f_ss1 |wo.z|` with F = 1 of the same pair.
     #[inline]
-    fn multiple(&self, wi: Vec3, wo: Vec3, ss1: f32) -> Vec3 {
+    fn multiple(&self, wi: Vec3, wo: Vec3, ss1: f32) -> Vec3A {
         let (ri, ro) = (wi.z.min(1.0).sqrt(), wo.z.min(1.0).sqrt());
         let ((base, fa), s, [si, so]) = self.alpha_and_scale(wi, wo, ri, ro);
         let nodes = |r: f32| split_root(r, MU_N);
@@ -1169,7 +1169,7 @@ impl Tabulated {
                 lobe * (ci * co)
             }
         };
-        Vec3::from(tint * value)
+        tint * value
     }
 
     /// Weight of the cosine lobe in the sampling mixture for `mu_i`.
@@ -1183,11 +1183,11 @@ impl Tabulated {
     /// pdf of `wo`, sharing `D` and `Lambda(wi)`:
     /// `pdf = D_wi(h) / (4 wi.h) = G1(wi) D(h) / (4 wi.z)`.
     #[inline(always)]
-    fn single_terms(&self, wi: Vec3, wo: Vec3) -> (f32, Vec3, f32) {
+    fn single_terms(&self, wi: Vec3, wo: Vec3) -> (f32, Vec3A, f32) {
         if let Some(a2) = self.iso_ggx_a2 {
             let (_, f, p) = iso_ggx_reflection(a2, wi, wo);
             if self.unit_fresnel {
-                return (f, Vec3::ONE, p);
+                return (f, Vec3A::ONE, p);
             }
             // wi.H = 1 + wi.wo > 0 for two directions above.
             let hv = wi + wo;
@@ -1196,14 +1196,14 @@ impl Tabulated {
         let h = (wi + wo).normalize_or_zero();
         let ci = wi.dot(h);
         if ci <= 0.0 || h.z <= 0.0 {
-            return (0.0, Vec3::ZERO, 0.0);
+            return (0.0, Vec3A::ZERO, 0.0);
         }
         let d = self.ndf.d(h);
         let li = self.ndf.lambda(wi);
         let lo = self.ndf.lambda(wo);
         let base = d / (4.0 * wi.z);
         let fresnel = if self.unit_fresnel {
-            Vec3::ONE
+            Vec3A::ONE
         } else {
             self.fresnel(ci)
         };
@@ -1233,7 +1233,7 @@ impl Tabulated {
         }
         let (ss1, fresnel, ps) = self.single_terms(wi, wo);
         let pdf = (1.0 - q) * ps + q * wo.z / PI;
-        (fresnel * ss1 + self.multiple(wi, wo, ss1), pdf)
+        (Vec3::from(fresnel * ss1 + self.multiple(wi, wo, ss1)), pdf)
     }
 }
 
@@ -1262,7 +1262,7 @@ impl ScatterModel for Tabulated {
             return Vec3::ZERO;
         }
         let (ss1, fresnel, _) = self.single_terms(wi, wo);
-        fresnel * ss1 + self.multiple(wi, wo, ss1)
+        Vec3::from(fresnel * ss1 + self.multiple(wi, wo, ss1))
     }
 
     fn sample(&self, wi: Vec3, rng: &mut Rng) -> Sample {
