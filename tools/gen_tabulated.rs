@@ -29,9 +29,9 @@ use msbsdf::multiple::heitz::{Heitz, default_max_bounces};
 use msbsdf::multiple::tabulated::{
     ALBEDO_LEN, ALPHA_N, CELL, FILE_BYTES, FIRST_LEN, FRESNEL_LEN, FRESNEL_Q, HEADER_BYTES,
     K_STORED, LOBE_LEN, MAGIC, MU_N, NDF_N, ORDER0, ORDERS, PEAK, SBAR_LEN, SCALE_ALPHA_N,
-    SCALE_FILE_BYTES, SCALE_LEN, SCALE_MAGIC, SCALE_MU_N, add_cosines, albedo_index, alpha_coord,
-    exit_hats, fresnel_index, grid_alpha, grid_mu, hat_moment, lobe_index, mu_coord, project_exit,
-    scale_grid_alpha, scale_grid_mu, scale_index, split,
+    SCALE_FILE_BYTES, SCALE_LEN, SCALE_MAGIC, SCALE_MAX, SCALE_MU_N, add_cosines, albedo_index,
+    alpha_coord, exit_hats, fresnel_index, grid_alpha, grid_mu, hat_moment, lobe_index, mu_coord,
+    project_exit, scale_encode, scale_grid_alpha, scale_grid_mu, scale_index, split,
 };
 use msbsdf::ndf::{Ndf, NdfKind};
 use msbsdf::single::{G2Form, Single};
@@ -367,15 +367,26 @@ fn write_table(
     file_bytes: usize,
     values: impl IntoIterator<Item = f32>,
 ) {
+    let payload: Vec<u8> = values.into_iter().flat_map(f32::to_le_bytes).collect();
+    write_bytes(out, header, magic, header_bytes, file_bytes, &payload);
+}
+
+/// Writes `header` (padded with zeros to `header_bytes`) and `payload`.
+fn write_bytes(
+    out: &str,
+    header: &str,
+    magic: &[u8],
+    header_bytes: usize,
+    file_bytes: usize,
+    payload: &[u8],
+) {
     eprint!("{header}");
     let mut bytes = Vec::with_capacity(file_bytes);
     bytes.extend_from_slice(header.as_bytes());
     assert!(bytes.len() <= header_bytes, "header too long");
     assert!(bytes.starts_with(magic));
     bytes.resize(header_bytes, 0);
-    for v in values {
-        bytes.extend_from_slice(&v.to_le_bytes());
-    }
+    bytes.extend_from_slice(payload);
     assert_eq!(bytes.len(), file_bytes);
     std::fs::write(out, &bytes).expect("write output");
     eprintln!("wrote {out} ({} bytes)", bytes.len());
@@ -499,7 +510,7 @@ fn scale_main(args: &[String]) {
         )
     });
     let mut first = vec![0.0f32; FIRST_LEN];
-    let mut sbar = vec![0.0f32; SBAR_LEN];
+    let mut sbar = [0.0f32; SBAR_LEN];
     for (&(n, a, i), v) in sjobs.iter().zip(&schlick) {
         match i {
             Some(i) => first[albedo_index(n, a, i)] = *v as f32,
@@ -584,27 +595,53 @@ fn scale_main(args: &[String]) {
             }
         }
     }
+    // The scale file: per scale node the pair (s, S_first) as u16 (see
+    // SCALE_MAX), S_first resampled bilinearly from the lobe grid's
+    // estimates (both grids are uniform in sqrt(alpha) and sqrt(mu), so a
+    // scale node's lobe-grid coordinates are linear in its indices).
+    assert!(s_max < SCALE_MAX as f64, "scales above SCALE_MAX");
+    let first_at = |n: usize, a: usize, i: usize| {
+        let xa = (a * (ALPHA_N - 1)) as f64 / (SCALE_ALPHA_N - 1) as f64;
+        let xi = (i * (MU_N - 1)) as f64 / (SCALE_MU_N - 1) as f64;
+        let (a0, i0) = ((xa as usize).min(ALPHA_N - 2), (xi as usize).min(MU_N - 2));
+        let (fa, fi) = (xa - a0 as f64, xi - i0 as f64);
+        let g = |aa: usize, ii: usize| first[albedo_index(n, aa, ii)] as f64;
+        let row = |aa: usize| g(aa, i0) * (1.0 - fi) + g(aa, i0 + 1) * fi;
+        row(a0) * (1.0 - fa) + row(a0 + 1) * fa
+    };
+    let mut payload = Vec::with_capacity(SCALE_FILE_BYTES - HEADER_BYTES);
+    for n in 0..NDF_N {
+        for a in 0..SCALE_ALPHA_N {
+            for i in 0..SCALE_MU_N {
+                let s = scale[scale_index(n, a, i)] as f64;
+                payload.extend_from_slice(&scale_encode(s, SCALE_MAX as f64).to_le_bytes());
+                payload.extend_from_slice(&scale_encode(first_at(n, a, i), 1.0).to_le_bytes());
+            }
+        }
+    }
+    payload.extend(sbar.iter().flat_map(|v| v.to_le_bytes()));
     let header = format!(
-        "MSBSDF-TABULATED-SCALE-v1\n\
+        "MSBSDF-TABULATED-SCALE-v2\n\
          MSBSDF_MODEL_TABULATED furnace scale table (layout: src/multiple/tabulated.rs)\n\
          command: cargo run --release --example gen_tabulated -- {}\n\
          commit: {}\n\
          lobe table: {table} ({table_commit})\n\
          E_ss: SINGLE quadrature 192 x 192; albedo of the peaked part: {samples} SINGLE samples per node, seed Rng::new({SEED_SCALE}, stream = job index)\n\
-         albedo of the alpha-interpolated table vs 1 - E_ss: worst relative deviation {worst_before:.3e} (targets > 1e-3); after scaling {worst_after:.3e}; scales in [{s_min:.4}, {s_max:.4}]\n\
-         grid: ndf {NDF_N} x alpha {SCALE_ALPHA_N} x mu {SCALE_MU_N}; then the Schlick weights (1 - c)^5 of multiply scattered paths: first facets per (ndf, alpha node, mu node), all facets per (ndf, alpha node); instrumented walk, {schlick_walks} walks per entry, seed Rng::new({SEED_SCHLICK}, stream = job index)\n\
+         albedo of the alpha-interpolated table vs 1 - E_ss: worst relative deviation {worst_before:.3e} (targets > 1e-3); after scaling {worst_after:.3e} (before the u16 encoding); scales in [{s_min:.4}, {s_max:.4}]\n\
+         Schlick weights (1 - c)^5 of multiply scattered paths: first facets per (ndf, alpha node, mu node) of the lobe grid, all facets per (ndf, alpha node); instrumented walk, {schlick_walks} walks per entry, seed Rng::new({SEED_SCHLICK}, stream = job index)\n\
+         layout: per (ndf {NDF_N}, scale alpha {SCALE_ALPHA_N}, scale mu {SCALE_MU_N}) node two u16: the scale s = {SCALE_MAX} (v / 65535)^2 and the first-facet Schlick weight (v / 65535)^2 (resampled bilinearly from the lobe grid); then the all-facets weights, f32 per (ndf, alpha node)\n\
          wall time: {:.0} s on {threads} threads\n",
         args[1..].join(" "),
         git_commit(),
         t0.elapsed().as_secs_f64(),
     );
-    write_table(
+    write_bytes(
         &out,
         &header,
         SCALE_MAGIC,
         HEADER_BYTES,
         SCALE_FILE_BYTES,
-        scale.iter().chain(&first).chain(&sbar).copied(),
+        &payload,
     );
 }
 

@@ -43,7 +43,11 @@
 //! (Sinkhorn) scaling of the alpha-interpolated table, which keeps the lobe
 //! reciprocal. It corrects both the Monte Carlo noise of the albedo and the
 //! interpolation in alpha and `mu_i` where `1 - E_ss` is strongly curved
-//! (low roughness at grazing incidence).
+//! (low roughness at grazing incidence). Each node of that grid holds two
+//! `u16`: the scale and the first-facet Schlick weight `S(mu)` of the
+//! coloured conductors (below; estimated on the lobe grid and resampled
+//! bilinearly onto this one), both as `max (v / 65535)^2` ([`SCALE_MAX`]),
+//! so that one split and one read per direction give both.
 //!
 //! Lookups are linear in `alpha` (fixed per material), and in `sqrt(mu_i)`
 //! and `sqrt(mu_o)`; the tables are symmetric in `(mu_i, mu_o)` and read the
@@ -64,7 +68,8 @@
 //! the Schlick curve with the same mean (`F0 (1 - Sbar) + Sbar = Fbar`),
 //! where `S(mu)` is the mean Schlick weight `(1 - c)^5` of the first facets
 //! of multiply scattered paths from `mu` and `Sbar` the mean over all their
-//! facets (both tabulated from an instrumented walk): grazing incidence
+//! facets (both tabulated from an instrumented walk; `S` is read from the
+//! furnace scale table's nodes): grazing incidence
 //! meets more grazing facets, which a single `Fbar` missed by up to 2.4% of
 //! the albedo of gold's blue channel.
 //!
@@ -415,20 +420,39 @@ pub fn corr_dir_weights(w: Vec3) -> [(usize, f32); 4] {
 pub const SCALE_ALPHA_N: usize = 64;
 /// Cosine nodes of the furnace scale table (uniform in `sqrt(mu)`).
 pub const SCALE_MU_N: usize = 64;
-/// Floats of the furnace scale table `[ndf][scale alpha][scale mu]`.
+/// Nodes of the furnace scale table `[ndf][scale alpha][scale mu]`; each
+/// holds two `u16`: the furnace scale `s` and the first-facet Schlick
+/// weight (see [`SCALE_MAX`]).
 pub const SCALE_LEN: usize = NDF_N * SCALE_ALPHA_N * SCALE_MU_N;
-/// Floats of the first-facet Schlick block `[ndf][alpha][mu]` of the scale
-/// file: the mean of `(1 - c)^5` over the first facets (cosine `c`) of the
-/// multiply scattered paths from `mu`.
+/// Bytes of a node of the scale table (two little-endian `u16`).
+pub const SCALE_NODE: usize = 4;
+/// Values of the generator's first-facet Schlick estimates `[ndf][alpha][mu]`
+/// on the lobe grid (indexed like [`albedo_index`]): the mean of
+/// `(1 - c)^5` over the first facets (cosine `c`) of the multiply
+/// scattered paths from `mu`. The scale file holds them resampled
+/// (bilinearly in the two grids' coordinates) onto the scale grid.
 pub const FIRST_LEN: usize = NDF_N * ALPHA_N * MU_N;
 /// Floats of the all-facets Schlick block `[ndf][alpha]`: the mean of
 /// `(1 - c)^5` over every facet of multiply scattered paths from
 /// cosine-distributed directions.
 pub const SBAR_LEN: usize = NDF_N * ALPHA_N;
-/// Total size of the scale table file in bytes.
-pub const SCALE_FILE_BYTES: usize = HEADER_BYTES + 4 * (SCALE_LEN + FIRST_LEN + SBAR_LEN);
+/// Total size of the scale table file in bytes: the text header, the
+/// [`SCALE_LEN`] nodes of [`SCALE_NODE`] bytes, then [`SBAR_LEN`] f32.
+pub const SCALE_FILE_BYTES: usize = HEADER_BYTES + SCALE_NODE * SCALE_LEN + 4 * SBAR_LEN;
 /// First bytes of the scale table file.
-pub const SCALE_MAGIC: &[u8; 26] = b"MSBSDF-TABULATED-SCALE-v1\n";
+pub const SCALE_MAGIC: &[u8; 26] = b"MSBSDF-TABULATED-SCALE-v2\n";
+/// Largest furnace scale the scale file encodes: a stored `u16` `v` is the
+/// scale `SCALE_MAX (v / 65535)^2` (a relative step of `2 / v`: 1.5e-4 at
+/// `s` = 1, 1e-3 at 0.02) and the first-facet Schlick weight
+/// `(v / 65535)^2`. Squares of the stored values are interpolated, so the
+/// constant factors apply once after the interpolation.
+pub const SCALE_MAX: f32 = 20.0;
+
+/// The stored `u16` of a value `x` in `[0, max]` of the scale file (see
+/// [`SCALE_MAX`]).
+pub fn scale_encode(x: f64, max: f64) -> u16 {
+    ((x / max).clamp(0.0, 1.0).sqrt() * 65535.0).round() as u16
+}
 
 /// Roughness of node `a` of the scale table.
 pub fn scale_grid_alpha(a: usize) -> f32 {
@@ -499,18 +523,6 @@ pub(crate) fn split_root(r: f32, n: usize) -> (usize, f32) {
     (i, x - i as f32)
 }
 
-/// The table values at `i`, `i + 1`, `i + ROW` and `i + ROW + 1` (two
-/// adjacent nodes in two adjacent rows) with one bounds check; `SPAN` must
-/// be `ROW + 2` (a smaller one does not compile). Zeros outside the table,
-/// which the grid splits never reach.
-#[inline]
-fn square<const ROW: usize, const SPAN: usize>(table: &[f32], i: usize) -> [f32; 4] {
-    match table.get(i..).and_then(|s| s.first_chunk::<SPAN>()) {
-        Some(c) => [c[0], c[1], c[ROW], c[ROW + 1]],
-        None => [0.0; 4],
-    }
-}
-
 /// Index of the first float of a lobe cell.
 #[inline]
 pub const fn lobe_index(ndf: usize, a: usize, i: usize, j: usize) -> usize {
@@ -545,19 +557,31 @@ const _: () = {
 };
 
 /// The committed furnace scale table file.
-const RAW_SCALE: &[u8] = include_bytes!("../../data/tabulated_scale.bin");
+const RAW_SCALE: &[u8; SCALE_FILE_BYTES] = include_bytes!("../../data/tabulated_scale.bin");
 
 const _: () = {
-    assert!(
-        RAW_SCALE.len() == SCALE_FILE_BYTES,
-        "scale file size does not match the grid"
-    );
     let mut i = 0;
     while i < SCALE_MAGIC.len() {
         assert!(RAW_SCALE[i] == SCALE_MAGIC[i], "scale file magic");
         i += 1;
     }
 };
+
+/// Little-endian `u16` values from `offset` (compile time).
+const fn decode_u16<const N: usize>(raw: &[u8], offset: usize) -> [u16; N] {
+    let mut out = [0u16; N];
+    let mut i = 0;
+    while i < N {
+        out[i] = u16::from_le_bytes([raw[offset + 2 * i], raw[offset + 2 * i + 1]]);
+        i += 1;
+    }
+    out
+}
+
+/// The nodes of the scale file (see [`SCALE_LEN`]): the stored `u16` of
+/// the furnace scale and of the first-facet Schlick weight of node `n` at
+/// `2 n` and `2 n + 1` (see [`SCALE_MAX`]).
+pub static SCALE_NODES: [u16; 2 * SCALE_LEN] = decode_u16(RAW_SCALE, HEADER_BYTES);
 
 /// Little-endian f32 values from `offset` (compile time).
 pub(crate) const fn decode<const N: usize>(raw: &[u8], offset: usize) -> [f32; N] {
@@ -579,15 +603,8 @@ pub static ALBEDO: [f32; ALBEDO_LEN] = decode(RAW, HEADER_BYTES + 4 * LOBE_LEN);
 pub static FRESNEL_COS: [f32; FRESNEL_LEN] =
     decode(RAW, HEADER_BYTES + 4 * (LOBE_LEN + ALBEDO_LEN));
 
-/// The furnace scale table (see [`SCALE_LEN`]): `s(alpha, mu)` with
-/// `f_ms(wi, wo) s(mu_i) s(mu_o)` normalised to `1 - E_ss(alpha, mu_i)` at
-/// the 64 mu nodes of this table, for 64 roughness values.
-pub static SCALE: [f32; SCALE_LEN] = decode(RAW_SCALE, HEADER_BYTES);
-/// The first-facet Schlick block (see [`FIRST_LEN`]), indexed like
-/// [`albedo_index`].
-pub static FIRST: [f32; FIRST_LEN] = decode(RAW_SCALE, HEADER_BYTES + 4 * SCALE_LEN);
 /// The all-facets Schlick block (see [`SBAR_LEN`]), `[ndf * ALPHA_N + a]`.
-pub static SBAR: [f32; SBAR_LEN] = decode(RAW_SCALE, HEADER_BYTES + 4 * (SCALE_LEN + FIRST_LEN));
+pub static SBAR: [f32; SBAR_LEN] = decode(RAW_SCALE, HEADER_BYTES + SCALE_NODE * SCALE_LEN);
 
 pub(crate) fn text_header(raw: &'static [u8]) -> &'static str {
     let h = &raw[..HEADER_BYTES];
@@ -605,23 +622,56 @@ pub fn scale_header() -> &'static str {
     text_header(RAW_SCALE)
 }
 
-/// Index of a scale table entry.
+/// Index of a scale table node.
 #[inline]
 pub const fn scale_index(ndf: usize, a: usize, i: usize) -> usize {
     (ndf * SCALE_ALPHA_N + a) * SCALE_MU_N + i
 }
 
-/// The furnace scale `s(alpha, mu)` (linear in the scale table's alpha
-/// coordinate and in `sqrt(mu)`).
+/// The squares of the stored `u16` of scale nodes `n` and `n + 1` and of
+/// the same two nodes one roughness row up, each as
+/// `[s(n), S(n), s(n + 1), S(n + 1)]` (before the factors of
+/// [`SCALE_DECODE`]); zeros outside the file, which the grid splits never
+/// reach.
+#[inline(always)]
+fn scale_squares(n: usize) -> (Vec4, Vec4) {
+    const ROW: usize = 2 * SCALE_MU_N;
+    match SCALE_NODES
+        .get(2 * n..)
+        .and_then(|r| r.first_chunk::<{ ROW + 4 }>())
+    {
+        Some(r) => {
+            let q = |o: usize| {
+                let x = Vec4::new(
+                    r[o] as f32,
+                    r[o + 1] as f32,
+                    r[o + 2] as f32,
+                    r[o + 3] as f32,
+                );
+                x * x
+            };
+            (q(0), q(ROW))
+        }
+        None => (Vec4::ZERO, Vec4::ZERO),
+    }
+}
+
+/// Factors of the interpolated squares `[s, S, s, S]` of [`scale_squares`].
+const SCALE_DECODE: Vec4 = {
+    let (s, f) = (SCALE_MAX / (65535.0 * 65535.0), 1.0 / (65535.0 * 65535.0));
+    Vec4::new(s, f, s, f)
+};
+
+/// The furnace scale `s(alpha, mu)` and the first-facet Schlick weight
+/// `S(alpha, mu)` (both linear in the scale table's alpha coordinate and
+/// in `sqrt(mu)`).
 #[inline]
-pub fn scale(ndf: usize, alpha_sc: f32, mu: f32) -> f32 {
-    let (a0, a1, fa) = split(alpha_sc, SCALE_ALPHA_N);
-    let (i0, i1, fi) = split(
-        mu.clamp(0.0, 1.0).sqrt() * (SCALE_MU_N - 1) as f32,
-        SCALE_MU_N,
-    );
-    let v = |a| SCALE[scale_index(ndf, a, i0)] * (1.0 - fi) + SCALE[scale_index(ndf, a, i1)] * fi;
-    v(a0) * (1.0 - fa) + v(a1) * fa
+pub fn scale(ndf: usize, alpha_sc: f32, mu: f32) -> (f32, f32) {
+    let (a0, _, fa) = split(alpha_sc, SCALE_ALPHA_N);
+    let (i0, fi) = split_root(mu.clamp(0.0, 1.0).sqrt(), SCALE_MU_N);
+    let (lo, hi) = scale_squares(scale_index(ndf, a0, i0));
+    let v = (lo + (hi - lo) * fa) * SCALE_DECODE;
+    (v.x + (v.z - v.x) * fi, v.y + (v.w - v.y) * fi)
 }
 
 /// Table index of an NDF (`None`: not tabulated).
@@ -649,14 +699,22 @@ pub fn lookup(
 ) -> (f32, f32, [f32; 3]) {
     let (i0, _, fi) = split(root_mu_i * (MU_N - 1) as f32, MU_N);
     let (j0, _, fj) = split(root_mu_o * (MU_N - 1) as f32, MU_N);
-    lookup_nodes(ndf, alpha, (i0, fi), (j0, fj), cos_phi)
+    lookup_nodes(
+        lobe_index(ndf, alpha.0, 0, 0),
+        alpha.2,
+        (i0, fi),
+        (j0, fj),
+        cos_phi,
+    )
 }
 
-/// [`lookup`] given the lower cosine nodes and weights from [`split`].
+/// [`lookup`] given the index of the lower roughness node's first cell
+/// (`lobe_index(ndf, a0, 0, 0)`), the weight of the upper roughness node and
+/// the lower cosine nodes and weights from [`split`].
 #[inline]
 fn lookup_nodes(
-    ndf: usize,
-    alpha: (usize, usize, f32),
+    base: usize,
+    fa: f32,
     (i0, fi): (usize, f32),
     (j0, fj): (usize, f32),
     cos_phi: f32,
@@ -671,24 +729,28 @@ fn lookup_nodes(
     const SPAN: usize = lobe_index(0, 1, 1, 2);
     const DA: usize = lobe_index(0, 1, 0, 0);
     const DI: usize = lobe_index(0, 0, 1, 0);
-    let (a0, a1, fa) = alpha;
-    debug_assert!(a1 == a0 + 1);
     let Some(c) = LOBE
-        .get(lobe_index(ndf, a0, i0, j0)..)
+        .get(base + lobe_index(0, 0, i0, j0)..)
         .and_then(|s| s.first_chunk::<SPAN>())
     else {
         return (0.0, 0.0, [0.0; 3]);
     };
-    let (mut lo, mut hi) = (Vec4::ZERO, Vec4::ZERO);
-    for (oa, wa) in [(0, 1.0 - fa), (DA, fa)] {
-        for (oi, wi) in [(0, 1.0 - fi), (DI, fi)] {
-            let o = oa + oi;
-            let (w0, w1) = (wa * wi * (1.0 - fj), wa * wi * fj);
-            let v = |k: usize| Vec4::new(c[o + k], c[o + k + 1], c[o + k + 2], c[o + k + 3]);
-            lo += v(0) * w0 + v(CELL) * w1;
-            hi += v(4) * w0 + v(CELL + 4) * w1;
-        }
-    }
+    // Linear in mu_o, then in mu_i, then in alpha (nested lerps: fewer
+    // operations than eight weighted corners).
+    let lerp = |a: Vec4, b: Vec4, t: f32| a + (b - a) * t;
+    let v = |o: usize| Vec4::new(c[o], c[o + 1], c[o + 2], c[o + 3]);
+    let pair = |o: usize| {
+        (
+            lerp(v(o), v(o + CELL), fj),
+            lerp(v(o + 4), v(o + CELL + 4), fj),
+        )
+    };
+    let row = |o: usize| {
+        let ((l0, h0), (l1, h1)) = (pair(o), pair(o + DI));
+        (lerp(l0, l1, fi), lerp(h0, h1, fi))
+    };
+    let ((l0, h0), (l1, h1)) = (row(0), row(DA));
+    let (lo, hi) = (lerp(l0, l1, fa), lerp(h0, h1, fa));
     // sum_k c_k cos(k phi): cos 2 phi = 2 c^2 - 1, cos 3 phi = (4 c^2 - 3) c.
     let c = cos_phi;
     let c2 = c * c;
@@ -795,8 +857,12 @@ pub struct Tabulated {
     /// Lower and upper roughness nodes of the table and the weight of the
     /// upper one (isotropic materials; the RMS roughness otherwise).
     alpha: (usize, usize, f32),
-    /// Scale-table roughness nodes and weight (isotropic materials).
-    scale_alpha: (usize, usize, f32),
+    /// Index of the first lobe cell of the lower roughness node
+    /// (isotropic materials).
+    lobe_base: usize,
+    /// Scale-table node of the lower roughness node at `mu = 0` and the
+    /// weight of the upper roughness node (isotropic materials).
+    scale_alpha: (usize, f32),
     /// Anisotropic roughness: SINGLE's albedo table, the weight of the
     /// energy-split peaked lobe, the NDF of that lobe and its albedo table
     /// (see [`aniso_peak`]).
@@ -804,15 +870,22 @@ pub struct Tabulated {
     /// Whether the anisotropic lobe is scaled by the correction table
     /// (off only for the table generator).
     aniso_corrected: bool,
-    /// Effective Fresnel reflectance of inter-reflections per channel.
-    fbar: Vec3,
+    /// The tint of the middle facets as a function of the order fractions
+    /// (module docs): with `b` the effective reflectance of
+    /// inter-reflections `fbar` per channel, `r2 + r3 b + r4 b^2 + r5 b^3`
+    /// with `r5 = 1 - r2 - r3 - r4` is `1 - (1 - r2) q2 + r3 q3 + r4 q4`
+    /// for `[q2, q3, q4] = [1 - b^3, b - b^3, b^2 - b^3]`.
+    order_tint: [Vec3A; 3],
     /// The reflectance against the Schlick weight, for the first and last
     /// facets.
     fresnel_curve: FresnelCurve,
     /// `(eta^2 - k^2, 4 eta^2 k^2)` per channel for the closed-form
-    /// Fresnel factor of the single-scattering term in SIMD lanes (`None`:
-    /// the perfect reflector, F = 1).
-    fresnel_lanes: Option<fresnel::ConductorLanes>,
+    /// Fresnel factor of the single-scattering term in SIMD lanes
+    /// (ignored when `unit_fresnel`).
+    fresnel_lanes: (Vec3A, Vec3A),
+    /// The perfect reflector (eta 0, k 1) or facets other than a
+    /// conductor: F = 1.
+    unit_fresnel: bool,
     /// `alpha^2` of an isotropic GGX material: its single-scattering term
     /// takes SINGLE's closed form (`single::iso_ggx_reflection`).
     iso_ggx_a2: Option<f32>,
@@ -876,16 +949,15 @@ impl Tabulated {
         // The exact Fresnel at the three quantile cosines of the facets of
         // multiply scattered paths, against the Schlick weight w = (1 - c)^5.
         let mut curve = [(0.0f32, Vec3::ONE); FRESNEL_Q];
-        let mut fresnel_lanes = None;
+        let (mut fresnel_lanes, mut unit_fresnel) = ((Vec3A::ZERO, Vec3A::ZERO), true);
         if let Facet::Conductor { eta, k } = facet {
             let (a0, a1, fa) = alpha;
             let (q0, q1) = (fresnel_index(ndf_index, a0), fresnel_index(ndf_index, a1));
             // The three channels in one SIMD lane vector per cosine.
             let (eta2, k2) = (Vec3A::from(eta * eta), Vec3A::from(k * k));
             let (e2k2, four_e2k2) = (eta2 - k2, 4.0 * eta2 * k2);
-            if !(eta == Vec3::ZERO && k == Vec3::ONE) {
-                fresnel_lanes = Some(fresnel::ConductorLanes::new(eta, k));
-            }
+            fresnel_lanes = (e2k2, four_e2k2);
+            unit_fresnel = eta == Vec3::ZERO && k == Vec3::ONE;
             let cells = |q: usize| {
                 FRESNEL_COS
                     .get(q..)
@@ -934,12 +1006,21 @@ impl Tabulated {
             facet,
             ndf_index,
             alpha,
+            lobe_base: lobe_index(ndf_index, alpha.0, 0, 0),
             fresnel_curve,
-            scale_alpha: split(root * (SCALE_ALPHA_N - 1) as f32, SCALE_ALPHA_N),
+            scale_alpha: {
+                let (s0, _, fs) = split(root * (SCALE_ALPHA_N - 1) as f32, SCALE_ALPHA_N);
+                (scale_index(ndf_index, s0, 0), fs)
+            },
             aniso,
             aniso_corrected: true,
-            fbar,
+            order_tint: {
+                let b = Vec3A::from(fbar);
+                let b3 = b * b * b;
+                [1.0 - b3, b - b3, b * b - b3]
+            },
             fresnel_lanes,
+            unit_fresnel,
             iso_ggx_a2: (ndf.kind == NdfKind::Ggx && ndf.alpha_x == ndf.alpha_y)
                 .then_some(ndf.alpha_x * ndf.alpha_x),
         }
@@ -954,38 +1035,66 @@ impl Tabulated {
         }
     }
 
-    /// The conductor's Fresnel factor at the cosine `c` ([`Facet::conductor_fresnel`]
-    /// through the shared closed form in SIMD lanes, with the squares of
-    /// the index precomputed).
+    /// The conductor's Fresnel factor at the cosine `c` (the closed form of
+    /// [`fresnel::conductor_rgb`] in SIMD lanes with the squares of the
+    /// index precomputed; the complex form where it is not finite).
     #[inline]
-    fn fresnel(&self, c: f32) -> Vec3 {
-        match (&self.fresnel_lanes, self.facet) {
-            (Some(l), Facet::Conductor { eta, k }) => l.eval(c, eta, k),
-            _ => Vec3::ONE,
+    fn fresnel(&self, c: f32) -> Vec3A {
+        let c = c.clamp(0.0, 1.0);
+        let (e2k2, four_e2k2) = self.fresnel_lanes;
+        let f = fresnel::conductor_closed_form(Vec3A::splat(c), e2k2, four_e2k2);
+        // One scalar test for the three lanes (a sum of finite values in
+        // [0, 1]-like ranges is finite; a NaN or infinite lane is not).
+        if (f.x + f.y + f.z).is_finite() {
+            f.clamp(Vec3A::ZERO, Vec3A::ONE)
+        } else {
+            self.fresnel_complex(c)
+        }
+    }
+
+    /// [`fresnel::conductor`], the complex form (the cold path of
+    /// [`Self::fresnel`]).
+    #[cold]
+    #[inline(never)]
+    fn fresnel_complex(&self, c: f32) -> Vec3A {
+        match self.facet {
+            Facet::Conductor { eta, k } => fresnel::conductor(c, eta, k).into(),
+            _ => Vec3A::ONE,
         }
     }
 
     /// The effective Fresnel reflectance of inter-reflections (per channel).
     pub fn fbar(&self) -> Vec3 {
-        self.fbar
+        // q3 - q2 + 1 = (b - b^3) - (1 - b^3) + 1.
+        Vec3::from(self.order_tint[1] - self.order_tint[0] + 1.0)
     }
 
-    /// Table roughness nodes and furnace scales `s(mu_i) s(mu_o)` for a
-    /// pair of directions.
+    /// Table roughness nodes, furnace scales `s(mu_i) s(mu_o)` and the
+    /// first-facet Schlick weights `S(mu_i)`, `S(mu_o)` for a pair of
+    /// directions (`ri`, `ro` the square roots of their cosines).
     #[inline]
-    fn alpha_and_scale(&self, wi: Vec3, wo: Vec3, ri: f32, ro: f32) -> ((usize, usize, f32), f32) {
+    fn alpha_and_scale(
+        &self,
+        wi: Vec3,
+        wo: Vec3,
+        ri: f32,
+        ro: f32,
+    ) -> ((usize, f32), f32, [f32; 2]) {
         if self.aniso.is_none() {
-            let (s0, s1, fs) = self.scale_alpha;
-            // split: s1 = s0 + 1, the next row of the table.
-            debug_assert!(s1 == s0 + 1);
-            let r0 = scale_index(self.ndf_index, s0, 0);
-            let row = |r: f32| {
-                let (i0, f) = split_root(r, SCALE_MU_N);
-                let [a0, a1, b0, b1] = square::<SCALE_MU_N, { SCALE_MU_N + 2 }>(&SCALE, r0 + i0);
-                let (v0, v1) = (a0 + (a1 - a0) * f, b0 + (b1 - b0) * f);
-                v0 + (v1 - v0) * fs
-            };
-            return (self.alpha, row(ri) * row(ro));
+            let (n0, fs) = self.scale_alpha;
+            let (i0, fi) = split_root(ri, SCALE_MU_N);
+            let (o0, fo) = split_root(ro, SCALE_MU_N);
+            // Both directions' nodes: [s, S, s, S] at the lower and upper
+            // cosine node, linear in roughness, then in the cosine for
+            // both directions at once.
+            let (a, b) = scale_squares(n0 + i0);
+            let vi = a + (b - a) * fs;
+            let (a, b) = scale_squares(n0 + o0);
+            let vo = a + (b - a) * fs;
+            let lo = Vec4::new(vi.x, vi.y, vo.x, vo.y);
+            let hi = Vec4::new(vi.z, vi.w, vo.z, vo.w);
+            let v = (lo + (hi - lo) * Vec4::new(fi, fi, fo, fo)) * SCALE_DECODE;
+            return ((self.lobe_base, self.alpha.2), v.x * v.z, [v.y, v.w]);
         }
         let (ax2, ay2) = (
             self.ndf.alpha_x * self.ndf.alpha_x,
@@ -993,34 +1102,31 @@ impl Tabulated {
         );
         let a = (0.5 * (alpha_proj2(ax2, ay2, wi) + alpha_proj2(ax2, ay2, wo))).sqrt();
         let asc = scale_alpha_coord(a);
+        let (si, fi) = scale(self.ndf_index, asc, wi.z);
+        let (so, fo) = scale(self.ndf_index, asc, wo.z);
+        let (a0, _, fa) = split(alpha_coord(a), ALPHA_N);
         (
-            split(alpha_coord(a), ALPHA_N),
-            scale(self.ndf_index, asc, wi.z) * scale(self.ndf_index, asc, wo.z),
+            (lobe_index(self.ndf_index, a0, 0, 0), fa),
+            si * so,
+            [fi, fo],
         )
     }
 
     /// The multiply scattered `f |wo.z|` for `wi.z > 0`, `wo.z > 0`, given
     /// the single-scattering `f_ss1 |wo.z|` with F = 1 of the same pair.
     #[inline]
-    fn multiple(&self, wi: Vec3, wo: Vec3, ss1: f32) -> Vec3 {
+    fn multiple(&self, wi: Vec3, wo: Vec3, ss1: f32) -> Vec3A {
         let (ri, ro) = (wi.z.min(1.0).sqrt(), wo.z.min(1.0).sqrt());
-        let (alpha, s) = self.alpha_and_scale(wi, wo, ri, ro);
+        let ((base, fa), s, [si, so]) = self.alpha_and_scale(wi, wo, ri, ro);
         let nodes = |r: f32| split_root(r, MU_N);
-        let (ni, no) = (nodes(ri), nodes(ro));
-        let (f, peak, r) = lookup_nodes(self.ndf_index, alpha, ni, no, cos_phi(wi, wo));
-        let b = Vec3A::from(self.fbar);
+        let (f, peak, r) = lookup_nodes(base, fa, nodes(ri), nodes(ro), cos_phi(wi, wo));
         // First and last facets: the reflectance at the cosines seen from
         // mu_i and mu_o (Schlick-shaped deviation from fbar).
-        let fe = |(i0, fi): (usize, f32)| {
-            let (a0, _, fa) = alpha;
-            let [u0, u1, v0, v1] =
-                square::<MU_N, { MU_N + 2 }>(&FIRST, albedo_index(self.ndf_index, a0, i0));
-            let (s0, s1) = (u0 + (u1 - u0) * fi, v0 + (v1 - v0) * fi);
-            let sf = s0 + (s1 - s0) * fa;
-            self.fresnel_curve.at(sf).clamp(Vec3A::ZERO, Vec3A::ONE)
-        };
-        let r5 = (1.0 - r[0] - r[1] - r[2]).max(0.0);
-        let tint = fe(ni) * fe(no) * (b * (b * (b * r5 + r[2]) + r[1]) + r[0]);
+        let fe = |sf: f32| self.fresnel_curve.at(sf).clamp(Vec3A::ZERO, Vec3A::ONE);
+        // The order fractions interpolate stored ones whose sum is at most 1
+        // (to f32 rounding), so r5 = 1 - r2 - r3 - r4 >= 0 needs no clamp.
+        let [q2, q3, q4] = self.order_tint;
+        let tint = fe(si) * fe(so) * (Vec3A::ONE - q2 * (1.0 - r[0]) + q3 * r[1] + q4 * r[2]);
         // The smooth part is clamped at 0 (its cosine series can dip below 0
         // next to a strong peaked part); the scale table integrates the
         // clamped series, so the furnace holds with the clamp.
@@ -1072,7 +1178,7 @@ impl Tabulated {
                 lobe * (ci * co)
             }
         };
-        Vec3::from(tint * value)
+        tint * value
     }
 
     /// Weight of the cosine lobe in the sampling mixture for `mu_i`.
@@ -1086,11 +1192,11 @@ impl Tabulated {
     /// pdf of `wo`, sharing `D` and `Lambda(wi)`:
     /// `pdf = D_wi(h) / (4 wi.h) = G1(wi) D(h) / (4 wi.z)`.
     #[inline(always)]
-    fn single_terms(&self, wi: Vec3, wo: Vec3) -> (f32, Vec3, f32) {
+    fn single_terms(&self, wi: Vec3, wo: Vec3) -> (f32, Vec3A, f32) {
         if let Some(a2) = self.iso_ggx_a2 {
             let (_, f, p) = iso_ggx_reflection(a2, wi, wo);
-            if self.fresnel_lanes.is_none() {
-                return (f, Vec3::ONE, p);
+            if self.unit_fresnel {
+                return (f, Vec3A::ONE, p);
             }
             // wi.H = 1 + wi.wo > 0 for two directions above.
             let hv = wi + wo;
@@ -1099,13 +1205,18 @@ impl Tabulated {
         let h = (wi + wo).normalize_or_zero();
         let ci = wi.dot(h);
         if ci <= 0.0 || h.z <= 0.0 {
-            return (0.0, Vec3::ZERO, 0.0);
+            return (0.0, Vec3A::ZERO, 0.0);
         }
         let d = self.ndf.d(h);
         let li = self.ndf.lambda(wi);
         let lo = self.ndf.lambda(wo);
         let base = d / (4.0 * wi.z);
-        (base / (1.0 + li + lo), self.fresnel(ci), base / (1.0 + li))
+        let fresnel = if self.unit_fresnel {
+            Vec3A::ONE
+        } else {
+            self.fresnel(ci)
+        };
+        (base / (1.0 + li + lo), fresnel, base / (1.0 + li))
     }
 
     /// The visible-normal pdf of `wo` alone (what [`Self::single_terms`]
@@ -1131,7 +1242,7 @@ impl Tabulated {
         }
         let (ss1, fresnel, ps) = self.single_terms(wi, wo);
         let pdf = (1.0 - q) * ps + q * wo.z / PI;
-        (fresnel * ss1 + self.multiple(wi, wo, ss1), pdf)
+        (Vec3::from(fresnel * ss1 + self.multiple(wi, wo, ss1)), pdf)
     }
 }
 
@@ -1160,7 +1271,7 @@ impl ScatterModel for Tabulated {
             return Vec3::ZERO;
         }
         let (ss1, fresnel, _) = self.single_terms(wi, wo);
-        fresnel * ss1 + self.multiple(wi, wo, ss1)
+        Vec3::from(fresnel * ss1 + self.multiple(wi, wo, ss1))
     }
 
     fn sample(&self, wi: Vec3, rng: &mut Rng) -> Sample {
