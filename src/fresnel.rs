@@ -233,18 +233,43 @@ impl ConductorLanes {
     /// only when it is not finite).
     #[inline]
     pub fn eval(&self, cos_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
-        let c = cos_i.clamp(0.0, 1.0);
-        let f = conductor_closed_form(
-            Vec3A::splat(c),
+        Vec3::from(conductor_lanes(
+            cos_i,
             Vec3A::from(self.eta2_minus_k2),
             Vec3A::from(self.four_eta2_k2),
-        );
-        if f.is_finite() {
-            Vec3::from(f.clamp(Vec3A::ZERO, Vec3A::ONE))
-        } else {
-            conductor(c, eta, k)
-        }
+            |c| Vec3A::from(conductor(c, eta, k)),
+        ))
     }
+}
+
+/// [`conductor_rgb`]'s closed form in SIMD lanes from the prepared
+/// `eta^2 - k^2` and `4 eta^2 k^2` per channel ([`ConductorLanes`]), at the
+/// cosine clamped to `[0, 1]`; where it is not finite (`c = 0` with
+/// `k = 0`), `complex(c)`: the complex form, in a cold call (its inputs are
+/// not loaded on the common path). One scalar finiteness test for the
+/// three lanes: a sum of finite reflectances is finite, one with a NaN or
+/// infinite lane is not.
+#[inline(always)]
+pub fn conductor_lanes(
+    cos_i: f32,
+    eta2_minus_k2: Vec3A,
+    four_eta2_k2: Vec3A,
+    complex: impl FnOnce(f32) -> Vec3A,
+) -> Vec3A {
+    let c = cos_i.clamp(0.0, 1.0);
+    let f = conductor_closed_form(Vec3A::splat(c), eta2_minus_k2, four_eta2_k2);
+    if (f.x + f.y + f.z).is_finite() {
+        f.clamp(Vec3A::ZERO, Vec3A::ONE)
+    } else {
+        cold(|| complex(c))
+    }
+}
+
+/// Calls `f` on a path the compiler keeps out of line.
+#[cold]
+#[inline(never)]
+fn cold<R>(f: impl FnOnce() -> R) -> R {
+    f()
 }
 
 /// [`conductor_rgb`]'s closed form for one channel in `f64` (for tables

@@ -1040,27 +1040,11 @@ impl Tabulated {
     /// index precomputed; the complex form where it is not finite).
     #[inline]
     fn fresnel(&self, c: f32) -> Vec3A {
-        let c = c.clamp(0.0, 1.0);
         let (e2k2, four_e2k2) = self.fresnel_lanes;
-        let f = fresnel::conductor_closed_form(Vec3A::splat(c), e2k2, four_e2k2);
-        // One scalar test for the three lanes (a sum of finite values in
-        // [0, 1]-like ranges is finite; a NaN or infinite lane is not).
-        if (f.x + f.y + f.z).is_finite() {
-            f.clamp(Vec3A::ZERO, Vec3A::ONE)
-        } else {
-            self.fresnel_complex(c)
-        }
-    }
-
-    /// [`fresnel::conductor`], the complex form (the cold path of
-    /// [`Self::fresnel`]).
-    #[cold]
-    #[inline(never)]
-    fn fresnel_complex(&self, c: f32) -> Vec3A {
-        match self.facet {
+        fresnel::conductor_lanes(c, e2k2, four_e2k2, |c| match self.facet {
             Facet::Conductor { eta, k } => fresnel::conductor(c, eta, k).into(),
             _ => Vec3A::ONE,
-        }
+        })
     }
 
     /// The effective Fresnel reflectance of inter-reflections (per channel).
