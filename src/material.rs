@@ -394,25 +394,24 @@ impl Material {
         if wi.z == 0.0 || wo.z == 0.0 || self.back_face(wi) {
             return Vec3::ZERO;
         }
-        if let ModelImpl::Base(BaseModel::Single(m)) = &self.imp {
-            // The cheap tier inline, without the two dispatch calls.
-            return finite_or_zero(m.eval_pdf(wi, wo, LOBE_ALL, true, false).0);
+        match &self.imp {
+            // The two analytic tiers inline, without the dispatch calls
+            // (TABULATED is deterministic: one evaluation).
+            ModelImpl::Base(BaseModel::Single(m)) => {
+                finite_or_zero(m.eval_pdf(wi, wo, LOBE_ALL, true, false).0)
+            }
+            ModelImpl::Base(BaseModel::Tabulated(m)) => finite_or_zero(m.eval(wi, wo, rng)),
+            ModelImpl::Base(BaseModel::TabulatedDielectric(m)) => {
+                finite_or_zero(m.eval(wi, wo, rng))
+            }
+            _ => self.eval_dispatched(wi, wo, rng),
         }
-        self.eval_dispatched(wi, wo, rng)
     }
 
     /// [`Material::eval_unit`] for every model but SINGLE and TABULATED, out
     /// of line.
     #[inline(never)]
     fn eval_dispatched(&self, wi: Vec3, wo: Vec3, rng: &mut Rng) -> Vec3 {
-        // TABULATED (deterministic: one evaluation) by a direct call.
-        match &self.imp {
-            ModelImpl::Base(BaseModel::Tabulated(m)) => return finite_or_zero(m.eval(wi, wo, rng)),
-            ModelImpl::Base(BaseModel::TabulatedDielectric(m)) => {
-                return finite_or_zero(m.eval(wi, wo, rng));
-            }
-            _ => {}
-        }
         finite_or_zero(eval_prepared(
             &self.imp,
             self.chosen.evaluations,
