@@ -50,6 +50,13 @@ const CASES: &[Case] = &[
         chosen: false,
     },
     Case {
+        name: "SINGLE conductor aniso",
+        model: MSBSDF_MODEL_SINGLE,
+        ndf: MSBSDF_NDF_GGX,
+        facet: u32::MAX,
+        chosen: false,
+    },
+    Case {
         name: "SINGLE dielectric",
         model: MSBSDF_MODEL_SINGLE,
         ndf: MSBSDF_NDF_GGX,
