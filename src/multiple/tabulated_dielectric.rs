@@ -117,8 +117,7 @@ use crate::multiple::compensation::AnisoDir;
 use crate::multiple::compensation_aniso_tables::{AN_MU, AN_PHI};
 use crate::multiple::tabulated::{CORR_MIRROR, corr_corner, stored_pair, tabulated_ndf, triangle};
 use crate::multiple::tabulated::{
-    MAX_ALPHA, MU_N, alpha_proj2, cos_phi, cosine_sample, decode, ndf_index, split, split_root,
-    text_header,
+    MAX_ALPHA, MU_N, alpha_proj2, cos_phi, cosine_sample, ndf_index, split, split_root, text_header,
 };
 use crate::ndf::Ndf;
 use crate::rng::Rng;
@@ -414,13 +413,37 @@ const _: () = {
 };
 
 /// The committed furnace scale table file, used at compile time only: it
-/// is decoded into [`SCALE`] and [`SCALE_HEADER`] (f32 values, which init
-/// and eval read with vector loads; the library holds them once).
+/// is decoded into [`SCALE`] and [`SCALE_HEADER`] (the library holds them
+/// once).
 const RAW_SCALE: &[u8; SCALE_FILE_BYTES] =
     include_bytes!("../../data/tabulated_dielectric_scale.bin");
 
-/// The furnace scale table (see [`scale_index`]).
-static SCALE: [f32; SCALE_LEN] = decode(RAW_SCALE, HEADER_BYTES);
+/// The furnace scale table (see [`scale_index`]) in units of
+/// [`SCALE_STEP`]: the file's f32 values rounded to the nearest step at
+/// compile time (half the bytes of f32; the step is 2.4e-4 of the smallest
+/// scale, and isotropic materials kept 16-bit scales already).
+static SCALE: [u16; SCALE_LEN] = scale_steps(RAW_SCALE);
+
+/// The f32 values of a scale table file rounded to multiples of
+/// [`SCALE_STEP`] (clamped to `[0, 65535]` steps).
+const fn scale_steps(raw: &[u8]) -> [u16; SCALE_LEN] {
+    let mut out = [0u16; SCALE_LEN];
+    let mut i = 0;
+    while i < SCALE_LEN {
+        let b = HEADER_BYTES + 4 * i;
+        let x = f32::from_le_bytes([raw[b], raw[b + 1], raw[b + 2], raw[b + 3]]);
+        let q = x / SCALE_STEP + 0.5;
+        out[i] = if q >= 65535.0 {
+            65535
+        } else if q > 0.0 {
+            q as u16
+        } else {
+            0
+        };
+        i += 1;
+    }
+    out
+}
 
 /// The text header of the furnace scale table file.
 static SCALE_HEADER: [u8; HEADER_BYTES] = {
@@ -465,10 +488,11 @@ fn floats<const N: usize, const B: usize>(raw: &[u8], i: usize) -> [f32; N] {
     }
 }
 
-/// Entry `i` of the furnace scale table (see [`scale_index`]).
+/// Entry `i` of the furnace scale table (see [`scale_index`]), as the
+/// library holds it (a multiple of 6.1e-5).
 #[inline]
 pub fn scale_value(i: usize) -> f32 {
-    SCALE.get(i).copied().unwrap_or(0.0)
+    SCALE.get(i).map_or(0.0, |&q| f32::from(q) * SCALE_STEP)
 }
 
 /// The text header of the scale table file.
@@ -550,11 +574,10 @@ fn scale_at(t: &Tri, dense: bool, root_mu: f32) -> f32 {
         let [x, y] = SCALE
             .get(b as usize + off..)
             .and_then(|s| s.first_chunk::<2>())
-            .copied()
-            .unwrap_or([0.0; 2]);
+            .map_or([0.0; 2], |&[x, y]| [f32::from(x), f32::from(y)]);
         s += (x + (y - x) * f) * w;
     }
-    s
+    s * SCALE_STEP
 }
 
 /// Largest furnace scale (the generator clamps the scales to `[0.25, 4]`).
@@ -573,13 +596,12 @@ fn node_scales(t: &Tri) -> [u16; 2 * SCALE_MU_N] {
     // The sums in units of SCALE_STEP.
     let mut sum = [0.0f32; 2 * SCALE_MU_N];
     for &(b, w) in t {
-        let w = w * (1.0 / SCALE_STEP);
         if let Some(row) = SCALE
             .get(b as usize..)
             .and_then(|s| s.first_chunk::<{ 2 * SCALE_MU_N }>())
         {
-            for (s, x) in sum.iter_mut().zip(row) {
-                *s += x * w;
+            for (s, &x) in sum.iter_mut().zip(row) {
+                *s += f32::from(x) * w;
             }
         }
     }
