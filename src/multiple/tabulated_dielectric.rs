@@ -72,7 +72,9 @@
 //! read on a triangle of their own table's `(alpha, eta)` plane (the table
 //! is computed for exactly this interpolation) at construction, for every
 //! cosine node of both sides, and kept in the material as 16-bit values
-//! (step 6.1e-5); per query they are interpolated linearly in `sqrt(mu)`
+//! (step 6.1e-5; the library holds the table itself in those steps,
+//! rounded from the file's f32 at compile time); per query they are
+//! interpolated linearly in `sqrt(mu)`
 //! (two reads per direction, anisotropic materials read the table). Roughness node 0 (a smooth surface) has no multiple
 //! scattering and is not stored: its corners read as 0. The cosine series
 //! is clamped at 0.
@@ -92,12 +94,13 @@
 //! then scaled by `s(wi) s(wo)` from a correction table
 //! (`data/tabulated_aniso_dielectric.bin`, `gen_tabulated_aniso --
 //! --dielectric`): per NDF, pair of the lobe table's roughness nodes,
-//! index node and side, on ENERGY_COMPENSATED's anisotropic azimuth and
-//! cosine grid, the factors that give the lobe the albedo `1 - E_ss(w)`
-//! (SINGLE's reflected plus transmitted albedo by quadrature) at every
-//! node from both sides; linear on triangles in roughness, linear in
-//! `ln E`, bilinear in azimuth and cosine. A product `s(wi) s(wo)` keeps
-//! both reciprocity rules.
+//! index node of its own ([`DCORR_ETA_N`], uniform in `ln E`: the lobe
+//! table's index nodes and the midpoints between them) and side, on
+//! ENERGY_COMPENSATED's anisotropic azimuth and cosine grid, the factors
+//! that give the lobe the albedo `1 - E_ss(w)` (SINGLE's reflected plus
+//! transmitted albedo by quadrature) at every node from both sides; linear
+//! on triangles in roughness, linear in `ln E`, bilinear in azimuth and
+//! cosine. A product `s(wi) s(wo)` keeps both reciprocity rules.
 //!
 //! ## Sampling
 //!
@@ -224,13 +227,24 @@ pub const DCORR_PAIRS: usize = (ALPHA_N - 1) * ALPHA_N / 2;
 /// ENERGY_COMPENSATED's anisotropic azimuth and cosine grid (side 0
 /// thin, 1 dense).
 pub const DCORR_BLOCK: usize = 2 * AN_PHI * AN_MU;
+/// Relative index nodes of the anisotropic furnace correction, uniform in
+/// `ln E` from [`ETA_MIN`] to [`ETA_MAX`]: the lobe table's index nodes
+/// (every second node, where the lobe's linear interpolation in `ln E` has
+/// its kinks) and the midpoints between them.
+pub const DCORR_ETA_N: usize = 2 * ETA_N - 1;
 /// Values of the correction table `[ndf][pair][eta][side][phi][mu]`.
-pub const DCORR_LEN: usize = NDF_N * DCORR_PAIRS * ETA_N * DCORR_BLOCK;
+pub const DCORR_LEN: usize = NDF_N * DCORR_PAIRS * DCORR_ETA_N * DCORR_BLOCK;
 /// Size of the correction file: a text header of [`HEADER_BYTES`] and
 /// [`DCORR_LEN`] little-endian `u16` (`tabulated::corr_encode`).
 pub const DCORR_FILE_BYTES: usize = HEADER_BYTES + 2 * DCORR_LEN;
 /// First bytes of the correction file.
-pub const DCORR_MAGIC: &[u8; 37] = b"MSBSDF-TABULATED-DIELECTRIC-ANISO-v1\n";
+pub const DCORR_MAGIC: &[u8; 37] = b"MSBSDF-TABULATED-DIELECTRIC-ANISO-v2\n";
+
+/// Relative index of node `e` of the anisotropic correction.
+pub fn dcorr_grid_eta(e: usize) -> f32 {
+    let t = e as f32 / (DCORR_ETA_N - 1) as f32;
+    (ETA_MIN.ln() + t * (ETA_MAX.ln() - ETA_MIN.ln())).exp()
+}
 
 /// Index of the stored pair of lobe roughness nodes `1 <= jx <= jy`.
 #[inline]
@@ -256,7 +270,7 @@ pub const fn dcorr_index(
     } else {
         (jy, jx, AN_PHI - 1 - k)
     };
-    ((ndf * DCORR_PAIRS + dcorr_pair(lo, hi)) * ETA_N + e) * DCORR_BLOCK
+    ((ndf * DCORR_PAIRS + dcorr_pair(lo, hi)) * DCORR_ETA_N + e) * DCORR_BLOCK
         + (side * AN_PHI + k) * AN_MU
         + i
 }
@@ -293,7 +307,8 @@ struct DCorr {
     one: f32,
 }
 
-/// The corners of `(alpha_x, alpha_y)` and the index split `eta`: linear on
+/// The corners of `(alpha_x, alpha_y)` and the split `eta` of the index on
+/// the correction's grid ([`DCORR_ETA_N`] nodes): linear on
 /// the triangle of the roughness square cut along its diagonal (Kuhn; the
 /// lobe's interpolation in roughness is piecewise linear in the pair's
 /// effective roughness, smooth across isotropy, but triangles keep the two
@@ -315,7 +330,8 @@ fn dcorr_corners(ndf: usize, ax: f32, ay: f32, eta: (usize, usize, f32)) -> DCor
         }
         let (lo, hi, m) = stored_pair(a, b);
         for (de, we) in [(0, 1.0 - fe), (1, fe)] {
-            let block = ((ndf * DCORR_PAIRS + dcorr_pair(lo, hi)) * ETA_N + e0 + de) * DCORR_BLOCK;
+            let block =
+                ((ndf * DCORR_PAIRS + dcorr_pair(lo, hi)) * DCORR_ETA_N + e0 + de) * DCORR_BLOCK;
             out.corners[2 * c + de] = (block as u32 | m, w * we);
         }
     }
@@ -769,8 +785,10 @@ impl TabulatedDielectric {
             scale: node_scales(&scale_tri(ndf_index, alpha_rms, scale_eta)),
             scale_eta,
             anisotropic: ndf.alpha_x != ndf.alpha_y,
-            dcorr: (ndf.alpha_x != ndf.alpha_y)
-                .then(|| dcorr_corners(ndf_index, ndf.alpha_x, ndf.alpha_y, eta)),
+            dcorr: (ndf.alpha_x != ndf.alpha_y).then(|| {
+                let c = eta_coord(e) * ((DCORR_ETA_N - 1) / (ETA_N - 1)) as f32;
+                dcorr_corners(ndf_index, ndf.alpha_x, ndf.alpha_y, split(c, DCORR_ETA_N))
+            }),
         }
     }
 
