@@ -210,18 +210,21 @@ fn anisotropic_furnace_at_correction_nodes() {
 
 /// The anisotropic furnace at the roughness nodes of
 /// `anisotropic_furnace_at_correction_nodes` and indices between the
-/// correction's index nodes (`tabulated_dielectric::dcorr_grid_eta`: 11,
-/// uniform in `ln E`), the same directions: what the linear interpolation
-/// in `ln E` leaves. Measured worst per index (the 6-node table of before
-/// in brackets): 1.15 0.0152 (0.0672), 1.5 0.0076 (0.0222), 1.8 0.0030
-/// (0.0079), 2.7 0.0020 (0.0051); all Beckmann or GGX (0.28, 1.125).
-/// Bounded at 0.02 for 1.15 (the lowest index interval, where the factors
-/// move most) and 0.01 above.
+/// correction's index nodes (`tabulated_dielectric::dcorr_grid_eta`: the
+/// lobe table's 6 and the midpoint 1.166 of the lowest interval), the same
+/// directions: what the linear interpolation in `ln E` leaves. Measured
+/// worst per index (the 6-node table in brackets): 1.15 0.0155 (0.0672),
+/// 1.5 0.0229 (0.0222), 1.8 0.0090 (0.0079), 2.7 0.0049 (0.0051); all
+/// Beckmann or GGX (0.28, 1.125), 1.5 from inside at 60 degrees along x.
+/// An 11-node grid (every lobe interval halved) measured 0.0152, 0.0076,
+/// 0.0030, 0.0020 but needed 161 kB more, paid for by 16-bit furnace
+/// scales that put isotropic glass's init past twice SINGLE's
+/// (`docs/tabulated_dielectric.md`).
 #[test]
 fn anisotropic_furnace_between_index_nodes() {
     let (a3, a6, a2, a4) = (grid_alpha(3), grid_alpha(6), grid_alpha(2), grid_alpha(4));
     let mut failed = String::new();
-    for (eta, bound) in [(1.15f32, 0.02f64), (1.5, 0.01), (1.8, 0.01), (2.7, 0.01)] {
+    for (eta, bound) in [(1.15f32, 0.02f64), (1.5, 0.025), (1.8, 0.01), (2.7, 0.006)] {
         let (report, worst) = aniso_furnace(&[(a3, a6), (a2, a4)], eta);
         println!("eta {eta}: worst |albedo - 1| = {worst:.4}");
         if worst >= bound {
@@ -236,17 +239,16 @@ fn anisotropic_furnace_between_index_nodes() {
 /// furnace scales of that roughness (which normalise the isotropic table
 /// only) and scaled by the anisotropic correction
 /// `data/tabulated_aniso_dielectric.bin`, exact at its nodes (9 roughness
-/// nodes per axis, 11 indices) in the generator's quadrature; measured
-/// worst 0.0262 (Beckmann (0.3, 1) from outside at 85 degrees along y;
-/// 0.152 without the correction), bounded at 0.028. That worst is the
-/// interpolation in roughness, not in the index: at eta 1.598 (an index
-/// node) it is 0.0282, while at the roughness nodes around it ((0.28,
-/// 0.78) and (0.28, 1.125)) the same direction is within 0.0004; along
-/// `alpha_y` from 0.78 to 1.125 (`alpha_x` 0.28) the error is a bump
-/// peaking at -0.0274 near 1.0 (`gen_tabulated_aniso -- --dielectric-at`).
-/// The finer index grid (6 -> 11 nodes) took the other directions of this
-/// test from up to 0.0210 to 0.0098.
-const ANISO_FURNACE: f64 = 0.028;
+/// nodes per axis, 7 indices) in the generator's quadrature; measured
+/// worst 0.0236 (Beckmann (0.3, 1) from outside at 85 degrees along y;
+/// 0.0262 before the lobe's roughness was blended to the mean square near
+/// the normal, 0.152 without the correction), bounded at 0.025. That worst
+/// is the interpolation in roughness, not in the index: at eta 1.598 (an
+/// index node) it is 0.0264, while at the roughness nodes around it
+/// ((0.28, 0.78) and (0.28, 1.125)) the same direction is within 0.0004;
+/// along `alpha_y` from 0.78 to 1.125 (`alpha_x` 0.28) the error is a
+/// bump peaking near 1.0 (`gen_tabulated_aniso -- --dielectric-at`).
+const ANISO_FURNACE: f64 = 0.025;
 
 /// Chi-square of sampled directions against `pdf`, binned directly in
 /// direction (the cosine lobes of the mixture reach transmitted directions

@@ -667,7 +667,8 @@ fn solve<R: AsRef<[f64]>>(m: &[R], target: &[f64]) -> (Vec<f32>, Stats) {
 /// `--dielectric`: `data/tabulated_aniso_dielectric.bin`, the anisotropic
 /// furnace correction of TABULATED's dielectric tier: per NDF, pair of the
 /// lobe table's roughness nodes `1 <= jx <= jy` (9 per axis), index node
-/// (`DCORR_ETA_N`: the lobe table's 6 and the midpoints between them) and
+/// (`DCORR_ETA_N`: the lobe table's 6 and the midpoint of the lowest
+/// interval) and
 /// side, on ENERGY_COMPENSATED's azimuth and cosine grid, factors
 /// `s` such that the lobe (read at the pair's effective roughness, with
 /// its isotropic furnace scales) scaled by `s(wi) s(wo)` has the multiply
@@ -721,8 +722,9 @@ fn dielectric(args: &[String], quad: usize) {
     let header = format!(
         "DIELECTRIC ANISO_CORRECTION v2 (MSBSDF_MODEL_TABULATED, dielectric facets): factors s \
          per [ndf: Beckmann, GGX][pair of the lobe table's roughness nodes 1 <= jx <= jy <= \
-         {}][index node: {DCORR_ETA_N}, uniform in ln E from {ETA_MIN} to {ETA_MAX}][side: \
-         thin, dense][phi: {AN_PHI}][mu: {AN_MU}] \
+         {}][index node: {DCORR_ETA_N}: the lobe table's, uniform in ln E from {ETA_MIN} to \
+         {ETA_MAX}, and the midpoint in ln E of the lowest interval as node 1][side: thin, \
+         dense][phi: {AN_PHI}][mu: {AN_MU}] \
          (ENERGY_COMPENSATED's anisotropic azimuth and cosine grid) as little-endian u16 v, \
          s = {CORR_MAX} (v / 65535)^2, after this {HEADER_BYTES}-byte header; (jx > jy, k) \
          reads (jy, jx, {} - k); an axis at node 0 reads 1. The lobe \
