@@ -88,7 +88,7 @@
 //! scattered part is read at `alpha_eff = sqrt((alpha_wi^2 + alpha_wo^2) /
 //! 2)` from the projected roughness of each direction's azimuth (blended
 //! linearly in `sin^2 theta` towards the mean square `(alpha_x^2 +
-//! alpha_y^2) / 2` within 30 degrees of the normal, where the projected
+//! alpha_y^2) / 2` within 45 degrees of the normal, where the projected
 //! roughness has no limit; see `proj2`), with the furnace scales of that
 //! roughness. Those normalise the isotropic lobe
 //! only (15% off the furnace from inside at grazing angles), so the lobe is
@@ -102,12 +102,12 @@
 //! transmitted albedo by quadrature) at every node from both sides; linear
 //! on triangles in roughness, linear in `ln E`, bilinear in azimuth and
 //! cosine. A product `s(wi) s(wo)` keeps both reciprocity rules. The
-//! furnace is not within 0.5% everywhere: 0.33% at roughness and index
-//! nodes, up to 2.4% on `tests/tabulated_dielectric.rs`'s directions
-//! (Beckmann (0.3, 1) glass 1.5 at 85 degrees, between roughness nodes),
-//! up to 3.4% at 200 random anisotropic materials, indices and directions
-//! to 89 degrees (`gen_tabulated_aniso -- --dielectric-random`; 90% of
-//! them within 1.1%).
+//! furnace is not within 0.5% everywhere: 0.31% at roughness and index
+//! nodes, up to 2.0% on `tests/tabulated_dielectric.rs`'s directions
+//! (Beckmann (0.3, 1) glass 1.5 from inside at 60 degrees, between index
+//! nodes), up to 3.1% at 200 random anisotropic materials, indices and
+//! directions to 89 degrees (`gen_tabulated_aniso -- --dielectric-random`;
+//! 90% of them within 1.0%).
 //!
 //! ## Sampling
 //!
@@ -727,18 +727,20 @@ fn ms_albedo(t: &Tri, dense: bool, mu_i: f32) -> (f32, f32) {
 }
 
 /// `sin^2` of the polar angle below which [`proj2`] blends the projected
-/// roughness towards the mean square (30 degrees).
-const PROJ_BLEND_S2: f32 = 0.25;
+/// roughness towards the mean square (45 degrees).
+const PROJ_BLEND_S2: f32 = 0.5;
 
 /// Squared roughness a direction reads the lobe at: the projected
-/// roughness of its azimuth (`tabulated::alpha_proj2`) from 30 degrees
+/// roughness of its azimuth (`tabulated::alpha_proj2`) from 45 degrees
 /// off the normal, blended linearly in `sin^2 theta` towards the mean
 /// square `(alpha_x^2 + alpha_y^2) / 2` at the normal. The projected
 /// roughness alone has no limit at the normal (it depends on the azimuth
 /// only), and the uncorrected lobe's albedo near normal incidence with
 /// it: from the dense side of GGX (1.53, 0.125) glass 0.507, -26% (along
 /// y) and +11% (along x) at 5 degrees against -0.1% at the normal, which
-/// the correction's last cosine cell (0 to 29 degrees) cannot follow.
+/// the correction's last cosine cell (0 to 29 degrees) cannot follow (a
+/// 30-degree blend, that cell only, left 9% at 17 degrees for Beckmann
+/// (1.125, 0.125) glass 0.626 from outside; 45 degrees 2.8%).
 #[inline(always)]
 fn proj2(ax2: f32, ay2: f32, w: Vec3) -> f32 {
     let s2 = w.x * w.x + w.y * w.y;
