@@ -25,6 +25,11 @@
 //! `cargo run --release --example gen_tabulated_aniso [-- --quad N]`;
 //! `-- --dielectric [--quad N]` writes the dielectric tier's
 //! `data/tabulated_aniso_dielectric.bin` the same way ([`dielectric`]);
+//! `-- --dielectric-random [COUNT]` measures anisotropic glass's furnace
+//! at random materials, indices and directions ([`dielectric_random`]);
+//! `-- --dielectric-eta-scan [--quad N]` the error of the correction's
+//! interpolation in the index for 6, 11 and 16 nodes
+//! ([`dielectric_eta_scan`]);
 //! `-- --check [--quad N]` prints where the anisotropic furnace error of
 //! the committed table sits (default N = 400): the test's materials, 16
 //! random nodes and 32 random materials; `-- --scan NDF AX AY0 AY1 THETA
@@ -183,6 +188,31 @@ fn main() {
         .position(|a| a == "--quad")
         .and_then(|p| args.get(p + 1))
         .and_then(|v| v.parse().ok());
+    if let Some(p) = args.iter().position(|a| a == "--dielectric-at") {
+        // NDF AX AY ETA THETA PHI (degrees; THETA > 90 from inside).
+        let v: Vec<f32> = args[p + 1..]
+            .iter()
+            .filter_map(|a| a.parse().ok())
+            .collect();
+        use msbsdf::multiple::tabulated_dielectric::TabulatedDielectric;
+        let (ax, ay, eta) = (v[1], v[2], v[3]);
+        let ndf = Ndf::new(NDFS[v[0] as usize], ax, ay);
+        let facet = Facet::Dielectric { eta };
+        let t = TabulatedDielectric::new(ndf, facet);
+        let s = Single::new(ndf, facet, G2Form::HeightCorrelated);
+        let (th, ph) = (v[4].to_radians(), v[5].to_radians());
+        let wi = Vec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos());
+        println!("{:+.4}", glass_albedo(&t, &s, wi, ax, ay, eta) - 1.0);
+        return;
+    }
+    if args.iter().any(|a| a == "--dielectric-random") {
+        dielectric_random(&args);
+        return;
+    }
+    if args.iter().any(|a| a == "--dielectric-eta-scan") {
+        dielectric_eta_scan(quad_arg.unwrap_or(64));
+        return;
+    }
     if args.iter().any(|a| a == "--dielectric") {
         dielectric(&args, quad_arg.unwrap_or(48));
         return;
@@ -519,20 +549,36 @@ fn ir(args: &[String]) {
 }
 
 /// One block of the dielectric correction: NDF `n`, lobe roughness nodes
-/// `1 <= jx <= jy`, index node `e` (glass-like material
-/// `eta = grid_eta(e)`, at least 1: the thin side outside). Rows and columns `side * 112 + node`.
+/// `1 <= jx <= jy`, index node `e` of the correction (glass-like material
+/// `eta = dcorr_grid_eta(e)`, at least 1: the thin side outside). Rows and columns `side * 112 + node`.
 /// The target is `1 - E_ss` with `E_ss` SINGLE's reflected plus transmitted
 /// albedo (`quad` x `quad` normals); the uncorrected lobe's reflection is
 /// integrated over the same normals, its transmission over a `2 quad / 3
 /// x 4 quad / 3` grid of directions in `(sqrt(1 - |z|), phi)` (the
 /// transmitted multiply scattered lobe is broad).
 fn dielectric_block(n: usize, jx: usize, jy: usize, e: usize, quad: usize) -> (Vec<f32>, Stats) {
-    use msbsdf::multiple::tabulated_dielectric::{
-        DCORR_BLOCK, TabulatedDielectric, grid_alpha, grid_eta,
-    };
+    let (m, target) = dielectric_system(
+        n,
+        jx,
+        jy,
+        msbsdf::multiple::tabulated_dielectric::dcorr_grid_eta(e),
+        quad,
+    );
+    solve(&m, &target)
+}
+
+/// The system of [`dielectric_block`] at any index `eta >= 1`: the matrix
+/// `M` (rows and columns `side * 112 + node`) and the targets `1 - E_ss`.
+fn dielectric_system(
+    n: usize,
+    jx: usize,
+    jy: usize,
+    eta: f32,
+    quad: usize,
+) -> (Vec<Vec<f64>>, Vec<f64>) {
+    use msbsdf::multiple::tabulated_dielectric::{DCORR_BLOCK, TabulatedDielectric, grid_alpha};
     let (ax, ay) = (grid_alpha(jx), grid_alpha(jy));
     let ay = if jx == jy { ay * 1.0001 } else { ay };
-    let eta = grid_eta(e);
     let facet = Facet::Dielectric { eta };
     let ndf = Ndf::new(NDFS[n], ax, ay);
     let tab = TabulatedDielectric::new(ndf, facet).without_aniso_correction();
@@ -572,7 +618,7 @@ fn dielectric_block(n: usize, jx: usize, jy: usize, e: usize, quad: usize) -> (V
         }
         lower_hemisphere_nodes(nz, np, |wo, w| add(world(wo), w, 1 - side, &mut rng));
     }
-    solve(&m, &target)
+    (m, target)
 }
 
 /// The symmetric Sinkhorn iteration `s_r <- s_r sqrt(target_r / albedo_r)`,
@@ -621,14 +667,16 @@ fn solve<R: AsRef<[f64]>>(m: &[R], target: &[f64]) -> (Vec<f32>, Stats) {
 /// `--dielectric`: `data/tabulated_aniso_dielectric.bin`, the anisotropic
 /// furnace correction of TABULATED's dielectric tier: per NDF, pair of the
 /// lobe table's roughness nodes `1 <= jx <= jy` (9 per axis), index node
-/// (6) and side, on ENERGY_COMPENSATED's azimuth and cosine grid, factors
+/// (`DCORR_ETA_N`: the lobe table's 6 and the midpoint of the lowest
+/// interval) and
+/// side, on ENERGY_COMPENSATED's azimuth and cosine grid, factors
 /// `s` such that the lobe (read at the pair's effective roughness, with
 /// its isotropic furnace scales) scaled by `s(wi) s(wo)` has the multiply
 /// scattered albedo `1 - E_ss` (reflected plus transmitted) at every node
 /// from both sides; solved per block like the conductor's (`block`).
 fn dielectric(args: &[String], quad: usize) {
     use msbsdf::multiple::tabulated_dielectric::{
-        ALPHA_N, DCORR_BLOCK, DCORR_LEN, DCORR_MAGIC, ETA_N, dcorr_index,
+        ALPHA_N, DCORR_BLOCK, DCORR_ETA_N, DCORR_LEN, DCORR_MAGIC, ETA_MAX, ETA_MIN, dcorr_index,
     };
     let t0 = std::time::Instant::now();
     let only: Option<usize> = args
@@ -640,7 +688,7 @@ fn dielectric(args: &[String], quad: usize) {
     for n in 0..2 {
         for jx in 1..ALPHA_N {
             for jy in jx..ALPHA_N {
-                for e in 0..ETA_N {
+                for e in 0..DCORR_ETA_N {
                     jobs.push((n, jx, jy, e));
                 }
             }
@@ -672,9 +720,11 @@ fn dielectric(args: &[String], quad: usize) {
     }
     let command: Vec<String> = args.iter().skip(1).cloned().collect();
     let header = format!(
-        "DIELECTRIC ANISO_CORRECTION v1 (MSBSDF_MODEL_TABULATED, dielectric facets): factors s \
+        "DIELECTRIC ANISO_CORRECTION v2 (MSBSDF_MODEL_TABULATED, dielectric facets): factors s \
          per [ndf: Beckmann, GGX][pair of the lobe table's roughness nodes 1 <= jx <= jy <= \
-         {}][index node: {ETA_N}][side: thin, dense][phi: {AN_PHI}][mu: {AN_MU}] \
+         {}][index node: {DCORR_ETA_N}: the lobe table's, uniform in ln E from {ETA_MIN} to \
+         {ETA_MAX}, and the midpoint in ln E of the lowest interval as node 1][side: thin, \
+         dense][phi: {AN_PHI}][mu: {AN_MU}] \
          (ENERGY_COMPENSATED's anisotropic azimuth and cosine grid) as little-endian u16 v, \
          s = {CORR_MAX} (v / 65535)^2, after this {HEADER_BYTES}-byte header; (jx > jy, k) \
          reads (jy, jx, {} - k); an axis at node 0 reads 1. The lobe \
@@ -711,4 +761,293 @@ fn dielectric(args: &[String], quad: usize) {
     }
     std::fs::write(&path, bytes).expect("write the table file");
     eprintln!("{header}wrote {path}");
+}
+
+/// A solved dielectric correction block with its system: `M`, the
+/// targets and the factors.
+type Solved = (Vec<Vec<f64>>, Vec<f64>, Vec<f32>);
+
+/// `--dielectric-eta-scan [--quad N]` (default 64): how the dielectric
+/// correction's linear interpolation in `ln E` fares with 6, 11 and 16
+/// index nodes: per NDF and a few roughness node pairs, the factors solved
+/// at the index nodes and interpolated to the midpoints between them, and
+/// the furnace error there at the correction's directions, `max_r |s_r (M
+/// s)_r - t_r|` with `M` and the targets `t` at the midpoint's index,
+/// printed as `midpoint:error/error of the factors solved there[side, phi
+/// node, mu node (hex) of the worst row, its factor solved there and at
+/// the two nodes]`.
+fn dielectric_eta_scan(quad: usize) {
+    use msbsdf::multiple::tabulated_dielectric::{ETA_MAX, ETA_MIN};
+    let from = |u: f32| (ETA_MIN.ln() + u * (ETA_MAX.ln() - ETA_MIN.ln())).exp();
+    let combos: Vec<(usize, usize, usize)> = [(2, 5), (1, 3), (3, 7), (5, 8)]
+        .iter()
+        .flat_map(|&(a, b)| [(0, a, b), (1, a, b)])
+        .collect();
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    std::thread::scope(|sc| {
+        for _ in 0..2 {
+            sc.spawn(|| {
+                loop {
+                    let idx = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                    let Some(&(n, jx, jy)) = combos.get(idx) else {
+                        break;
+                    };
+                    let mut cache: std::collections::HashMap<u32, Solved> =
+                        std::collections::HashMap::new();
+                    let mut get = |eta: f32| {
+                        cache
+                            .entry(eta.to_bits())
+                            .or_insert_with(|| {
+                                let (m, t) = dielectric_system(n, jx, jy, eta, quad);
+                                let s = solve(&m, &t).0;
+                                (m, t, s)
+                            })
+                            .clone()
+                    };
+                    let ns: &[usize] = if std::env::var("QUAD_ONLY").is_ok() {
+                        &[]
+                    } else {
+                        &[6, 11, 16]
+                    };
+                    for &nn in ns {
+                        let mut per = Vec::new();
+                        for k in 0..nn - 1 {
+                            let (ea, eb) = (
+                                from(k as f32 / (nn - 1) as f32),
+                                from((k + 1) as f32 / (nn - 1) as f32),
+                            );
+                            let em = from((k as f32 + 0.5) / (nn - 1) as f32);
+                            let (sa, sb) = (get(ea).2, get(eb).2);
+                            let (m, t, se) = get(em);
+                            let s: Vec<f64> = sa
+                                .iter()
+                                .zip(&sb)
+                                .map(|(a, b)| 0.5 * (*a as f64 + *b as f64))
+                                .collect();
+                            let se: Vec<f64> = se.iter().map(|&v| v as f64).collect();
+                            let (mut worst, mut floor, mut wr) = (0.0f64, 0.0f64, 0);
+                            for r in 0..t.len() {
+                                if t[r] < 1e-4 || m[r].iter().sum::<f64>() < 1e-4 {
+                                    continue;
+                                }
+                                let albedo = |s: &[f64]| {
+                                    s[r] * m[r].iter().zip(s).map(|(x, y)| x * y).sum::<f64>()
+                                };
+                                let a = albedo(&s);
+                                if (a - t[r]).abs() > worst {
+                                    worst = (a - t[r]).abs();
+                                    wr = r;
+                                }
+                                floor = floor.max((albedo(&se) - t[r]).abs());
+                            }
+                            let half = t.len() / 2;
+                            let (side, k, i) = (wr / half, wr % half / AN_MU, wr % AN_MU);
+                            per.push(format!(
+                                "{em:.3}:{worst:.4}/{floor:.4}[{side}{k}{i:x} {:.2} {:.2}-{:.2}]",
+                                se[wr], sa[wr], sb[wr]
+                            ));
+                        }
+                        println!("ndf {n} ({jx},{jy}) ln E N={nn}: {}", per.join(" "));
+                    }
+                    // 11 nodes: linear between neighbours against quadratic
+                    // through the three nodes of each lobe interval, at
+                    // its quarter points.
+                    let mut per = Vec::new();
+                    for k in 0..5 {
+                        let e3: Vec<f32> =
+                            (0..3).map(|d| from((2 * k + d) as f32 / 10.0)).collect();
+                        let s3: Vec<Vec<f32>> = e3.iter().map(|&e| get(e).2).collect();
+                        for t in [0.25f64, 0.75] {
+                            let em = from((2.0 * k as f32 + 2.0 * t as f32) / 10.0);
+                            let (m, tg, _) = get(em);
+                            let (l0, l1, l2) = (
+                                2.0 * (t - 0.5) * (t - 1.0),
+                                -4.0 * t * (t - 1.0),
+                                2.0 * t * (t - 0.5),
+                            );
+                            let quad: Vec<f64> = (0..tg.len())
+                                .map(|r| {
+                                    (l0 * s3[0][r] as f64
+                                        + l1 * s3[1][r] as f64
+                                        + l2 * s3[2][r] as f64)
+                                        .max(0.0)
+                                })
+                                .collect();
+                            let (a, b, u) = if t < 0.5 {
+                                (0, 1, 2.0 * t)
+                            } else {
+                                (1, 2, 2.0 * t - 1.0)
+                            };
+                            let lin: Vec<f64> = (0..tg.len())
+                                .map(|r| s3[a][r] as f64 * (1.0 - u) + s3[b][r] as f64 * u)
+                                .collect();
+                            let worst = |s: &[f64]| {
+                                let mut w = 0.0f64;
+                                for r in 0..tg.len() {
+                                    if tg[r] < 1e-4 || m[r].iter().sum::<f64>() < 1e-4 {
+                                        continue;
+                                    }
+                                    let al =
+                                        s[r] * m[r].iter().zip(s).map(|(x, y)| x * y).sum::<f64>();
+                                    w = w.max((al - tg[r]).abs());
+                                }
+                                w
+                            };
+                            per.push(format!("{em:.3}:{:.4}/{:.4}", worst(&lin), worst(&quad)));
+                        }
+                    }
+                    println!(
+                        "ndf {n} ({jx},{jy}) N=11 linear/quadratic: {}",
+                        per.join(" ")
+                    );
+                }
+            });
+        }
+    });
+}
+
+/// `--dielectric-random [COUNT]`: the white furnace of anisotropic
+/// TABULATED glass at `COUNT` (default 200) random cases: NDF, `alpha_x`
+/// and `alpha_y` (log-uniform in [0.05, 1.9]), relative index `E`
+/// (log-uniform in [1.05, 3]) seen from a random side, and incident
+/// direction (cosine uniform from `cos 89` degrees to 1, azimuth uniform);
+/// the albedo by the quadrature of `tests/tabulated_dielectric.rs` (SINGLE
+/// and the multiply scattered reflection over 400 x 400 normals, 800 x 800
+/// above alpha 1, the transmission over a third by two thirds of that in
+/// directions). Prints the worst `|albedo - 1|` per range of `E` and the
+/// worst cases.
+fn dielectric_random(args: &[String]) {
+    use msbsdf::multiple::tabulated_dielectric::TabulatedDielectric;
+    let count: usize = args
+        .iter()
+        .position(|a| a == "--dielectric-random")
+        .and_then(|p| args.get(p + 1))
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(200);
+    let mut rng = Rng::new(2026, 11);
+    let cases: Vec<(usize, f32, f32, f32, Vec3)> = (0..count)
+        .map(|_| {
+            let mut u = || rng.next_f32();
+            let n = (u() < 0.5) as usize;
+            let la = |v: f32| (0.05f32.ln() + v * (1.9f32.ln() - 0.05f32.ln())).exp();
+            let (ax, ay) = (la(u()), la(u()));
+            let e = (1.05f32.ln() + u() * (3.0f32.ln() - 1.05f32.ln())).exp();
+            let eta = if u() < 0.5 { e } else { 1.0 / e };
+            let mu = 89f32.to_radians().cos() + u() * (1.0 - 89f32.to_radians().cos());
+            let phi = u() * std::f32::consts::TAU;
+            let st = (1.0 - mu * mu).max(0.0).sqrt();
+            let side = if u() < 0.5 { 1.0 } else { -1.0 };
+            (
+                n,
+                ax,
+                ay,
+                eta,
+                Vec3::new(st * phi.cos(), st * phi.sin(), side * mu),
+            )
+        })
+        .collect();
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let out = std::sync::Mutex::new(Vec::new());
+    std::thread::scope(|sc| {
+        for _ in 0..2 {
+            sc.spawn(|| {
+                loop {
+                    let idx = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                    let Some(&(n, ax, ay, eta, wi)) = cases.get(idx) else {
+                        break;
+                    };
+                    let ndf = Ndf::new(NDFS[n], ax, ay);
+                    let facet = Facet::Dielectric { eta };
+                    let t = TabulatedDielectric::new(ndf, facet);
+                    let s = Single::new(ndf, facet, G2Form::HeightCorrelated);
+                    let q = glass_albedo(&t, &s, wi, ax, ay, eta);
+                    out.lock().expect("out").push((idx, q - 1.0));
+                }
+            });
+        }
+    });
+    let mut res = out.into_inner().expect("out");
+    res.sort_by(|a, b| b.1.abs().total_cmp(&a.1.abs()));
+    let ranges = [(1.0f32, 1.3f32), (1.3, 2.0), (2.0, 3.01)];
+    for (lo, hi) in ranges {
+        let sel: Vec<f64> = res
+            .iter()
+            .filter(|(i, _)| {
+                let e = cases[*i].3.max(1.0 / cases[*i].3);
+                (lo..hi).contains(&e)
+            })
+            .map(|r| r.1.abs())
+            .collect();
+        let mut sorted = sel.clone();
+        sorted.sort_by(|a, b| a.total_cmp(b));
+        let pct = |p: f64| {
+            sorted
+                .get(((sorted.len() as f64 - 1.0) * p) as usize)
+                .copied()
+                .unwrap_or(0.0)
+        };
+        println!(
+            "E in [{lo}, {hi}): {} cases, worst {:.4}, 90% {:.4}, median {:.4}",
+            sel.len(),
+            pct(1.0),
+            pct(0.9),
+            pct(0.5)
+        );
+    }
+    for &(i, d) in res.iter().take(12) {
+        let (n, ax, ay, eta, wi) = cases[i];
+        println!(
+            "{:?} ({ax:.3},{ay:.3}) eta {eta:.3} wi ({:.3},{:.3},{:.3}) theta {:.1}: {d:+.4}",
+            NDFS[n],
+            wi.x,
+            wi.y,
+            wi.z,
+            wi.z.abs().acos().to_degrees()
+        );
+    }
+}
+
+/// Reflected plus transmitted albedo of TABULATED glass `t` (SINGLE `s`)
+/// from `wi` by the quadrature of `tests/tabulated_dielectric.rs`.
+fn glass_albedo<T: ScatterModel, S: ScatterModel>(
+    t: &T,
+    s: &S,
+    wi: Vec3,
+    ax: f32,
+    ay: f32,
+    eta: f32,
+) -> f64 {
+    let n = if ax.max(ay) > 1.0 { 800 } else { 400 };
+    let mut rng = Rng::new(0, 0);
+    let side = wi.z.signum();
+    let up = Vec3::new(wi.x, wi.y, wi.z.abs());
+    let eta_l = if side > 0.0 { eta } else { 1.0 / eta };
+    let world = |v: Vec3| Vec3::new(v.x, v.y, v.z * side);
+    let e_ss = single_albedo(
+        |a, b| s.eval(world(a), world(b), &mut Rng::new(0, 0)).x,
+        ax,
+        ay,
+        up,
+        Some(eta_l),
+        n,
+    );
+    let r_ms = single_albedo(
+        |a, b| {
+            let (a, b) = (world(a), world(b));
+            t.eval(a, b, &mut Rng::new(0, 0)).x - s.eval(a, b, &mut Rng::new(0, 0)).x
+        },
+        ax,
+        ay,
+        up,
+        None,
+        n,
+    );
+    let (nz, np) = (n / 3, 2 * n / 3);
+    let mut t_ms = 0.0;
+    lower_hemisphere_nodes(nz, np, |wo, w| {
+        let (a, b) = (world(up), world(wo));
+        let v = t.eval(a, b, &mut rng).x - s.eval(a, b, &mut rng).x;
+        t_ms += v as f64 * w;
+    });
+    e_ss + r_ms + t_ms
 }
