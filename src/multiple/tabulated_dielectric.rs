@@ -89,7 +89,7 @@
 //! 2)` from the projected roughness of each direction's azimuth (blended
 //! linearly in `sin^2 theta` towards the mean square `(alpha_x^2 +
 //! alpha_y^2) / 2` within 45 degrees of the normal, where the projected
-//! roughness has no limit; see `proj2`), with the furnace scales of that
+//! roughness has no limit; see `tabulated::alpha_proj2`), with the furnace scales of that
 //! roughness. Those normalise the isotropic lobe
 //! only (15% off the furnace from inside at grazing angles), so the lobe is
 //! then scaled by `s(wi) s(wo)` from a correction table
@@ -726,34 +726,6 @@ fn ms_albedo(t: &Tri, dense: bool, mu_i: f32) -> (f32, f32) {
     (r, tr)
 }
 
-/// `sin^2` of the polar angle below which [`proj2`] blends the projected
-/// roughness towards the mean square (45 degrees).
-const PROJ_BLEND_S2: f32 = 0.5;
-
-/// Squared roughness a direction reads the lobe at: the projected
-/// roughness of its azimuth (`tabulated::alpha_proj2`) from 45 degrees
-/// off the normal, blended linearly in `sin^2 theta` towards the mean
-/// square `(alpha_x^2 + alpha_y^2) / 2` at the normal. The projected
-/// roughness alone has no limit at the normal (it depends on the azimuth
-/// only), and the uncorrected lobe's albedo near normal incidence with
-/// it: from the dense side of GGX (1.53, 0.125) glass 0.507, -26% (along
-/// y) and +11% (along x) at 5 degrees against -0.1% at the normal, which
-/// the correction's last cosine cell (0 to 29 degrees) cannot follow (a
-/// 30-degree blend, that cell only, left 9% at 17 degrees for Beckmann
-/// (1.125, 0.125) glass 0.626 from outside; 45 degrees 2.8%).
-#[inline(always)]
-fn proj2(ax2: f32, ay2: f32, w: Vec3) -> f32 {
-    let s2 = w.x * w.x + w.y * w.y;
-    if s2 >= PROJ_BLEND_S2 {
-        alpha_proj2(ax2, ay2, w)
-    } else {
-        // (1 - t) mean + t proj, t = s2 / PROJ_BLEND_S2, proj s2 =
-        // x^2 ax2 + y^2 ay2.
-        (1.0 - s2 * (1.0 / PROJ_BLEND_S2)) * (0.5 * (ax2 + ay2))
-            + (w.x * w.x * ax2 + w.y * w.y * ay2) * (1.0 / PROJ_BLEND_S2)
-    }
-}
-
 /// The tabulated microfacet BSDF with dielectric facets.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TabulatedDielectric {
@@ -859,7 +831,9 @@ impl TabulatedDielectric {
                 self.ndf.alpha_x * self.ndf.alpha_x,
                 self.ndf.alpha_y * self.ndf.alpha_y,
             );
-            let a = (0.5 * (proj2(ax2, ay2, wi) + proj2(ax2, ay2, wo))).sqrt();
+            // Blended within 45 degrees of the normal (`alpha_proj2`).
+            let b = 0.5;
+            let a = (0.5 * (alpha_proj2(ax2, ay2, wi, b) + alpha_proj2(ax2, ay2, wo, b))).sqrt();
             aniso_plane = lobe_tri(self.ndf_index, split(alpha_coord(a), ALPHA_N), self.eta);
             aniso_scale = scale_tri(self.ndf_index, a, self.scale_eta);
             // The anisotropic furnace correction s(wi) s(wo), each on its
