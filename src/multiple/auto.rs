@@ -43,14 +43,14 @@
 //! suite's grazing pairs carry large values where an analytic model misses
 //! the multiply scattered light. TABULATED (SINGLE plus the tabulated
 //! orders >= 2 of the walk; conductors and dielectrics) is within about 1%
-//! on the conductor rows and 0.5% on glass at 1.3-1.8x SINGLE's time, the
+//! on the conductor rows and 0.5% on glass at 1.1-1.6x SINGLE's time, the
 //! knee of the front, and the default tolerance 0.03 lands on it: TABULATED
 //! for every conductor and for glass from alpha 0.2, SINGLE for smoother
 //! glass (`docs/auto_picks.md`, written by `cargo run --release --example
 //! auto_picks`, has every pick). ENERGY_COMPENSATED (error about 0.03-0.08)
 //! costs no less than TABULATED in the current table (the two have swapped
 //! order between harness runs; [`COST_TIE`] treats such costs as a tie),
-//! so it is not picked. 0.1 keeps SINGLE for most conductors up to alpha
+//! so it is not picked. 0.1 keeps SINGLE for GGX conductors up to alpha
 //! 0.3 and for glass up to 0.5; 0.01 picks walks averaged
 //! over 32 to 512 evaluations per query for most Beckmann and anisotropic
 //! conductors (0.1 to 3 ms per eval). A renderer that
