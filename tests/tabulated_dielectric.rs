@@ -8,7 +8,7 @@ mod common;
 use common::*;
 use glam::Vec3;
 use msbsdf::facet::Facet;
-use msbsdf::multiple::compensation::{lower_hemisphere_nodes, single_albedo};
+use msbsdf::multiple::compensation::glass_albedo;
 use msbsdf::multiple::heitz::Heitz;
 use msbsdf::multiple::tabulated::{MU_N, grid_mu, hat_moment, project_exit};
 use msbsdf::multiple::tabulated_dielectric::{
@@ -43,55 +43,20 @@ fn incident(theta: f64, side: f32) -> Vec3 {
     Vec3::new(d.x, 0.0, side * d.z)
 }
 
-/// Relative index seen from `wi`'s side.
-fn eta_seen(eta: f32, side: f32) -> f32 {
-    if side > 0.0 { eta } else { 1.0 / eta }
-}
-
-/// Directional albedo (reflection + transmission) of TABULATED by
-/// deterministic quadrature, in the frame where `wi` is up: SINGLE's
-/// albedo and the multiply scattered reflection (which holds the peaked
-/// part `B f_ss1`) over microfacet normals (`single_albedo`, `n x n`; 400
-/// x 400 for roughness up to 1, 800 x 800 above), and the multiply
-/// scattered transmission (smooth, but not confined to the directions a
-/// refraction reaches) over an `n / 3 x 2 n / 3` grid of `wo` in
-/// `(sqrt(1 - |z|), phi)` (133 x 266, 266 x 533). The multiply scattered
-/// part is TABULATED's eval minus SINGLE's. At alpha 1.9 from inside at 85-89
-/// degrees, 400 x 400 is still 0.1-0.2% from the converged value (1600 x
-/// 1600): 800 x 800 is within 0.07%.
+/// Directional albedo (reflection + transmission) of TABULATED `t` by
+/// deterministic quadrature (`compensation::glass_albedo`: SINGLE `s`'s
+/// albedo and the rest's reflection over microfacet normals, 400 x 400 for
+/// roughness up to 1, 800 x 800 above; the rest's transmission over a
+/// grid of the lower hemisphere).
 fn albedo_quadrature(t: &Material, s: &Material, wi: Vec3, ax: f32, ay: f32, eta: f32) -> f64 {
-    let n = if ax.max(ay) > 1.0 { 800 } else { 400 };
-    let mut rng = Rng::new(0, 0);
-    let side = wi.z.signum();
-    let (up, eta_l) = (Vec3::new(wi.x, wi.y, wi.z.abs()), eta_seen(eta, side));
-    let world = |v: Vec3| Vec3::new(v.x, v.y, v.z * side);
-    let e_ss = single_albedo(
-        |a, b| s.eval(world(a), world(b), &mut Rng::new(0, 0)).x,
+    glass_albedo(
+        |a, b| t.eval(a, b, &mut Rng::new(0, 0)).x,
+        |a, b| s.eval(a, b, &mut Rng::new(0, 0)).x,
+        wi,
         ax,
         ay,
-        up,
-        Some(eta_l),
-        n,
-    );
-    let r_ms = single_albedo(
-        |a, b| {
-            let (a, b) = (world(a), world(b));
-            t.eval(a, b, &mut Rng::new(0, 0)).x - s.eval(a, b, &mut Rng::new(0, 0)).x
-        },
-        ax,
-        ay,
-        up,
-        None,
-        n,
-    );
-    let (nz, np) = (n / 3, 2 * n / 3);
-    let mut t_ms = 0.0;
-    lower_hemisphere_nodes(nz, np, |wo, w| {
-        let (a, b) = (world(up), world(wo));
-        let v = t.eval(a, b, &mut rng).x - s.eval(a, b, &mut rng).x;
-        t_ms += v as f64 * w;
-    });
-    e_ss + r_ms + t_ms
+        eta,
+    )
 }
 
 /// White furnace to 89 degrees from both sides: a lossless dielectric

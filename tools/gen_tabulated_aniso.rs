@@ -1008,7 +1008,8 @@ fn dielectric_random(args: &[String]) {
 }
 
 /// Reflected plus transmitted albedo of TABULATED glass `t` (SINGLE `s`)
-/// from `wi` by the quadrature of `tests/tabulated_dielectric.rs`.
+/// from `wi` by the quadrature of `tests/tabulated_dielectric.rs`
+/// (`compensation::glass_albedo`).
 fn glass_albedo<T: ScatterModel, S: ScatterModel>(
     t: &T,
     s: &S,
@@ -1017,37 +1018,12 @@ fn glass_albedo<T: ScatterModel, S: ScatterModel>(
     ay: f32,
     eta: f32,
 ) -> f64 {
-    let n = if ax.max(ay) > 1.0 { 800 } else { 400 };
-    let mut rng = Rng::new(0, 0);
-    let side = wi.z.signum();
-    let up = Vec3::new(wi.x, wi.y, wi.z.abs());
-    let eta_l = if side > 0.0 { eta } else { 1.0 / eta };
-    let world = |v: Vec3| Vec3::new(v.x, v.y, v.z * side);
-    let e_ss = single_albedo(
-        |a, b| s.eval(world(a), world(b), &mut Rng::new(0, 0)).x,
+    msbsdf::multiple::compensation::glass_albedo(
+        |a, b| t.eval(a, b, &mut Rng::new(0, 0)).x,
+        |a, b| s.eval(a, b, &mut Rng::new(0, 0)).x,
+        wi,
         ax,
         ay,
-        up,
-        Some(eta_l),
-        n,
-    );
-    let r_ms = single_albedo(
-        |a, b| {
-            let (a, b) = (world(a), world(b));
-            t.eval(a, b, &mut Rng::new(0, 0)).x - s.eval(a, b, &mut Rng::new(0, 0)).x
-        },
-        ax,
-        ay,
-        up,
-        None,
-        n,
-    );
-    let (nz, np) = (n / 3, 2 * n / 3);
-    let mut t_ms = 0.0;
-    lower_hemisphere_nodes(nz, np, |wo, w| {
-        let (a, b) = (world(up), world(wo));
-        let v = t.eval(a, b, &mut rng).x - s.eval(a, b, &mut rng).x;
-        t_ms += v as f64 * w;
-    });
-    e_ss + r_ms + t_ms
+        eta,
+    )
 }
