@@ -872,6 +872,10 @@ pub(crate) fn alpha_proj2(ax2: f32, ay2: f32, w: Vec3, blend_s2: f32) -> f32 {
 /// degrees for GGX (0.1, 0.6) gold.
 pub(crate) const CONDUCTOR_BLEND_S2: f32 = 1.0;
 
+/// The dielectric's `blend_s2` of [`alpha_proj2`]: 45 degrees, what its
+/// anisotropic correction table was solved with.
+pub(crate) const DIELECTRIC_BLEND_S2: f32 = 0.5;
+
 /// The tabulated microfacet BSDF (conductor facets).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Tabulated {
@@ -1077,9 +1081,22 @@ impl Tabulated {
         Vec3::from(self.order_tint[1] - self.order_tint[0] + 1.0)
     }
 
+    /// Each direction's squared roughness ([`alpha_proj2`], the
+    /// conductor's blend) of an anisotropic material.
+    #[inline]
+    fn proj2(&self, wi: Vec3, wo: Vec3) -> [f32; 2] {
+        let (ax2, ay2) = (
+            self.ndf.alpha_x * self.ndf.alpha_x,
+            self.ndf.alpha_y * self.ndf.alpha_y,
+        );
+        [wi, wo].map(|w| alpha_proj2(ax2, ay2, w, CONDUCTOR_BLEND_S2))
+    }
+
     /// Table roughness nodes, furnace scales `s(mu_i) s(mu_o)` and the
     /// first-facet Schlick weights `S(mu_i)`, `S(mu_o)` for a pair of
-    /// directions (`ri`, `ro` the square roots of their cosines).
+    /// directions (`ri`, `ro` the square roots of their cosines; `proj2`
+    /// their squared roughness from [`Self::proj2`], anisotropic materials
+    /// only).
     #[inline]
     fn alpha_and_scale(
         &self,
@@ -1087,6 +1104,7 @@ impl Tabulated {
         wo: Vec3,
         ri: f32,
         ro: f32,
+        proj2: [f32; 2],
     ) -> ((usize, f32), f32, [f32; 2]) {
         if self.aniso.is_none() {
             let (n0, fs) = self.scale_alpha;
@@ -1104,12 +1122,7 @@ impl Tabulated {
             let v = (lo + (hi - lo) * Vec4::new(fi, fi, fo, fo)) * SCALE_DECODE;
             return ((self.lobe_base, self.alpha.2), v.x * v.z, [v.y, v.w]);
         }
-        let (ax2, ay2) = (
-            self.ndf.alpha_x * self.ndf.alpha_x,
-            self.ndf.alpha_y * self.ndf.alpha_y,
-        );
-        let b = CONDUCTOR_BLEND_S2;
-        let a = (0.5 * (alpha_proj2(ax2, ay2, wi, b) + alpha_proj2(ax2, ay2, wo, b))).sqrt();
+        let a = (0.5 * (proj2[0] + proj2[1])).sqrt();
         let asc = scale_alpha_coord(a);
         let (si, fi) = scale(self.ndf_index, asc, wi.z);
         let (so, fo) = scale(self.ndf_index, asc, wo.z);
@@ -1126,7 +1139,13 @@ impl Tabulated {
     #[inline]
     fn multiple(&self, wi: Vec3, wo: Vec3, ss1: f32) -> Vec3A {
         let (ri, ro) = (wi.z.min(1.0).sqrt(), wo.z.min(1.0).sqrt());
-        let ((base, fa), s, [si, so]) = self.alpha_and_scale(wi, wo, ri, ro);
+        // Each direction's roughness once, for the table and the factors.
+        let proj2 = if self.aniso.is_some() {
+            self.proj2(wi, wo)
+        } else {
+            [0.0; 2]
+        };
+        let ((base, fa), s, [si, so]) = self.alpha_and_scale(wi, wo, ri, ro, proj2);
         let nodes = |r: f32| split_root(r, MU_N);
         let (f, peak, r) = lookup_nodes(base, fa, nodes(ri), nodes(ro), cos_phi(wi, wo));
         // First and last facets: the reflectance at the cosines seen from
@@ -1148,18 +1167,14 @@ impl Tabulated {
                 // and its albedo at the peak's roughness) has the albedo
                 // 1 - E(wi) where E(wo) and E_p(wo) are close to E(wi) and
                 // E_p(wi) (over the peak of f_p); symmetric.
-                let (ax2, ay2) = (
-                    self.ndf.alpha_x * self.ndf.alpha_x,
-                    self.ndf.alpha_y * self.ndf.alpha_y,
-                );
                 // Per direction: b, t and the correction s (the albedo and
                 // correction tables share the azimuth and cosine weights).
-                let factors = |w: Vec3| {
+                let factors = |w: Vec3, p2: f32| {
                     let d = AnisoDir::new(w);
                     let [e_w] = e.read_at([&CONDUCTOR_E_ANISO], &d);
                     let e_w = e_w.clamp(0.05, 1.0);
                     let [e_p] = e_peak.read_at([&CONDUCTOR_E_ANISO], &d);
-                    let a = alpha_proj2(ax2, ay2, w, CONDUCTOR_BLEND_S2).sqrt();
+                    let a = p2.sqrt();
                     let e_iso = compensation::conductor_e(
                         self.ndf_index,
                         compensation::alpha_coord(a),
@@ -1177,7 +1192,7 @@ impl Tabulated {
                         c,
                     )
                 };
-                let ((bi, ti, ci), (bo, to, co)) = (factors(wi), factors(wo));
+                let ((bi, ti, ci), (bo, to, co)) = (factors(wi, proj2[0]), factors(wo, proj2[1]));
                 // The peaked lobe f_ss1 |wo.z| with F = 1 of the NDF with
                 // the scaled roughness (two directions above: h.z > 0).
                 let h = (wi + wo).normalize_or_zero();

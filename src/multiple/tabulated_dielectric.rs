@@ -127,8 +127,8 @@ use crate::multiple::compensation::AnisoDir;
 use crate::multiple::compensation_aniso_tables::{AN_MU, AN_PHI};
 use crate::multiple::tabulated::{CORR_MIRROR, corr_corner, stored_pair, tabulated_ndf, triangle};
 use crate::multiple::tabulated::{
-    MAX_ALPHA, MU_N, alpha_proj2, cos_phi, cosine_sample, decode, ndf_index, split, split_root,
-    text_header,
+    DIELECTRIC_BLEND_S2, MAX_ALPHA, MU_N, alpha_proj2, cos_phi, cosine_sample, decode, ndf_index,
+    split, split_root, text_header,
 };
 use crate::ndf::Ndf;
 use crate::rng::Rng;
@@ -831,8 +831,7 @@ impl TabulatedDielectric {
                 self.ndf.alpha_x * self.ndf.alpha_x,
                 self.ndf.alpha_y * self.ndf.alpha_y,
             );
-            // Blended within 45 degrees of the normal (`alpha_proj2`).
-            let b = 0.5;
+            let b = DIELECTRIC_BLEND_S2;
             let a = (0.5 * (alpha_proj2(ax2, ay2, wi, b) + alpha_proj2(ax2, ay2, wo, b))).sqrt();
             aniso_plane = lobe_tri(self.ndf_index, split(alpha_coord(a), ALPHA_N), self.eta);
             aniso_scale = scale_tri(self.ndf_index, a, self.scale_eta);
