@@ -198,14 +198,10 @@ pub fn conductor(cos_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
 /// the random walks.
 #[inline]
 pub fn conductor_rgb(cos_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
-    let c = cos_i.clamp(0.0, 1.0);
-    let (eta2, k2) = (eta * eta, k * k);
-    let f = conductor_closed_form(Vec3::splat(c), eta2 - k2, 4.0 * eta2 * k2);
-    if f.is_finite() {
-        f.clamp(Vec3::ZERO, Vec3::ONE)
-    } else {
-        conductor(c, eta, k)
-    }
+    let (eta2, k2) = (Vec3A::from(eta * eta), Vec3A::from(k * k));
+    Vec3::from(conductor_lanes(cos_i, eta2 - k2, 4.0 * eta2 * k2, |c| {
+        Vec3A::from(conductor(c, eta, k))
+    }))
 }
 
 /// A conductor's indices prepared once per material for [`conductor_rgb`]'s
