@@ -56,6 +56,7 @@
 //! alpha in [0, 2] and relative indices in [1/3, 3]; `Material::new`
 //! refuses values outside.
 
+use super::bintable::Q16;
 use super::compensation_aniso_tables as an;
 use super::compensation_ms_tables as ms;
 use super::compensation_tables as t;
@@ -127,9 +128,9 @@ pub fn aniso_grid_alpha(j: usize) -> f32 {
     MAX_ALPHA * s * s
 }
 
-/// A table on the grid of `CONDUCTOR_E_ANISO`:
+/// A table on the grid of `CONDUCTOR_E_ANISO` (16-bit values, [`Q16`]):
 /// `[ndf][alpha_x][alpha_y][phi][mu]`.
-pub(crate) type AnisoTable = [[[[[f32; an::AN_MU]; an::AN_PHI]; an::AN_A]; an::AN_A]; 2];
+pub(crate) type AnisoTable = [[[[[Q16; an::AN_MU]; an::AN_PHI]; an::AN_A]; an::AN_A]; 2];
 
 /// A direction's lower azimuth and cosine nodes on the anisotropic grid
 /// and the weights of the upper ones (the table is even in `w.x` and
@@ -246,16 +247,17 @@ impl Aniso {
             let Some(c) = flat.get(at..).and_then(|s| s.first_chunk::<AN_SPAN>()) else {
                 return 0.0;
             };
+            // In units of the 16-bit step, scaled once at the end.
             let corner = |o: usize| {
-                let u = lerp(c[o], c[o + 1], fi);
-                let v = lerp(c[o + an::AN_MU], c[o + an::AN_MU + 1], fi);
+                let u = lerp(c[o].units(), c[o + 1].units(), fi);
+                let v = lerp(c[o + an::AN_MU].units(), c[o + an::AN_MU + 1].units(), fi);
                 lerp(u, v, fk)
             };
-            lerp(
+            Q16::from_units(lerp(
                 lerp(corner(0), corner(AN_DY), self.fy),
                 lerp(corner(AN_DX), corner(AN_DX + AN_DY), self.fy),
                 self.fx,
-            )
+            ))
         })
     }
 
@@ -277,7 +279,7 @@ impl Aniso {
 /// piecewise linear in mu (each interval integrated exactly against mu),
 /// constant below the first node, and the azimuth average of a piecewise
 /// linear function by the trapezoid rule. Computed at compile time from
-/// `CONDUCTOR_E_ANISO`.
+/// `CONDUCTOR_E_ANISO`'s 16-bit values (the ones eval interpolates).
 static E_AVG_ANISO: [[[f32; an::AN_A]; an::AN_A]; 2] = {
     let mut out = [[[0.0f32; an::AN_A]; an::AN_A]; 2];
     let mut n = 0;
@@ -292,11 +294,11 @@ static E_AVG_ANISO: [[[f32; an::AN_A]; an::AN_A]; 2] = {
                 while k < an::AN_PHI {
                     // 2 int_0^1 E(mu) mu dmu for this azimuth node.
                     let m0 = aniso_grid_mu(0);
-                    let mut a = e[k][0] * m0 * m0;
+                    let mut a = e[k][0].get() * m0 * m0;
                     let mut i = 0;
                     while i + 1 < an::AN_MU {
                         let (x0, x1) = (aniso_grid_mu(i), aniso_grid_mu(i + 1));
-                        let (e0, e1) = (e[k][i], e[k][i + 1]);
+                        let (e0, e1) = (e[k][i].get(), e[k][i + 1].get());
                         let h = x1 - x0;
                         a += 2.0 * (e0 * h * (x0 + 0.5 * h) + (e1 - e0) * h * (0.5 * x0 + h / 3.0));
                         i += 1;
@@ -380,12 +382,13 @@ fn dielectric_e(ndf: usize, alpha_c: f32, eta: f32, mu: f32) -> f32 {
     let (k0, k1, fk) = split(eta_coord(eta), t::ETA_N);
     let (a0, a1, fa) = split(alpha_c, t::ALPHA_N);
     let (m0, m1, fm) = split(mu_coord(mu), t::MU_N);
-    let at = |k: usize, a: usize| lerp(e[k][a][m0], e[k][a][m1], fm);
-    lerp(
+    // In units of the 16-bit step, scaled once at the end.
+    let at = |k: usize, a: usize| lerp(e[k][a][m0].units(), e[k][a][m1].units(), fm);
+    Q16::from_units(lerp(
         lerp(at(k0, a0), at(k0, a1), fa),
         lerp(at(k1, a0), at(k1, a1), fa),
         fk,
-    )
+    ))
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
