@@ -443,9 +443,8 @@ fn stability_sweep() {
 /// with the earlier lobe and correction), bounded at 0.5%.
 #[test]
 fn anisotropic_furnace_at_correction_nodes() {
-    use msbsdf::multiple::compensation::{aniso_grid_mu, aniso_grid_phi};
     use msbsdf::multiple::compensation_aniso_tables::{AN_MU, AN_PHI};
-    use msbsdf::multiple::tabulated::{CORR_A, corr_grid_alpha};
+    use msbsdf::multiple::tabulated::{CORR_A, corr_grid_alpha, corr_node_dir};
     let mut pick = Rng::new(2718, 2);
     let mut report = String::new();
     let mut worst: f64 = 0.0;
@@ -461,9 +460,8 @@ fn anisotropic_furnace_at_correction_nodes() {
         n += 1;
         let k = (pick.next_u32() % AN_PHI as u32) as usize;
         let i = (pick.next_u32() % AN_MU as u32) as usize;
-        let (mu, phi) = (aniso_grid_mu(i), aniso_grid_phi(k));
-        let st = (1.0 - mu * mu).max(0.0).sqrt();
-        let wi = Vec3::new(st * phi.cos(), st * phi.sin(), mu);
+        let wi = corr_node_dir(k * AN_MU + i);
+        let (mu, phi) = (wi.z, wi.y.atan2(wi.x));
         let m = mirror(NDFS[nd], ax, ay);
         let q = albedo_quadrature(&m, wi, ax, ay, 0);
         report += &format!(

@@ -45,8 +45,9 @@ use msbsdf::multiple::compensation::{
 };
 use msbsdf::multiple::compensation_aniso_tables::{AN_A, AN_MU, AN_PHI, CONDUCTOR_E_ANISO};
 use msbsdf::multiple::tabulated::{
-    CORR_A, CORR_BLOCK, CORR_LEN, CORR_MAGIC, CORR_MAX, HEADER_BYTES, Tabulated, corr_decode,
-    corr_dir_weights, corr_encode, corr_grid_alpha, corr_index,
+    CORR_A, CORR_BLOCK, CORR_LEN, CORR_MAGIC, CORR_MAX, CORR_PAIR_MAX, CORR_VALUES, HEADER_BYTES,
+    Tabulated, corr_decode, corr_dir_weights, corr_encode, corr_grid_alpha, corr_index,
+    corr_node_dir, dcorr_dir_weights,
 };
 use msbsdf::ndf::{Ndf, NdfKind};
 use msbsdf::rng::Rng;
@@ -83,6 +84,8 @@ fn node_dir(r: usize) -> Vec3 {
 struct Stats {
     residual: f64,
     clamped: usize,
+    /// Stored products at the top of their range (conductor).
+    pair_clamped: usize,
     steps: usize,
 }
 
@@ -102,13 +105,13 @@ fn table_bytes(magic: &[u8], header: &str, table: &[u16]) -> Vec<u8> {
 /// Runs `work` on every job on `threads` threads (each takes the next job
 /// not yet taken), with a progress line counting `what`; returns, per
 /// thread, `(job index, factors, statistics)`.
-fn run_jobs<J: Sync>(
+fn run_jobs<J: Sync, V: Send>(
     jobs: &[J],
     threads: usize,
     what: &str,
     t0: std::time::Instant,
-    work: impl Fn(&J) -> (Vec<f32>, Stats) + Sync,
-) -> Vec<Vec<(usize, Vec<f32>, Stats)>> {
+    work: impl Fn(&J) -> (Vec<V>, Stats) + Sync,
+) -> Vec<Vec<(usize, Vec<V>, Stats)>> {
     let total = jobs.len();
     let next = std::sync::atomic::AtomicUsize::new(0);
     let results = std::thread::scope(|sc| {
@@ -144,12 +147,14 @@ fn run_jobs<J: Sync>(
     results
 }
 
-/// The factors of roughness pair `(jx, jy)` of NDF `n` (1 where an axis has
-/// roughness < 1e-3: no multiply scattered energy to correct).
-fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<f32>, Stats) {
+/// The stored values of roughness pair `(jx, jy)` of NDF `n`: per node
+/// `[s sqrt(t), s sqrt(b)]` (`[1, 1]` where an axis has roughness < 1e-3:
+/// no multiply scattered energy to correct), and the statistics with the
+/// residual of the rounded values.
+fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) {
     let (ax, ay) = (corr_grid_alpha(jx), corr_grid_alpha(jy));
     if ax < 1e-3 || ay < 1e-3 {
-        return (vec![1.0; CORR_BLOCK], Stats::default());
+        return (vec![[1.0; 2]; CORR_BLOCK], Stats::default());
     }
     // On the diagonal the model is isotropic; the factors there are read by
     // anisotropic materials between nodes, so they are taken for a barely
@@ -163,22 +168,67 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<f32>, Stats) {
     let tab = Tabulated::new(ndf, white).without_aniso_correction();
     let single = Single::new(ndf, white, G2Form::HeightCorrelated);
     let mut rng = Rng::new(0, 0);
+    // The uncorrected factors sqrt(t), sqrt(b) at every node.
+    let fac: Vec<(f64, f64)> = (0..CORR_BLOCK)
+        .map(|r| {
+            let (t, b) = tab.aniso_factors(corr_node_dir(r)).expect("anisotropic");
+            (t as f64, b as f64)
+        })
+        .collect();
     let mut target = vec![0.0f64; CORR_BLOCK];
-    let mut m = vec![[0.0f64; CORR_BLOCK]; CORR_BLOCK];
+    // The two parts integrated against the interpolation weights of wo.
+    let mut mt = vec![[0.0f64; CORR_BLOCK]; CORR_BLOCK];
+    let mut mp = vec![[0.0f64; CORR_BLOCK]; CORR_BLOCK];
     for r in 0..CORR_BLOCK {
-        let wi = node_dir(r);
+        let wi = corr_node_dir(r);
         target[r] =
             1.0 - single_albedo(|x, y| single.eval(x, y, &mut rng).x, ax, ay, wi, None, quad);
         for (wo, w) in quadrature(ax, ay, wi, quad) {
-            let l0 = (tab.eval(wi, wo, &mut rng).x - single.eval(wi, wo, &mut rng).x).max(0.0);
-            if l0 > 0.0 {
-                for (node, b) in corr_dir_weights(wo) {
-                    m[r][node] += l0 as f64 * w * b as f64;
-                }
+            if wo.z <= 0.0 {
+                continue;
+            }
+            let Some((t, p)) = tab.aniso_parts(wi, wo) else {
+                continue;
+            };
+            for (node, b) in corr_dir_weights(wo) {
+                mt[r][node] += t as f64 * w * b as f64;
+                mp[r][node] += p as f64 * w * b as f64;
             }
         }
     }
-    solve(&m, &target)
+    // With u = s sqrt(t), v = s sqrt(b) at every node, the albedo from node
+    // r is s_r sum_n M[r][n] s_n.
+    let m: Vec<Vec<f64>> = (0..CORR_BLOCK)
+        .map(|r| {
+            (0..CORR_BLOCK)
+                .map(|c| fac[r].0 * fac[c].0 * mt[r][c] + fac[r].1 * fac[c].1 * mp[r][c])
+                .collect()
+        })
+        .collect();
+    let (s, mut stats) = solve(&m, &target);
+    let round = |x: f64| corr_decode(corr_encode(x as f32, CORR_PAIR_MAX), CORR_PAIR_MAX) as f64;
+    let uv: Vec<[f64; 2]> = (0..CORR_BLOCK)
+        .map(|r| [round(s[r] as f64 * fac[r].0), round(s[r] as f64 * fac[r].1)])
+        .collect();
+    stats.pair_clamped = uv
+        .iter()
+        .flatten()
+        .filter(|&&x| x >= CORR_PAIR_MAX as f64 * 0.999)
+        .count();
+    // The residual of what is stored.
+    stats.residual = 0.0;
+    for r in 0..CORR_BLOCK {
+        if target[r] < 1e-4 {
+            continue;
+        }
+        let a: f64 = (0..CORR_BLOCK)
+            .map(|c| uv[r][0] * mt[r][c] * uv[c][0] + uv[r][1] * mp[r][c] * uv[c][1])
+            .sum();
+        if a > 1e-4 {
+            stats.residual = stats.residual.max((a - target[r]).abs());
+        }
+    }
+    (uv.iter().map(|v| v.map(|x| x as f32)).collect(), stats)
 }
 
 fn main() {
@@ -261,44 +311,55 @@ fn main() {
     let results = run_jobs(&jobs, threads, "roughness pairs", t0, |&(n, jx, jy)| {
         block(n, jx, jy, quad)
     });
-    let mut table = vec![0u16; CORR_LEN];
-    let (mut lo, mut hi) = (f32::MAX, f32::MIN);
+    let mut table = vec![0u16; CORR_VALUES * CORR_LEN];
+    let (mut lo, mut hi) = ([f32::MAX; 2], [f32::MIN; 2]);
     let mut stats = Stats::default();
     for (idx, block, st) in results.into_iter().flatten() {
         let (n, jx, jy) = jobs[idx];
         stats.residual = stats.residual.max(st.residual);
         stats.clamped += st.clamped;
+        stats.pair_clamped += st.pair_clamped;
         stats.steps = stats.steps.max(st.steps);
         for k in 0..AN_PHI {
             for i in 0..AN_MU {
-                let v = block[k * AN_MU + i];
-                lo = lo.min(v);
-                hi = hi.max(v);
-                table[corr_index(n, jx, jy, k, i)] = corr_encode(v);
+                let at = corr_index(n, jx, jy, k, i);
+                for (c, &v) in block[k * AN_MU + i].iter().enumerate() {
+                    lo[c] = lo[c].min(v);
+                    hi[c] = hi[c].max(v);
+                    table[CORR_VALUES * at + c] = corr_encode(v, CORR_PAIR_MAX);
+                }
             }
         }
     }
     let command: Vec<String> = args.iter().skip(1).cloned().collect();
     let header = format!(
-        "ANISO_CORRECTION v2 (MSBSDF_MODEL_TABULATED): factors s per [ndf: Beckmann, GGX]\
-         [roughness pair (jx <= jy) of {CORR_A} x {CORR_A}: alpha = 2 (j / {})^2]\
-         [phi: {AN_PHI}][mu: {AN_MU}] (ENERGY_COMPENSATED's anisotropic azimuth and cosine \
-         grid) as little-endian u16 v, s = {CORR_MAX} (v / 65535)^2, after this \
-         {HEADER_BYTES}-byte header; (jx > jy, k) reads (jy, jx, {} - k). The lobe \
-         (Tabulated::without_aniso_correction minus SINGLE) scaled by s(wi) s(wo) has the \
-         multiply scattered albedo 1 - E_ss at every node, E_ss SINGLE's albedo with F = 1; \
-         both by deterministic quadrature (compensation::single_albedo's normals, {quad} x \
-         {quad} per node), s by the symmetric Sinkhorn iteration on the integrated \
-         interpolation weights (residual 1e-6 or 3000 steps); no random numbers. 1 where \
-         an axis has roughness < 1e-3; diagonal nodes at alpha_y (1 + 1e-4); clamped to \
-         [{S_MIN}, {CORR_MAX}]. Range {lo:.4} - {hi:.4}; worst |albedo - (1 - E_ss)| at \
-         the nodes after rounding {:.2e}; {} clamped factors; at most {} Sinkhorn steps.\n\
+        "ANISO_CORRECTION v3 (MSBSDF_MODEL_TABULATED): per [ndf: Beckmann, GGX][roughness \
+         pair (jx <= jy) of {CORR_A} x {CORR_A}: alpha = 2 (j / {})^2][phi: {AN_PHI}][mu: \
+         {AN_MU}] (ENERGY_COMPENSATED's anisotropic azimuth and cosine grid) the two factors \
+         u = s sqrt(t), v = s sqrt(b) of the lobe's table and peaked parts \
+         (Tabulated::aniso_parts, aniso_factors) as little-endian u16 pairs x, factor = \
+         {CORR_PAIR_MAX} (x / 65535)^2, after this {HEADER_BYTES}-byte header; (jx > jy, k) \
+         reads (jy, jx, {} - k). The lobe parts.0 u(wi) u(wo) + parts.1 v(wi) v(wo), u and v \
+         interpolated as eval does, has the multiply scattered albedo 1 - E_ss at every \
+         node, E_ss SINGLE's albedo with F = 1; both by deterministic quadrature \
+         (compensation::single_albedo's normals, {quad} x {quad} per node), s by the \
+         symmetric Sinkhorn iteration on the integrated interpolation weights (residual 1e-6 \
+         or 3000 steps); no random numbers. [1, 1] where an axis has roughness < 1e-3; \
+         diagonal nodes at alpha_y (1 + 1e-4); s clamped to [{S_MIN}, {CORR_MAX}]. Range u \
+         {:.4} - {:.4}, v {:.4} - {:.4}; worst |albedo - (1 - E_ss)| at the nodes with the \
+         stored values {:.2e}; {} clamped factors s, {} stored values at the top of the \
+         range; at most {} Sinkhorn steps.\n\
          Command: cargo run --release --example gen_tabulated_aniso{}{}\nCommit: {}\n\
          Time: {:.0} s\n",
         CORR_A - 1,
         AN_PHI - 1,
+        lo[0],
+        hi[0],
+        lo[1],
+        hi[1],
         stats.residual,
         stats.clamped,
+        stats.pair_clamped,
         stats.steps,
         if command.is_empty() { "" } else { " -- " },
         command.join(" "),
@@ -337,7 +398,11 @@ fn e_table(n: usize, ax: f32, ay: f32, w: Vec3) -> f32 {
         for (dy, wy) in [(0, 1.0 - fy), (1, fy)] {
             for (dk, wk) in [(0, 1.0 - fk), (1, fk)] {
                 for (di, wi) in [(0, 1.0 - fi), (1, fi)] {
-                    v += wx * wy * wk * wi * CONDUCTOR_E_ANISO[n][jx + dx][jy + dy][k + dk][i + di];
+                    v += wx
+                        * wy
+                        * wk
+                        * wi
+                        * CONDUCTOR_E_ANISO[n][jx + dx][jy + dy][k + dk][i + di].get();
                 }
             }
         }
@@ -379,7 +444,8 @@ fn check(quad: usize) {
         nodes += 1;
         let k = (pick.next_u32() % AN_PHI as u32) as usize;
         let i = (pick.next_u32() % AN_MU as u32) as usize;
-        cases.push((n, ax, ay, aniso_grid_mu(i).acos(), aniso_grid_phi(k)));
+        let w = corr_node_dir(k * AN_MU + i);
+        cases.push((n, ax, ay, w.z.acos(), w.y.atan2(w.x)));
     }
     // Random materials and directions (between nodes in general).
     let mut pick = Rng::new(31415, 9);
@@ -608,7 +674,7 @@ fn dielectric_system(
         let mut add = |wo: Vec3, w: f64, col_side: usize, rng: &mut Rng| {
             let l0 = (tab.eval(wi, wo, rng).x - single.eval(wi, wo, rng).x).max(0.0);
             if l0 > 0.0 {
-                for (node, b) in corr_dir_weights(wo) {
+                for (node, b) in dcorr_dir_weights(wo) {
                     m[r][col_side * half + node] += l0 as f64 * w * b as f64;
                 }
             }
@@ -655,7 +721,7 @@ fn solve<R: AsRef<[f64]>>(m: &[R], target: &[f64]) -> (Vec<f32>, Stats) {
     }
     let s: Vec<f64> = s
         .iter()
-        .map(|&v| corr_decode(corr_encode(v as f32)) as f64)
+        .map(|&v| corr_decode(corr_encode(v as f32, CORR_MAX), CORR_MAX) as f64)
         .collect();
     for r in (0..rows).filter(|&r| active[r]) {
         stats.residual = stats.residual.max((albedo(&s, r) - target[r]).abs());
@@ -701,7 +767,7 @@ fn dielectric(args: &[String], quad: usize) {
     let results = run_jobs(&jobs, 2, "blocks", t0, |&(n, jx, jy, e)| {
         dielectric_block(n, jx, jy, e, quad)
     });
-    let one = corr_encode(1.0);
+    let one = corr_encode(1.0, CORR_MAX);
     let mut table = vec![one; DCORR_LEN];
     let (mut lo, mut hi) = (f32::MAX, f32::MIN);
     let mut stats = Stats::default();
@@ -715,7 +781,8 @@ fn dielectric(args: &[String], quad: usize) {
             lo = lo.min(v);
             hi = hi.max(v);
             let (side, node) = (r / half, r % half);
-            table[dcorr_index(n, jx, jy, e, side, node / AN_MU, node % AN_MU)] = corr_encode(v);
+            table[dcorr_index(n, jx, jy, e, side, node / AN_MU, node % AN_MU)] =
+                corr_encode(v, CORR_MAX);
         }
     }
     let command: Vec<String> = args.iter().skip(1).cloned().collect();

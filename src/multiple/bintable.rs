@@ -224,17 +224,6 @@ impl Q16 {
     }
 }
 
-/// A weight times a stored value, the form the tables' interpolations
-/// take: `w * q` is `w * q.get()`.
-impl std::ops::Mul<Q16> for f32 {
-    type Output = f32;
-
-    #[inline]
-    fn mul(self, q: Q16) -> f32 {
-        self * q.get()
-    }
-}
-
 /// Decodes a table file as a `[A][B][C][D][E]` array of [`Q16`] (compile
 /// time): each f32 value rounded to the nearest step ([`Q16::quantize`]).
 #[allow(clippy::type_complexity)]
@@ -282,7 +271,6 @@ mod tests {
             let d = (Q16::quantize(v).get() - v).abs();
             assert!(d <= 0.5 * Q16::STEP + 1e-7, "{v}: error {d}");
         }
-        assert_eq!(2.0 * Q16::quantize(0.5), 2.0 * Q16::quantize(0.5).get());
     }
 
     /// Every value of the tables stored as [`Q16`] is its file's f32 to

@@ -98,7 +98,7 @@ fn eta_coord(eta: f32) -> f32 {
 
 /// Abscissa of mu in the anisotropic table (quadratic spacing).
 #[inline]
-fn aniso_mu_coord(mu: f32) -> f32 {
+pub(crate) fn aniso_mu_coord(mu: f32) -> f32 {
     ((mu - t::MU_MIN) / (1.0 - t::MU_MIN))
         .clamp(0.0, 1.0)
         .sqrt()

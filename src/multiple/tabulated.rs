@@ -110,16 +110,24 @@
 //! mirror direction with only the energy `1 - E`, a lobe narrower than
 //! `f_ss1` (`w < 1`, larger `B` with roughness); GGX's are wider (`w` = 1.2).
 //!
-//! The sum is then scaled by `s(wi) s(wo)` with the furnace correction
-//! `data/tabulated_aniso.bin` ([`corr_value`]): per NDF, roughness pair on
-//! a 31 x 31 grid ([`corr_grid_alpha`]) and node of ENERGY_COMPENSATED's
-//! azimuth and cosine grid, the factors that give the corrected lobe the
+//! With the furnace correction `s` the lobe is
+//! `(1 - beta) f_table u(wi) u(wo) + beta f_p v(wi) v(wo)` with the
+//! per-direction factors `u = s sqrt(t)` and `v = s sqrt(b)`, which eval
+//! reads jointly from `data/tabulated_aniso.bin` ([`corr_values`]): per
+//! NDF, roughness pair on a 31 x 31 grid ([`corr_grid_alpha`]) and node of
+//! a direction grid ([`corr_dir`]: the albedo table's 16 cosines and 7
+//! nodes of the diamond angle `|y| / (|x| + |y|)`, no `atan2`), linear on
+//! triangles in roughness (the lobe has a kink at isotropy) and bilinear
+//! in direction. `s` gives the lobe with `u` and `v` interpolated so the
 //! albedo `1 - E_ss(w)` at every node (`E_ss` SINGLE's albedo with F = 1
-//! by quadrature; solved per roughness pair by `gen_tabulated_aniso`),
-//! linear on triangles in roughness (the lobe has a kink at isotropy) and
-//! bilinear in azimuth and cosine. Measured worst furnace error 0.37% on
-//! the test's directions, 0.77% at rough, strongly anisotropic grazing
-//! configurations between nodes (`docs/tabulated.md`).
+//! by quadrature; solved per roughness pair by `gen_tabulated_aniso` from
+//! `t` and `b` at the nodes, [`Tabulated::aniso_factors`]). Eval thus
+//! reads no albedo table: one read of two values per direction replaced
+//! `E`, `E_p`, `E_iso` and `s` (anisotropic gold eval 2402 -> 1542
+//! instructions GGX, 3544 -> 2101 Beckmann, with Beckmann's peaked lobe
+//! by [`crate::ndf::beckmann::lambda_rational`]). Measured worst furnace
+//! error 0.44% at the nodes and on the test's directions
+//! (`docs/tabulated.md`).
 //!
 //! ## Sampling
 //!
@@ -216,15 +224,25 @@ pub const CORR_PAIRS: usize = CORR_A * (CORR_A + 1) / 2;
 /// Values per roughness pair: ENERGY_COMPENSATED's azimuth and cosine grid
 /// (`[phi: AN_PHI][mu: AN_MU]`).
 pub const CORR_BLOCK: usize = AN_PHI * AN_MU;
-/// Values of the correction table `[ndf][pair][phi][mu]`.
+/// Nodes of the correction table `[ndf][pair][phi][mu]`.
 pub const CORR_LEN: usize = NDF_N * CORR_PAIRS * CORR_BLOCK;
+/// Stored values per node of the conductor's correction table: the
+/// corrected per-direction factors of the lobe's two parts (see
+/// [`corr_values`]).
+pub const CORR_VALUES: usize = 2;
 /// Total size of the correction table file: a text header of
-/// [`HEADER_BYTES`] and [`CORR_LEN`] little-endian `u16`.
-pub const CORR_FILE_BYTES: usize = HEADER_BYTES + 2 * CORR_LEN;
+/// [`HEADER_BYTES`] and [`CORR_VALUES`] little-endian `u16` per node of
+/// [`CORR_LEN`].
+pub const CORR_FILE_BYTES: usize = HEADER_BYTES + 2 * CORR_VALUES * CORR_LEN;
 /// First bytes of the correction table file.
-pub const CORR_MAGIC: &[u8; 28] = b"MSBSDF-TABULATED-ANISO-S-v2\n";
-/// Largest stored factor (the encoding's range).
+pub const CORR_MAGIC: &[u8; 28] = b"MSBSDF-TABULATED-ANISO-F-v3\n";
+/// Largest stored factor of the dielectric's correction (the encoding's
+/// range; [`corr_encode`]).
 pub const CORR_MAX: f32 = 8.0;
+/// Largest stored factor of the conductor's correction ([`corr_values`]:
+/// the correction times `sqrt(b)` reaches about 9 where the peaked lobe's
+/// albedo is small).
+pub const CORR_PAIR_MAX: f32 = 16.0;
 
 /// Roughness of node `j` of the correction table.
 pub fn corr_grid_alpha(j: usize) -> f32 {
@@ -261,29 +279,27 @@ pub const fn corr_index(ndf: usize, jx: usize, jy: usize, k: usize, i: usize) ->
     (ndf * CORR_PAIRS + corr_pair(lo, hi)) * CORR_BLOCK + k * AN_MU + i
 }
 
-/// The stored `u16` of a factor `s` in `[0, CORR_MAX]`: `s = CORR_MAX (v /
-/// 65535)^2`, a relative step of `2 / v` (5e-4 at `s` = 0.03, 9e-5 at 1).
-pub fn corr_encode(s: f32) -> u16 {
-    ((s / CORR_MAX).clamp(0.0, 1.0).sqrt() * 65535.0).round() as u16
+/// The stored `u16` of a factor `s` in `[0, max]`: `s = max (v /
+/// 65535)^2`, a relative step of `2 / v` (for `max` = 8: 5e-4 at `s` =
+/// 0.03, 9e-5 at 1). `max` is [`CORR_MAX`] (dielectric) or
+/// [`CORR_PAIR_MAX`] (conductor).
+pub fn corr_encode(s: f32, max: f32) -> u16 {
+    ((s / max).clamp(0.0, 1.0).sqrt() * 65535.0).round() as u16
 }
 
 /// The factor of a stored `u16` (see [`corr_encode`]).
 #[inline(always)]
-pub fn corr_decode(v: u16) -> f32 {
+pub fn corr_decode(v: u16, max: f32) -> f32 {
     let v = v as f32;
-    v * v * (CORR_MAX / (65535.0 * 65535.0))
+    v * v * (max / (65535.0 * 65535.0))
 }
 
-/// The committed anisotropic furnace correction
+/// The committed anisotropic furnace correction of conductors
 /// (`data/tabulated_aniso.bin`, `cargo run --release --example
 /// gen_tabulated_aniso`): per NDF, roughness pair on the grid
 /// [`corr_grid_alpha`] and node `(phi, mu)` of ENERGY_COMPENSATED's
-/// anisotropic grid, a factor `s` such that the anisotropic lobe scaled by
-/// `s(wi) s(wo)` (each linear on a triangle of the material's two
-/// roughness coordinates, see `corr_corners`, and bilinear in azimuth and
-/// cosine coordinate like the albedo table) has the multiply scattered albedo `1 - E_ss(w)` at every
-/// node, `E_ss` SINGLE's albedo with F = 1 by quadrature at the node.
-/// Read in place (not decoded into a second copy).
+/// anisotropic grid, the two corrected per-direction factors of the lobe
+/// ([`corr_values`]). Read in place (not decoded into a second copy).
 static RAW_CORR: &[u8; CORR_FILE_BYTES] = include_bytes!("../../data/tabulated_aniso.bin");
 
 const _: () = {
@@ -294,12 +310,18 @@ const _: () = {
     }
 };
 
-/// Value `i` of the correction table (see [`corr_index`]).
-pub fn corr_value(i: usize) -> f32 {
-    let b = HEADER_BYTES + 2 * i;
-    match RAW_CORR.get(b..b + 2) {
-        Some(v) => corr_decode(u16::from_le_bytes([v[0], v[1]])),
-        None => 1.0,
+/// The two values of node `i` of the conductor's correction table (see
+/// [`corr_index`]): `s sqrt(t)` and `s sqrt(b)` at the node, `s` the
+/// furnace correction solved by `gen_tabulated_aniso`, `t` and `b` the
+/// per-direction factors of the table's and the peaked part (module docs).
+pub fn corr_values(i: usize) -> [f32; 2] {
+    let b = HEADER_BYTES + 2 * CORR_VALUES * i;
+    match RAW_CORR.get(b..b + 4) {
+        Some(v) => [
+            corr_decode(u16::from_le_bytes([v[0], v[1]]), CORR_PAIR_MAX),
+            corr_decode(u16::from_le_bytes([v[2], v[3]]), CORR_PAIR_MAX),
+        ],
+        None => [1.0; 2],
     }
 }
 
@@ -360,25 +382,83 @@ pub(crate) fn stored_pair(a: usize, b: usize) -> (usize, usize, u32) {
     }
 }
 
-/// The correction `s` at a direction's azimuth and cosine nodes.
+/// The conductor's two corrected factors ([`corr_values`]) at a
+/// direction's nodes ([`corr_dir`]): per roughness corner the two
+/// cosine nodes of each of the two azimuth rows as one 8-byte read of
+/// `[u, v, u, v]`, squared (the encoding) and weighted in SIMD lanes; the
+/// encoding's constant factor once at the end. `[1, 1]` outside the file.
 #[inline]
-fn corr_at(corners: &CorrCorners, d: &AnisoDir) -> f32 {
-    let mut s = 0.0;
+fn corr_at(corners: &CorrCorners, d: &AnisoDir) -> [f32; 2] {
+    let mut acc = Vec4::ZERO;
+    let lanes = Vec4::new(1.0 - d.fi, 1.0 - d.fi, d.fi, d.fi);
     for &(b, w) in corners {
-        let block = (b & !CORR_MIRROR) as usize;
-        s += corr_corner(RAW_CORR, block, b & CORR_MIRROR != 0, d) * w;
+        let (k, fk) = if b & CORR_MIRROR != 0 {
+            (AN_PHI - 2 - d.k0, 1.0 - d.fk)
+        } else {
+            (d.k0, d.fk)
+        };
+        let at = HEADER_BYTES + 2 * CORR_VALUES * ((b & !CORR_MIRROR) as usize + k * AN_MU + d.i0);
+        let Some(r) = RAW_CORR
+            .get(at..)
+            .and_then(|r| r.first_chunk::<{ 2 * CORR_VALUES * (AN_MU + 2) }>())
+        else {
+            return [1.0; 2];
+        };
+        let row = |o: usize| {
+            let x = |j: usize| u16::from_le_bytes([r[o + 2 * j], r[o + 2 * j + 1]]) as f32;
+            Vec4::new(x(0), x(1), x(2), x(3))
+        };
+        let (lo, hi) = (row(0), row(2 * CORR_VALUES * AN_MU));
+        acc += (lo * lo * (w * (1.0 - fk)) + hi * hi * (w * fk)) * lanes;
     }
-    s
+    let s = acc * (CORR_PAIR_MAX / (65535.0 * 65535.0));
+    [s.x + s.z, s.y + s.w]
 }
 
-/// One roughness corner of an anisotropic correction table (`u16` values
-/// read in place from the file `raw`): the block of azimuth x cosine
-/// nodes starting at value `block`, read at a direction's nodes
-/// `(k, i0)`, `(k, i0 + 1)`, `(k + 1, i0)`, `(k + 1, i0 + 1)` (azimuth
-/// row `k` mirrored to `AN_PHI - 2 - k` when `mirror`: the symmetry
-/// `(alpha_x, alpha_y, phi) -> (alpha_y, alpha_x, pi/2 - phi)`),
-/// bilinear; 1 outside the file. Shared by the conductor and dielectric
-/// corrections.
+/// The conductor correction's nodes of a direction `w` (`w.z >= 0`): its
+/// azimuth coordinate is the diamond angle `|y| / (|x| + |y|)` on
+/// [`AN_PHI`] uniform nodes from 0 (`phi` = 0) to 1 (`phi` = 90 degrees),
+/// without the `atan2` of the albedo table's uniform azimuth grid
+/// (`AnisoDir::new`; two of them were a tenth of the anisotropic eval).
+/// Its nodes are within 0.8-1.6x of uniform spacing in `phi` (slope
+/// `1 / (cos phi + sin phi)^2`); nodes uniform in `sin^2 phi`, sparse at
+/// the axes, left the suite's GGX (0.1, 0.6) gold at 0.033 against 0.023.
+/// The exchange of the axes, `phi -> pi/2 - phi`, maps the coordinate `c`
+/// to `1 - c`: node `k` to `AN_PHI - 1 - k`, as on the uniform grid. At
+/// the normal (no azimuth) it reads 0.5; the lobe's nodes there agree
+/// for every azimuth up to the solve's residual (the conductor's
+/// roughness blend [`alpha_proj2`] has a limit at the normal).
+#[inline]
+pub(crate) fn corr_dir(w: Vec3) -> AnisoDir {
+    let (x, y) = (w.x.abs(), w.y.abs());
+    let s = x + y;
+    let c = if s > 0.0 { y / s } else { 0.5 };
+    let (k0, _, fk) = split(c * (AN_PHI - 1) as f32, AN_PHI);
+    let (i0, _, fi) = split(compensation::aniso_mu_coord(w.z.abs()), AN_MU);
+    AnisoDir { k0, fk, i0, fi }
+}
+
+/// The incident direction of node `r = k * AN_MU + i` of the conductor's
+/// correction ([`corr_dir`]: diamond angle `k / (AN_PHI - 1)`, the albedo
+/// table's cosine node `i`).
+pub fn corr_node_dir(r: usize) -> Vec3 {
+    let (mu, c) = (
+        compensation::aniso_grid_mu(r % AN_MU),
+        (r / AN_MU) as f32 / (AN_PHI - 1) as f32,
+    );
+    // y / (x + y) = c on the unit circle: (1 - c, c) normalised.
+    let st = (1.0 - mu * mu).max(0.0).sqrt();
+    let n = ((1.0 - c) * (1.0 - c) + c * c).sqrt();
+    Vec3::new(st * (1.0 - c) / n, st * c / n, mu)
+}
+
+/// One roughness corner of the dielectric's anisotropic correction table
+/// (`u16` values read in place from the file `raw`, [`corr_encode`] with
+/// [`CORR_MAX`]): the block of azimuth x cosine nodes starting at value
+/// `block`, read at a direction's nodes `(k, i0)`, `(k, i0 + 1)`, `(k + 1,
+/// i0)`, `(k + 1, i0 + 1)` (azimuth row `k` mirrored to `AN_PHI - 2 - k`
+/// when `mirror`: the symmetry `(alpha_x, alpha_y, phi) -> (alpha_y,
+/// alpha_x, pi/2 - phi)`), bilinear; 1 outside the file.
 #[inline(always)]
 pub(crate) fn corr_corner(raw: &[u8], block: usize, mirror: bool, d: &AnisoDir) -> f32 {
     let (k, fk) = if mirror {
@@ -392,7 +472,7 @@ pub(crate) fn corr_corner(raw: &[u8], block: usize, mirror: bool, d: &AnisoDir) 
         .and_then(|r| r.first_chunk::<{ 2 * AN_MU + 4 }>())
     {
         Some(r) => {
-            let v = |o: usize| corr_decode(u16::from_le_bytes([r[2 * o], r[2 * o + 1]]));
+            let v = |o: usize| corr_decode(u16::from_le_bytes([r[2 * o], r[2 * o + 1]]), CORR_MAX);
             [v(0), v(1), v(AN_MU), v(AN_MU + 1)]
         }
         None => [1.0; 4],
@@ -401,11 +481,23 @@ pub(crate) fn corr_corner(raw: &[u8], block: usize, mirror: bool, d: &AnisoDir) 
     u + (v - u) * fk
 }
 
-/// The correction table's azimuth-cosine nodes of a direction and their
-/// bilinear weights, as eval reads them (`k * AN_MU + i` in a roughness
-/// pair's block; generator).
+/// The conductor correction's azimuth-cosine nodes of a direction and
+/// their bilinear weights, as eval reads them ([`corr_dir`]; `k * AN_MU +
+/// i` in a roughness pair's block; generator).
 pub fn corr_dir_weights(w: Vec3) -> [(usize, f32); 4] {
-    let d = AnisoDir::new(w);
+    dir_weights(&corr_dir(w))
+}
+
+/// The dielectric correction's azimuth-cosine nodes of a direction and
+/// their bilinear weights (the albedo table's grid, `AnisoDir::new`;
+/// generator).
+pub fn dcorr_dir_weights(w: Vec3) -> [(usize, f32); 4] {
+    dir_weights(&AnisoDir::new(w))
+}
+
+/// The four nodes `k * AN_MU + i` of a direction's cell and their
+/// bilinear weights.
+fn dir_weights(d: &AnisoDir) -> [(usize, f32); 4] {
     let n = d.k0 * AN_MU + d.i0;
     [
         (n, (1.0 - d.fk) * (1.0 - d.fi)),
@@ -891,13 +983,8 @@ pub struct Tabulated {
     /// Scale-table node of the lower roughness node at `mu = 0` and the
     /// weight of the upper roughness node (isotropic materials).
     scale_alpha: (usize, f32),
-    /// Anisotropic roughness: SINGLE's albedo table, the weight of the
-    /// energy-split peaked lobe, the NDF of that lobe and its albedo table
-    /// (see [`aniso_peak`]).
-    aniso: Option<(Aniso, f32, Ndf, Aniso, CorrCorners)>,
-    /// Whether the anisotropic lobe is scaled by the correction table
-    /// (off only for the table generator).
-    aniso_corrected: bool,
+    /// Anisotropic roughness (module docs).
+    aniso: Option<AnisoLobe>,
     /// The tint of the middle facets as a function of the order fractions
     /// (module docs): with `b` the effective reflectance of
     /// inter-reflections `fbar` per channel, `r2 + r3 b + r4 b^2 + r5 b^3`
@@ -917,6 +1004,21 @@ pub struct Tabulated {
     /// `alpha^2` of an isotropic GGX material: its single-scattering term
     /// takes SINGLE's closed form (`single::iso_ggx_reflection`).
     iso_ggx_a2: Option<f32>,
+}
+
+/// The anisotropic part of a [`Tabulated`] conductor (module docs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct AnisoLobe {
+    /// Weight `beta` of the energy-split peaked lobe ([`aniso_peak`]).
+    beta: f32,
+    /// The NDF of the peaked lobe (the material's scaled by `w`).
+    peak: Ndf,
+    /// The material's corners in the correction table.
+    corners: CorrCorners,
+    /// Without the correction (the table generator only): SINGLE's
+    /// albedo table at the material's roughness and at the peaked lobe's,
+    /// for the factors `t` and `b` computed per direction.
+    exact: Option<(Aniso, Aniso)>,
 }
 
 /// The exact Fresnel reflectance of a conductor as a piecewise linear
@@ -1017,14 +1119,12 @@ impl Tabulated {
             let (lo, hi) = (ndf.alpha_x.min(ndf.alpha_y), ndf.alpha_x.max(ndf.alpha_y));
             let r = lo / hi;
             let (b, width) = aniso_peak(ndf_index, hi);
-            let (px, py) = (ndf.alpha_x * width, ndf.alpha_y * width);
-            (
-                Aniso::new(ndf_index, ndf.alpha_x, ndf.alpha_y),
-                b * (1.0 - r * r),
-                Ndf::new(ndf.kind, px, py),
-                Aniso::new(ndf_index, px, py),
-                corr_corners(ndf_index, ndf.alpha_x, ndf.alpha_y),
-            )
+            AnisoLobe {
+                beta: b * (1.0 - r * r),
+                peak: Ndf::new(ndf.kind, ndf.alpha_x * width, ndf.alpha_y * width),
+                corners: corr_corners(ndf_index, ndf.alpha_x, ndf.alpha_y),
+                exact: None,
+            }
         });
         let sbar = SBAR[ndf_index * ALPHA_N + alpha.0] * (1.0 - alpha.2)
             + SBAR[ndf_index * ALPHA_N + alpha.1] * alpha.2;
@@ -1041,7 +1141,6 @@ impl Tabulated {
                 (scale_index(ndf_index, s0, 0), fs)
             },
             aniso,
-            aniso_corrected: true,
             order_tint: {
                 let b = Vec3A::from(fbar);
                 let b3 = b * b * b;
@@ -1057,10 +1156,59 @@ impl Tabulated {
     /// The model without the anisotropic furnace correction (the table
     /// `data/tabulated_aniso.bin`; what `gen_tabulated_aniso` integrates).
     pub fn without_aniso_correction(self) -> Self {
+        let ndf_index = self.ndf_index;
         Tabulated {
-            aniso_corrected: false,
+            aniso: self.aniso.map(|a| AnisoLobe {
+                exact: Some((
+                    Aniso::new(ndf_index, self.ndf.alpha_x, self.ndf.alpha_y),
+                    Aniso::new(ndf_index, a.peak.alpha_x, a.peak.alpha_y),
+                )),
+                ..a
+            }),
             ..self
         }
+    }
+
+    /// The uncorrected per-direction factors `(sqrt(t(w)), sqrt(b(w)))` of
+    /// the table's and the peaked part (module docs) of an anisotropic
+    /// material built by [`Self::without_aniso_correction`], for `w.z > 0`
+    /// (the table generator's nodes); `None` otherwise.
+    pub fn aniso_factors(&self, w: Vec3) -> Option<(f32, f32)> {
+        let a = self.aniso.as_ref()?;
+        let (e, e_peak) = a.exact.as_ref()?;
+        let [p2, _] = self.proj2(w, w);
+        Some(self.exact_factors(e, e_peak, w, p2))
+    }
+
+    /// The lobe's two parts without the per-direction factors for `wi.z >
+    /// 0`, `wo.z > 0` of an anisotropic material: `(1 - beta)` times the
+    /// isotropic table read at the effective roughness with its furnace
+    /// scales, and `beta` times the peaked lobe `f_p |wo.z|` (the tint
+    /// left out: 1 for the white conductor the generator uses); `None`
+    /// when isotropic. The lobe is `parts.0 u(wi) u(wo) + parts.1 v(wi)
+    /// v(wo)` with the factors `u = s sqrt(t)`, `v = s sqrt(b)`.
+    pub fn aniso_parts(&self, wi: Vec3, wo: Vec3) -> Option<(f32, f32)> {
+        let a = self.aniso.as_ref()?;
+        let ss1 = self.single_terms(wi, wo).0;
+        let (_, table) = self.tint_and_table(wi, wo, ss1);
+        Some(((1.0 - a.beta) * table, a.beta * peak_lobe(&a.peak, wi, wo)))
+    }
+
+    /// `(sqrt(t(w)), sqrt(b(w)))` from the albedo tables (module docs; `p2`
+    /// the direction's squared roughness, [`alpha_proj2`]).
+    #[inline]
+    fn exact_factors(&self, e: &Aniso, e_peak: &Aniso, w: Vec3, p2: f32) -> (f32, f32) {
+        let d = AnisoDir::new(w);
+        let [e_w] = e.read_at([&CONDUCTOR_E_ANISO], &d);
+        let e_w = e_w.clamp(0.05, 1.0);
+        let [e_p] = e_peak.read_at([&CONDUCTOR_E_ANISO], &d);
+        let e_iso =
+            compensation::conductor_e(self.ndf_index, compensation::alpha_coord(p2.sqrt()), w.z)
+                .min(0.999);
+        (
+            ((1.0 - e_w) / (1.0 - e_iso)).clamp(0.25, 4.0).sqrt(),
+            ((1.0 - e_w) / e_p.clamp(0.05, 1.0)).sqrt(),
+        )
     }
 
     /// The conductor's Fresnel factor at the cosine `c` (the closed form of
@@ -1134,12 +1282,15 @@ impl Tabulated {
         )
     }
 
-    /// The multiply scattered `f |wo.z|` for `wi.z > 0`, `wo.z > 0`, given
-    /// the single-scattering `f_ss1 |wo.z|` with F = 1 of the same pair.
+    /// The tint of the multiply scattered lobe (order fractions, first and
+    /// last facets) and its table part `f |wo.z|` with F = 1 for `wi.z >
+    /// 0`, `wo.z > 0` (the isotropic lobe; for anisotropic materials the
+    /// isotropic table at the effective roughness, before the parts'
+    /// per-direction factors), given the single-scattering `f_ss1 |wo.z|`
+    /// with F = 1 of the same pair.
     #[inline]
-    fn multiple(&self, wi: Vec3, wo: Vec3, ss1: f32) -> Vec3A {
+    fn tint_and_table(&self, wi: Vec3, wo: Vec3, ss1: f32) -> (Vec3A, f32) {
         let (ri, ro) = (wi.z.min(1.0).sqrt(), wo.z.min(1.0).sqrt());
-        // Each direction's roughness once, for the table and the factors.
         let proj2 = if self.aniso.is_some() {
             self.proj2(wi, wo)
         } else {
@@ -1158,51 +1309,38 @@ impl Tabulated {
         // The smooth part is clamped at 0 (its cosine series can dip below 0
         // next to a strong peaked part); the scale table integrates the
         // clamped series, so the furnace holds with the clamp.
-        let table = (f.max(0.0) * wo.z + peak * ss1) * s;
-        let value = match &self.aniso {
-            None => table,
-            Some((e, beta, peak_ndf, e_peak, corners)) => {
-                // Energy-split peaked lobe: sqrt(b_i b_o) f_p with
-                // b = (1 - E) / E_p (f_p and E_p: SINGLE's lobe with F = 1
-                // and its albedo at the peak's roughness) has the albedo
-                // 1 - E(wi) where E(wo) and E_p(wo) are close to E(wi) and
-                // E_p(wi) (over the peak of f_p); symmetric.
-                // Per direction: b, t and the correction s (the albedo and
-                // correction tables share the azimuth and cosine weights).
-                let factors = |w: Vec3, p2: f32| {
-                    let d = AnisoDir::new(w);
-                    let [e_w] = e.read_at([&CONDUCTOR_E_ANISO], &d);
-                    let e_w = e_w.clamp(0.05, 1.0);
-                    let [e_p] = e_peak.read_at([&CONDUCTOR_E_ANISO], &d);
-                    let a = p2.sqrt();
-                    let e_iso = compensation::conductor_e(
-                        self.ndf_index,
-                        compensation::alpha_coord(a),
-                        w.z,
-                    )
-                    .min(0.999);
-                    let c = if self.aniso_corrected {
-                        corr_at(corners, &d)
-                    } else {
-                        1.0
-                    };
-                    (
-                        (1.0 - e_w) / e_p.clamp(0.05, 1.0),
-                        ((1.0 - e_w) / (1.0 - e_iso)).clamp(0.25, 4.0),
-                        c,
-                    )
-                };
-                let ((bi, ti, ci), (bo, to, co)) = (factors(wi, proj2[0]), factors(wo, proj2[1]));
-                // The peaked lobe f_ss1 |wo.z| with F = 1 of the NDF with
-                // the scaled roughness (two directions above: h.z > 0).
-                let h = (wi + wo).normalize_or_zero();
-                let peak = peak_ndf.d(h)
-                    / (4.0 * wi.z * (1.0 + peak_ndf.lambda(wi) + peak_ndf.lambda(wo)));
-                let lobe = (1.0 - beta) * table * (ti * to).sqrt() + beta * (bi * bo).sqrt() * peak;
-                lobe * (ci * co)
+        (tint, (f.max(0.0) * wo.z + peak * ss1) * s)
+    }
+
+    /// The multiply scattered `f |wo.z|` for `wi.z > 0`, `wo.z > 0`, given
+    /// the single-scattering `f_ss1 |wo.z|` with F = 1 of the same pair.
+    #[inline]
+    fn multiple(&self, wi: Vec3, wo: Vec3, ss1: f32) -> Vec3A {
+        let (tint, table) = self.tint_and_table(wi, wo, ss1);
+        let Some(a) = &self.aniso else {
+            return tint * table;
+        };
+        // Energy-split peaked lobe: sqrt(b_i b_o) f_p with b = (1 - E) / E_p
+        // (f_p and E_p: SINGLE's lobe with F = 1 and its albedo at the
+        // peak's roughness) has the albedo 1 - E(wi) where E(wo) and E_p(wo)
+        // are close to E(wi) and E_p(wi) (over the peak of f_p); symmetric.
+        // The factors u = s sqrt(t), v = s sqrt(b) per direction, read
+        // jointly from the correction table (s the furnace correction).
+        let ([ui, vi], [uo, vo]) = match &a.exact {
+            None => (
+                corr_at(&a.corners, &corr_dir(wi)),
+                corr_at(&a.corners, &corr_dir(wo)),
+            ),
+            Some((e, e_peak)) => {
+                let [pi, po] = self.proj2(wi, wo);
+                let (ti, bi) = self.exact_factors(e, e_peak, wi, pi);
+                let (to, bo) = self.exact_factors(e, e_peak, wo, po);
+                ([ti, bi], [to, bo])
             }
         };
-        tint * value
+        let lobe =
+            (1.0 - a.beta) * table * (ui * uo) + a.beta * peak_lobe(&a.peak, wi, wo) * (vi * vo);
+        tint * lobe
     }
 
     /// Weight of the cosine lobe in the sampling mixture for `mu_i`.
@@ -1268,6 +1406,26 @@ impl Tabulated {
         let pdf = (1.0 - q) * ps + q * wo.z / PI;
         (Vec3::from(fresnel * ss1 + self.multiple(wi, wo, ss1)), pdf)
     }
+}
+
+/// The peaked lobe of anisotropic conductors: SINGLE's `f_ss1 |wo.z|`
+/// with F = 1 of the NDF `p` for `wi.z > 0`, `wo.z > 0`. Beckmann's
+/// Smith `Lambda` by the rational fit of Walter et al. 2007 (eq. 27, in
+/// `Lambda = 1 / G1 - 1` form; [`crate::ndf::beckmann::lambda_rational`]):
+/// the exact one (f64 `erfcx` and `exp`) was a sixth of the anisotropic
+/// Beckmann eval, and the furnace correction is solved with this lobe.
+#[inline]
+fn peak_lobe(p: &Ndf, wi: Vec3, wo: Vec3) -> f32 {
+    let h = (wi + wo).normalize_or_zero();
+    let (li, lo) = if p.kind == NdfKind::Beckmann {
+        (
+            crate::ndf::beckmann::lambda_rational(p.alpha_x, p.alpha_y, wi),
+            crate::ndf::beckmann::lambda_rational(p.alpha_x, p.alpha_y, wo),
+        )
+    } else {
+        (p.lambda(wi), p.lambda(wo))
+    };
+    p.d(h) / (4.0 * wi.z * (1.0 + li + lo))
 }
 
 /// Both directions in the frame where `wi.z > 0` (two-sided conductor).

@@ -54,6 +54,25 @@ pub fn lambda_upper(ax: f32, ay: f32, v: Vec3) -> f32 {
     l.max(0.0) as f32
 }
 
+/// Smith `Lambda` for `v.z > 0` by the rational fit of Walter et al.
+/// 2007 (eq. 27, `G1 ~ (3.535 a + 2.181 a^2) / (1 + 2.276 a + 2.577 a^2)`
+/// for `a < 1.6`, 1 above, with `a = 1 / (alpha_w tan theta)`), written
+/// as `Lambda = 1 / G1 - 1 = (1 - 1.259 a + 0.396 a^2) / (3.535 a + 2.181
+/// a^2)`: f32 and one division, where [`lambda_upper`] needs f64 `exp`
+/// and `erfcx`. For the tabulated tier's peaked lobe only, whose
+/// normalisation and furnace correction are solved with this same form;
+/// relative error of `G1` within about 0.4% (`tests` below).
+#[inline]
+pub fn lambda_rational(ax: f32, ay: f32, v: Vec3) -> f32 {
+    let r2 = (ax * v.x) * (ax * v.x) + (ay * v.y) * (ay * v.y);
+    // a >= 1.6 (also r = 0): Lambda = 0.
+    if v.z * v.z >= 2.56 * r2 {
+        return 0.0;
+    }
+    let a = v.z / r2.sqrt();
+    (1.0 - 1.259 * a + 0.396 * a * a) / (3.535 * a + 2.181 * a * a)
+}
+
 /// Split between the two forms of `H` in [`h_and_e`].
 const A_FAR: f64 = -20.0;
 
@@ -627,5 +646,27 @@ mod tests {
             let (got, want) = (exp_rough(x), x.exp());
             assert!((got - want).abs() <= 3e-8 * want, "x {x}: {got} vs {want}");
         }
+    }
+
+    /// Walter et al. 2007's rational `G1` against the exact one over the
+    /// whole range of `a = 1 / (alpha tan theta)` that matters: the
+    /// relative error of `1 / (1 + Lambda)` stays within 0.4% (measured
+    /// 0.35%), and `Lambda` is 0 from `a = 1.6` on.
+    #[test]
+    fn lambda_rational_matches_exact_g1() {
+        let mut worst = 0.0f32;
+        for i in 1..=2000 {
+            let a = i as f32 * 0.001;
+            // alpha = 1 on x: a = z / |x|.
+            let theta = (1.0 / a).atan();
+            let v = Vec3::new(theta.sin(), 0.0, theta.cos());
+            for (ax, ay) in [(1.0, 0.3), (1.0, 2.0)] {
+                let exact = 1.0 / (1.0 + lambda_upper(ax, ay, v));
+                let fit = 1.0 / (1.0 + lambda_rational(ax, ay, v));
+                worst = worst.max((fit / exact - 1.0).abs());
+            }
+        }
+        assert!(worst < 0.004, "worst relative G1 error {worst}");
+        assert!(worst > 1e-4, "the fit is not the exact form: {worst}");
     }
 }
