@@ -1,26 +1,31 @@
-//! Generates `data/tabulated_aniso.bin`, the anisotropic furnace correction
-//! of `MSBSDF_MODEL_TABULATED` (`msbsdf::multiple::tabulated::corr_value`):
-//! per NDF, roughness pair `(alpha_x, alpha_y)` on the grid
-//! `tabulated::corr_grid_alpha` (31 nodes per axis: ENERGY_COMPENSATED's 16
-//! and the midpoints between them) and node `(phi, mu)` of
-//! ENERGY_COMPENSATED's anisotropic grid, a factor `s` such that
-//! TABULATED's anisotropic lobe scaled by `s(wi) s(wo)` has the multiply
-//! scattered albedo `1 - E_ss(wi)` at every node, `E_ss` SINGLE's albedo
-//! with F = 1. No random numbers: both albedos by deterministic quadrature
-//! over normals (the mapping of `compensation::single_albedo`, `--quad N`
-//! per side, default 128).
+//! Generates `data/tabulated_aniso.bin`, the anisotropic factors and
+//! furnace correction of `MSBSDF_MODEL_TABULATED`'s conductors
+//! (`msbsdf::multiple::tabulated::corr_values`): per NDF, roughness pair
+//! `(alpha_x, alpha_y)` on the grid `tabulated::corr_grid_alpha` (31 nodes
+//! per axis: ENERGY_COMPENSATED's 16 and the midpoints between them) and
+//! direction node (`tabulated::corr_node_dir`: the albedo table's 16
+//! cosines, 7 diamond-angle azimuths), the two factors `u = s sqrt(t)`,
+//! `v = s sqrt(b)` of the lobe `T u(wi) u(wo) + P v(wi) v(wo)`
+//! (`Tabulated::aniso_parts`; `t`, `b` from `Tabulated::aniso_factors`),
+//! with `s` such that the lobe has the multiply scattered albedo
+//! `1 - E_ss(wi)` at every node, `E_ss` SINGLE's albedo with F = 1. No
+//! random numbers: both albedos by deterministic quadrature over normals
+//! (the mapping of `compensation::single_albedo`, `--quad N` per side,
+//! default 192: 128 resolved the needle-like lobes of strongly anisotropic
+//! grazing nodes to about 1%).
 //!
-//! Per roughness pair, the uncorrected lobe `L0` (TABULATED's eval without
-//! the correction, minus SINGLE's) is integrated once into a matrix
-//! `M[r][n] = int L0(w_r, wo) phi_n(wo) dwo`, `w_r` the incident direction
-//! of node `r` and `phi_n` the bilinear weight of node `n` at `wo` as eval
-//! interpolates `s` (`tabulated::corr_dir_weights`); the albedo of the
-//! corrected lobe from node `r` is then `s_r sum_n M[r][n] s_n` exactly, and
-//! the factors solve `s_r (M s)_r = 1 - E_ss(w_r)` by the symmetric
-//! Sinkhorn iteration `s_r <- s_r sqrt(target_r / albedo_r)` to a relative
-//! residual of 1e-6 (or 3000 steps), clamped to `[S_MIN, CORR_MAX]` and
-//! stored as `u16` (`tabulated::corr_encode`); the header records the
-//! residual after the rounding, the clamp hits and the time.
+//! Per roughness pair, the two parts are integrated once into
+//! `M[r][n] = sqrt(t_r t_n) int T(w_r, wo) phi_n(wo) dwo + sqrt(b_r b_n)
+//! int P(w_r, wo) phi_n(wo) dwo`, `w_r` the incident direction of node `r`
+//! and `phi_n` the bilinear weight of node `n` at `wo` as eval interpolates
+//! `u` and `v` (`tabulated::corr_dir_weights`); the albedo from node `r`
+//! is then `s_r sum_n M[r][n] s_n` exactly, and the factors solve
+//! `s_r (M s)_r = 1 - E_ss(w_r)` by the symmetric Sinkhorn iteration
+//! `s_r <- s_r sqrt(target_r / albedo_r)` to a relative residual of 1e-6
+//! (or 3000 steps), clamped to `[S_MIN, CORR_MAX]`; `u` and `v` are stored
+//! as `u16` (`tabulated::corr_encode` with `CORR_PAIR_MAX`); the header
+//! records the residual of the stored values, the clamp hits and the time.
+//! (The dielectric's correction, below, stores `s` alone.)
 //!
 //! `cargo run --release --example gen_tabulated_aniso [-- --quad N]`;
 //! `-- --dielectric [--quad N]` writes the dielectric tier's
@@ -296,7 +301,7 @@ fn main() {
         check(quad_arg.unwrap_or(400));
         return;
     }
-    let quad = quad_arg.unwrap_or(128);
+    let quad = quad_arg.unwrap_or(192);
     let t0 = std::time::Instant::now();
     // Jobs: (ndf, jx, jy) with jx <= jy (the stored pairs), the dearest
     // (both axes rough: nothing skipped) first.
