@@ -115,7 +115,7 @@
 //! per-direction factors `u = s sqrt(t)` and `v = s sqrt(b)`, which eval
 //! reads jointly from `data/tabulated_aniso.bin` ([`corr_values`]): per
 //! NDF, roughness pair on a 31 x 31 grid ([`corr_grid_alpha`]) and node of
-//! a direction grid ([`corr_dir`]: the albedo table's 16 cosines and 7
+//! a direction grid (`corr_dir`: the albedo table's 16 cosines and 7
 //! nodes of the diamond angle `|y| / (|x| + |y|)`, no `atan2`), linear on
 //! triangles in roughness (the lobe has a kink at isotropy) and bilinear
 //! in direction. `s` gives the lobe with `u` and `v` interpolated so the
@@ -439,7 +439,7 @@ pub(crate) fn corr_dir(w: Vec3) -> AnisoDir {
 }
 
 /// The incident direction of node `r = k * AN_MU + i` of the conductor's
-/// correction ([`corr_dir`]: diamond angle `k / (AN_PHI - 1)`, the albedo
+/// correction (`corr_dir`: diamond angle `k / (AN_PHI - 1)`, the albedo
 /// table's cosine node `i`).
 pub fn corr_node_dir(r: usize) -> Vec3 {
     let (mu, c) = (
@@ -482,7 +482,7 @@ pub(crate) fn corr_corner(raw: &[u8], block: usize, mirror: bool, d: &AnisoDir) 
 }
 
 /// The conductor correction's azimuth-cosine nodes of a direction and
-/// their bilinear weights, as eval reads them ([`corr_dir`]; `k * AN_MU +
+/// their bilinear weights, as eval reads them (`corr_dir`; `k * AN_MU +
 /// i` in a roughness pair's block; generator).
 pub fn corr_dir_weights(w: Vec3) -> [(usize, f32); 4] {
     dir_weights(&corr_dir(w))
