@@ -137,32 +137,6 @@ pub const fn decode4<const A: usize, const B: usize, const C: usize, const D: us
     out
 }
 
-/// Decodes a table file as a `[A][B][C][D][E]` array (compile time).
-#[allow(clippy::type_complexity)]
-pub const fn decode5<
-    const A: usize,
-    const B: usize,
-    const C: usize,
-    const D: usize,
-    const E: usize,
->(
-    b: &[u8],
-) -> [[[[[f32; E]; D]; C]; B]; A] {
-    let (data, n) = layout(b);
-    assert!(
-        n == A * B * C * D * E,
-        "table size disagrees with its declared shape"
-    );
-    let mut out = [[[[[0.0f32; E]; D]; C]; B]; A];
-    let mut i = 0;
-    while i < n {
-        out[i / (B * C * D * E)][i / (C * D * E) % B][i / (D * E) % C][i / E % D][i % E] =
-            f32_at(b, data, i);
-        i += 1;
-    }
-    out
-}
-
 /// Full scale of the tables stored as [`Q16`]: the stored `u16` 65535 is
 /// this value. The albedo tables held so are at most 1 in exact arithmetic
 /// but their quadrature overshoots 1 slightly (largest values 1.000422 in
