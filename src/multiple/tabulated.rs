@@ -748,6 +748,26 @@ fn scale_squares(n: usize) -> (Vec4, Vec4) {
     }
 }
 
+/// The furnace scales' product `s(mu_i) s(mu_o)` and the first-facet
+/// Schlick weights `[S(mu_i), S(mu_o)]` at the scale table's roughness
+/// node `n0` (its cosine node 0) with the upper node's weight `fs`, for
+/// the square roots `ri`, `ro` of the two cosines: both directions' `[s,
+/// S]` at their lower and upper cosine nodes, linear in roughness, then in
+/// the cosine for both at once.
+#[inline(always)]
+fn scale_pair((n0, fs): (usize, f32), ri: f32, ro: f32) -> (f32, [f32; 2]) {
+    let (i0, fi) = split_root(ri, SCALE_MU_N);
+    let (o0, fo) = split_root(ro, SCALE_MU_N);
+    let (a, b) = scale_squares(n0 + i0);
+    let vi = a + (b - a) * fs;
+    let (a, b) = scale_squares(n0 + o0);
+    let vo = a + (b - a) * fs;
+    let lo = Vec4::new(vi.x, vi.y, vo.x, vo.y);
+    let hi = Vec4::new(vi.z, vi.w, vo.z, vo.w);
+    let v = (lo + (hi - lo) * Vec4::new(fi, fi, fo, fo)) * SCALE_DECODE;
+    (v.x * v.z, [v.y, v.w])
+}
+
 /// Factors of the interpolated squares `[s, S, s, S]` of [`scale_squares`].
 const SCALE_DECODE: Vec4 = {
     let (s, f) = (SCALE_MAX / (65535.0 * 65535.0), 1.0 / (65535.0 * 65535.0));
@@ -1244,42 +1264,22 @@ impl Tabulated {
     /// first-facet Schlick weights `S(mu_i)`, `S(mu_o)` for a pair of
     /// directions (`ri`, `ro` the square roots of their cosines; `proj2`
     /// their squared roughness from [`Self::proj2`], anisotropic materials
-    /// only).
+    /// only: the tables are read at `alpha_eff`, their mean square's root,
+    /// whose root `sqrt(alpha_eff / MAX_ALPHA)` is both tables' roughness
+    /// coordinate).
     #[inline]
-    fn alpha_and_scale(
-        &self,
-        wi: Vec3,
-        wo: Vec3,
-        ri: f32,
-        ro: f32,
-        proj2: [f32; 2],
-    ) -> ((usize, f32), f32, [f32; 2]) {
+    fn alpha_and_scale(&self, ri: f32, ro: f32, proj2: [f32; 2]) -> ((usize, f32), f32, [f32; 2]) {
         if self.aniso.is_none() {
-            let (n0, fs) = self.scale_alpha;
-            let (i0, fi) = split_root(ri, SCALE_MU_N);
-            let (o0, fo) = split_root(ro, SCALE_MU_N);
-            // Both directions' nodes: [s, S, s, S] at the lower and upper
-            // cosine node, linear in roughness, then in the cosine for
-            // both directions at once.
-            let (a, b) = scale_squares(n0 + i0);
-            let vi = a + (b - a) * fs;
-            let (a, b) = scale_squares(n0 + o0);
-            let vo = a + (b - a) * fs;
-            let lo = Vec4::new(vi.x, vi.y, vo.x, vo.y);
-            let hi = Vec4::new(vi.z, vi.w, vo.z, vo.w);
-            let v = (lo + (hi - lo) * Vec4::new(fi, fi, fo, fo)) * SCALE_DECODE;
-            return ((self.lobe_base, self.alpha.2), v.x * v.z, [v.y, v.w]);
+            let (s, fe) = scale_pair(self.scale_alpha, ri, ro);
+            return ((self.lobe_base, self.alpha.2), s, fe);
         }
-        let a = (0.5 * (proj2[0] + proj2[1])).sqrt();
-        let asc = scale_alpha_coord(a);
-        let (si, fi) = scale(self.ndf_index, asc, wi.z);
-        let (so, fo) = scale(self.ndf_index, asc, wo.z);
-        let (a0, _, fa) = split(alpha_coord(a), ALPHA_N);
-        (
-            (lobe_index(self.ndf_index, a0, 0, 0), fa),
-            si * so,
-            [fi, fo],
-        )
+        let root = ((0.5 * (proj2[0] + proj2[1])).sqrt() / MAX_ALPHA)
+            .clamp(0.0, 1.0)
+            .sqrt();
+        let (s0, _, fs) = split(root * (SCALE_ALPHA_N - 1) as f32, SCALE_ALPHA_N);
+        let (a0, _, fa) = split(root * (ALPHA_N - 1) as f32, ALPHA_N);
+        let (s, fe) = scale_pair((scale_index(self.ndf_index, s0, 0), fs), ri, ro);
+        ((lobe_index(self.ndf_index, a0, 0, 0), fa), s, fe)
     }
 
     /// The tint of the multiply scattered lobe (order fractions, first and
@@ -1296,7 +1296,7 @@ impl Tabulated {
         } else {
             [0.0; 2]
         };
-        let ((base, fa), s, [si, so]) = self.alpha_and_scale(wi, wo, ri, ro, proj2);
+        let ((base, fa), s, [si, so]) = self.alpha_and_scale(ri, ro, proj2);
         let nodes = |r: f32| split_root(r, MU_N);
         let (f, peak, r) = lookup_nodes(base, fa, nodes(ri), nodes(ro), cos_phi(wi, wo));
         // First and last facets: the reflectance at the cosines seen from
