@@ -558,12 +558,6 @@ pub fn scale_grid_mu(i: usize) -> f32 {
     s * s
 }
 
-/// Continuous node coordinate of a roughness in the scale table.
-#[inline]
-pub fn scale_alpha_coord(alpha: f32) -> f32 {
-    (alpha / MAX_ALPHA).clamp(0.0, 1.0).sqrt() * (SCALE_ALPHA_N - 1) as f32
-}
-
 /// Roughness of node `a`.
 pub fn grid_alpha(a: usize) -> f32 {
     let s = a as f32 / (ALPHA_N - 1) as f32;
@@ -773,18 +767,6 @@ const SCALE_DECODE: Vec4 = {
     let (s, f) = (SCALE_MAX / (65535.0 * 65535.0), 1.0 / (65535.0 * 65535.0));
     Vec4::new(s, f, s, f)
 };
-
-/// The furnace scale `s(alpha, mu)` and the first-facet Schlick weight
-/// `S(alpha, mu)` (both linear in the scale table's alpha coordinate and
-/// in `sqrt(mu)`).
-#[inline]
-pub fn scale(ndf: usize, alpha_sc: f32, mu: f32) -> (f32, f32) {
-    let (a0, _, fa) = split(alpha_sc, SCALE_ALPHA_N);
-    let (i0, fi) = split_root(mu.clamp(0.0, 1.0).sqrt(), SCALE_MU_N);
-    let (lo, hi) = scale_squares(scale_index(ndf, a0, i0));
-    let v = (lo + (hi - lo) * fa) * SCALE_DECODE;
-    (v.x + (v.z - v.x) * fi, v.y + (v.w - v.y) * fi)
-}
 
 /// Table index of an NDF (`None`: not tabulated).
 pub fn ndf_index(kind: NdfKind) -> Option<usize> {
@@ -1093,7 +1075,7 @@ impl Tabulated {
         let ndf_index = ndf_index(ndf.kind).unwrap_or(1);
         let alpha_rms = (0.5 * (ndf.alpha_x * ndf.alpha_x + ndf.alpha_y * ndf.alpha_y)).sqrt();
         // sqrt(alpha / MAX_ALPHA), the coordinate of both tables (one root
-        // for alpha_coord and scale_alpha_coord).
+        // for the lobe's and the scale table's roughness coordinates).
         let root = (alpha_rms / MAX_ALPHA).clamp(0.0, 1.0).sqrt();
         let alpha = split(root * (ALPHA_N - 1) as f32, ALPHA_N);
         // The exact Fresnel at the three quantile cosines of the facets of
