@@ -542,8 +542,9 @@ fn check(quad: usize) {
     );
 }
 
-/// `--ir MODEL NDF CALLS [glass]` (MODEL `single` or `tabulated`, NDF
-/// `ggx` or `beckmann`): CALLS evals through `Material` of gold (or glass
+/// `--ir MODEL NDF CALLS [glass] [sample]` (MODEL `single` or
+/// `tabulated`, NDF `ggx` or `beckmann`): CALLS evals (samples with
+/// `sample`, from the pairs' first directions) through `Material` of gold (or glass
 /// 1.5) with roughness (0.1, 0.6) on 1024 fixed random pairs (directions
 /// up to 85 degrees, both above for gold, on either side for glass), for
 /// callgrind: `(Ir(CALLS) - Ir(0)) / CALLS` is the cost per
@@ -612,9 +613,15 @@ fn ir(args: &[String]) {
         .collect();
     let mut rng = Rng::new(5, 5);
     let mut acc = Vec3::ZERO;
-    for j in 0..calls {
-        let (a, b) = pairs[j & 1023];
-        acc += m.eval(a, b, &mut rng);
+    if args.iter().any(|a| a == "sample") {
+        for j in 0..calls {
+            acc += m.sample(pairs[j & 1023].0, &mut rng).weight;
+        }
+    } else {
+        for j in 0..calls {
+            let (a, b) = pairs[j & 1023];
+            acc += m.eval(a, b, &mut rng);
+        }
     }
     std::hint::black_box(acc);
 }
