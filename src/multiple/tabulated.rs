@@ -123,8 +123,8 @@
 //! by quadrature; solved per roughness pair by `gen_tabulated_aniso` from
 //! `t` and `b` at the nodes, [`Tabulated::aniso_factors`]). Eval thus
 //! reads no albedo table: one read of two values per direction replaced
-//! `E`, `E_p`, `E_iso` and `s` (anisotropic gold eval 2402 -> 1508
-//! instructions GGX, 3544 -> 2067 Beckmann, with Beckmann's peaked lobe
+//! `E`, `E_p`, `E_iso` and `s` (anisotropic gold eval 2402 -> 1445
+//! instructions GGX, 3544 -> 2004 Beckmann, with Beckmann's peaked lobe
 //! by [`crate::ndf::beckmann::lambda_rational`]). Measured worst furnace
 //! error 0.06% at the nodes, 0.42% on the test's directions, 0.60% on 32
 //! random materials and directions (`docs/tabulated.md`).
