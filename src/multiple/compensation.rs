@@ -128,10 +128,6 @@ pub fn aniso_grid_alpha(j: usize) -> f32 {
     MAX_ALPHA * s * s
 }
 
-/// A table on the grid of `CONDUCTOR_E_ANISO` (16-bit values, [`Q16`]):
-/// `[ndf][alpha_x][alpha_y][phi][mu]`.
-pub(crate) type AnisoTable = [[[[[Q16; an::AN_MU]; an::AN_PHI]; an::AN_A]; an::AN_A]; 2];
-
 /// A direction's lower azimuth and cosine nodes on the anisotropic grid
 /// and the weights of the upper ones (the table is even in `w.x` and
 /// `w.y`: the azimuth is folded onto `[0, pi/2]`).
@@ -146,8 +142,9 @@ pub(crate) struct AnisoDir {
 impl AnisoDir {
     /// The nodes and weights of `w`. (The azimuth by libm's `atan2f`: the
     /// V-groove module's f64 `atan2_pos` takes fewer instructions but,
-    /// with two dependent divisions, measured 8% more time per anisotropic
-    /// TABULATED eval.)
+    /// with two dependent divisions, measured 8% more time in an eval
+    /// that called it twice. TABULATED's conductors read their own
+    /// direction grid without an `atan2`, `tabulated::corr_dir`.)
     #[inline]
     pub(crate) fn new(w: Vec3) -> AnisoDir {
         let phi = w.y.abs().atan2(w.x.abs());
@@ -163,7 +160,8 @@ impl AnisoDir {
 /// Anisotropic roughness: the single-scattering albedo with F = 1 read from
 /// the 4D table `compensation_aniso_tables` (bilinear in the two alphas,
 /// fixed per material, and in azimuth and mu per direction).
-/// Also read by `MSBSDF_MODEL_TABULATED` for anisotropic conductors.
+/// Also read by the generator of `MSBSDF_MODEL_TABULATED`'s anisotropic
+/// conductor table (`Tabulated::aniso_factors`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct Aniso {
     ndf: u32,
@@ -178,14 +176,15 @@ pub(crate) struct Aniso {
     fy: f32,
 }
 
-/// Values per roughness pair of an [`AnisoTable`] (azimuth x cosine).
+/// Values per roughness pair of `CONDUCTOR_E_ANISO`
+/// (`[ndf][alpha_x][alpha_y][phi][mu]`; azimuth x cosine).
 const AN_BLOCK: usize = an::AN_PHI * an::AN_MU;
-/// Offset in a flattened [`AnisoTable`] from `[ndf][jx][jy]` to
+/// Offset in the flattened `CONDUCTOR_E_ANISO` from `[ndf][jx][jy]` to
 /// `[ndf][jx][jy + 1]`.
 const AN_DY: usize = AN_BLOCK;
 /// Offset from `[ndf][jx][jy]` to `[ndf][jx + 1][jy]`.
 const AN_DX: usize = an::AN_A * AN_BLOCK;
-/// Values an [`Aniso::read_at`] spans from its first: the four roughness
+/// Values an [`Aniso::e_at`] spans from its first: the four roughness
 /// corners' 2 x 2 direction nodes.
 const AN_SPAN: usize = AN_DX + AN_DY + an::AN_MU + 2;
 
@@ -208,57 +207,37 @@ impl Aniso {
     /// Albedo seen from `w` (the table is even in `w.x` and `w.y`).
     #[inline]
     fn e(&self, w: Vec3) -> f32 {
-        self.read(&an::CONDUCTOR_E_ANISO, w)
+        self.e_at(&AnisoDir::new(w))
     }
 
-    /// Any table on the grid of `CONDUCTOR_E_ANISO`, even in `w.x` and
-    /// `w.y`, seen from `w`.
+    /// The albedo at a direction's azimuth and cosine nodes computed once
+    /// ([`AnisoDir::new`]): bilinear in azimuth and cosine at each of the
+    /// four roughness corners, then bilinear in the roughness, read from
+    /// the flattened table with one bounds check (also read by the
+    /// generator of `MSBSDF_MODEL_TABULATED`'s anisotropic table).
     #[inline]
-    fn read(&self, table: &AnisoTable, w: Vec3) -> f32 {
-        let [v] = self.read_all([table], w);
-        v
-    }
-
-    /// [`Self::read`] of several tables on the same grid, sharing the
-    /// azimuth and cosine weights (also read by `MSBSDF_MODEL_TABULATED`).
-    #[inline]
-    pub(crate) fn read_all<const N: usize>(&self, tables: [&AnisoTable; N], w: Vec3) -> [f32; N] {
-        self.read_at(tables, &AnisoDir::new(w))
-    }
-
-    /// [`Self::read_all`] at a direction's azimuth and cosine nodes
-    /// computed once ([`AnisoDir::new`]): bilinear in azimuth and cosine
-    /// at each of the four roughness corners, then bilinear in the
-    /// roughness, read from the flattened table with one bounds check.
-    #[inline]
-    pub(crate) fn read_at<const N: usize>(
-        &self,
-        tables: [&AnisoTable; N],
-        d: &AnisoDir,
-    ) -> [f32; N] {
+    pub(crate) fn e_at(&self, d: &AnisoDir) -> f32 {
         let (fk, fi) = (d.fk, d.fi);
         let at = self.base as usize + d.k0 * an::AN_MU + d.i0;
-        tables.map(|table| {
-            let flat = table
-                .as_flattened()
-                .as_flattened()
-                .as_flattened()
-                .as_flattened();
-            let Some(c) = flat.get(at..).and_then(|s| s.first_chunk::<AN_SPAN>()) else {
-                return 0.0;
-            };
-            // In units of the 16-bit step, scaled once at the end.
-            let corner = |o: usize| {
-                let u = lerp(c[o].units(), c[o + 1].units(), fi);
-                let v = lerp(c[o + an::AN_MU].units(), c[o + an::AN_MU + 1].units(), fi);
-                lerp(u, v, fk)
-            };
-            Q16::from_units(lerp(
-                lerp(corner(0), corner(AN_DY), self.fy),
-                lerp(corner(AN_DX), corner(AN_DX + AN_DY), self.fy),
-                self.fx,
-            ))
-        })
+        let flat = an::CONDUCTOR_E_ANISO
+            .as_flattened()
+            .as_flattened()
+            .as_flattened()
+            .as_flattened();
+        let Some(c) = flat.get(at..).and_then(|s| s.first_chunk::<AN_SPAN>()) else {
+            return 0.0;
+        };
+        // In units of the 16-bit step, scaled once at the end.
+        let corner = |o: usize| {
+            let u = lerp(c[o].units(), c[o + 1].units(), fi);
+            let v = lerp(c[o + an::AN_MU].units(), c[o + an::AN_MU + 1].units(), fi);
+            lerp(u, v, fk)
+        };
+        Q16::from_units(lerp(
+            lerp(corner(0), corner(AN_DY), self.fy),
+            lerp(corner(AN_DX), corner(AN_DX + AN_DY), self.fy),
+            self.fx,
+        ))
     }
 
     /// `E_avg = (1 / pi) int E(w) cos dw` of exactly the interpolant `e`,

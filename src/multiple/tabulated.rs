@@ -137,7 +137,7 @@
 //! density and the weight is `eval / pdf`.
 
 use super::compensation::{self, Aniso, AnisoDir};
-use super::compensation_aniso_tables::{AN_MU, AN_PHI, CONDUCTOR_E_ANISO};
+use super::compensation_aniso_tables::{AN_MU, AN_PHI};
 use crate::bsdf::{Sample, ScatterModel};
 use crate::desc::MaterialDesc;
 use crate::facet::Facet;
@@ -1205,7 +1205,8 @@ impl Tabulated {
     pub fn aniso_factors(&self, w: Vec3) -> Option<(f32, f32)> {
         let a = self.aniso.as_ref()?;
         let (e, e_peak) = a.exact.as_ref()?;
-        let [p2, _] = self.proj2(w, w);
+        let (ax, ay) = (self.ndf.alpha_x, self.ndf.alpha_y);
+        let p2 = alpha_proj2(ax * ax, ay * ay, w, CONDUCTOR_BLEND_S2);
         Some(self.exact_factors(e, e_peak, w, p2))
     }
 
@@ -1228,9 +1229,8 @@ impl Tabulated {
     #[inline]
     fn exact_factors(&self, e: &Aniso, e_peak: &Aniso, w: Vec3, p2: f32) -> (f32, f32) {
         let d = AnisoDir::new(w);
-        let [e_w] = e.read_at([&CONDUCTOR_E_ANISO], &d);
-        let e_w = e_w.clamp(0.05, 1.0);
-        let [e_p] = e_peak.read_at([&CONDUCTOR_E_ANISO], &d);
+        let e_w = e.e_at(&d).clamp(0.05, 1.0);
+        let e_p = e_peak.e_at(&d);
         let e_iso =
             compensation::conductor_e(self.ndf_index, compensation::alpha_coord(p2.sqrt()), w.z)
                 .min(0.999);
