@@ -284,7 +284,7 @@ pub const fn corr_index(ndf: usize, jx: usize, jy: usize, k: usize, i: usize) ->
 /// 0.03, 9e-5 at 1). `max` is [`CORR_MAX`] (dielectric) or
 /// [`CORR_PAIR_MAX`] (conductor).
 pub fn corr_encode(s: f32, max: f32) -> u16 {
-    ((s / max).clamp(0.0, 1.0).sqrt() * 65535.0).round() as u16
+    scale_encode(s as f64, max as f64)
 }
 
 /// The factor of a stored `u16` (see [`corr_encode`]).
@@ -567,8 +567,9 @@ pub const SCALE_MAGIC: &[u8; 26] = b"MSBSDF-TABULATED-SCALE-v2\n";
 /// constant factors apply once after the interpolation.
 pub const SCALE_MAX: f32 = 20.0;
 
-/// The stored `u16` of a value `x` in `[0, max]` of the scale file (see
-/// [`SCALE_MAX`]).
+/// The stored `u16` of a value `x` in `[0, max]` by the square-root law
+/// `x = max (v / 65535)^2` of the scale file (see [`SCALE_MAX`]) and of the
+/// anisotropic correction files ([`corr_encode`]).
 pub fn scale_encode(x: f64, max: f64) -> u16 {
     ((x / max).clamp(0.0, 1.0).sqrt() * 65535.0).round() as u16
 }
@@ -1561,5 +1562,41 @@ mod tests {
             }
         }
         assert!(checked > 300_000, "{checked}");
+    }
+
+    /// Eval's read of the conductor's joint table (`corr_at`: the SIMD
+    /// row conversion, the triangle corners, the mirrored storage of
+    /// `alpha_x > alpha_y`) gives, for a material on a roughness node and
+    /// a direction on a direction node, the stored pair of that node
+    /// ([`corr_values`] at [`corr_index`], read byte by byte): both NDFs,
+    /// pairs below, on and above the diagonal, every azimuth node and a
+    /// spread of cosine nodes; relative difference below 1e-4 (weights of
+    /// neighbouring nodes are 0 to f32 rounding).
+    #[test]
+    fn joint_table_read_matches_the_stored_nodes() {
+        let mut checked = 0;
+        for ndf in 0..NDF_N {
+            for (jx, jy) in [(4, 11), (11, 4), (9, 9), (2, 27), (27, 2), (20, 13)] {
+                let (ax, ay) = (corr_grid_alpha(jx), corr_grid_alpha(jy));
+                let corners = corr_corners(ndf, ax, ay);
+                for k in 0..AN_PHI {
+                    for i in [0, 3, 7, 12, AN_MU - 1] {
+                        let got = corr_at(&corners, &corr_dir(corr_node_dir(k * AN_MU + i)));
+                        let want = corr_values(corr_index(ndf, jx, jy, k, i));
+                        for c in 0..2 {
+                            let tol = 1e-4 * want[c].abs().max(1e-3);
+                            assert!(
+                                (got[c] - want[c]).abs() <= tol,
+                                "ndf {ndf} ({jx}, {jy}) k {k} i {i} value {c}: {} vs {}",
+                                got[c],
+                                want[c]
+                            );
+                        }
+                        checked += 1;
+                    }
+                }
+            }
+        }
+        assert_eq!(checked, NDF_N * 6 * AN_PHI * 5);
     }
 }
