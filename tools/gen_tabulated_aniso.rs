@@ -339,8 +339,9 @@ fn main() {
     let command: Vec<String> = args.iter().skip(1).cloned().collect();
     let header = format!(
         "ANISO_CORRECTION v3 (MSBSDF_MODEL_TABULATED): per [ndf: Beckmann, GGX][roughness \
-         pair (jx <= jy) of {CORR_A} x {CORR_A}: alpha = 2 (j / {})^2][phi: {AN_PHI}][mu: \
-         {AN_MU}] (ENERGY_COMPENSATED's anisotropic azimuth and cosine grid) the two factors \
+         pair (jx <= jy) of {CORR_A} x {CORR_A}: alpha = 2 (j / {})^2][azimuth: {AN_PHI} \
+         nodes of the diamond angle |y| / (|x| + |y|) from 0 to 1 (tabulated::corr_dir)][mu: \
+         {AN_MU}] (ENERGY_COMPENSATED's anisotropic cosine grid) the two factors \
          u = s sqrt(t), v = s sqrt(b) of the lobe's table and peaked parts \
          (Tabulated::aniso_parts, aniso_factors) as little-endian u16 pairs x, factor = \
          {CORR_PAIR_MAX} (x / 65535)^2, after this {HEADER_BYTES}-byte header; (jx > jy, k) \
