@@ -198,6 +198,21 @@ impl Q16 {
     }
 }
 
+/// Decodes a table file of exactly `N` values in `[0, unit Q16_SCALE]` as
+/// [`Q16`] of `value / unit` (compile time): the value is `unit` times
+/// [`Q16::get`], to an absolute error of `unit` times half a step.
+pub const fn decode_q16<const N: usize>(b: &[u8], unit: f32) -> [Q16; N] {
+    let (data, n) = layout(b);
+    assert!(n == N, "table size disagrees with its declared shape");
+    let mut out = [Q16(0); N];
+    let mut i = 0;
+    while i < N {
+        out[i] = Q16::quantize(f32_at(b, data, i) / unit);
+        i += 1;
+    }
+    out
+}
+
 /// Decodes a table file as a `[A][B][C][D][E]` array of [`Q16`] (compile
 /// time): each f32 value rounded to the nearest step ([`Q16::quantize`]).
 #[allow(clippy::type_complexity)]

@@ -23,6 +23,7 @@
 // `!(x > 0.0)` is used on purpose: it is also true for NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+use crate::multiple::bintable::{Q16, decode_q16};
 use crate::ndf::{Ndf, NdfKind};
 use glam::{DVec3, Vec3};
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -278,14 +279,24 @@ pub const STRIDE: usize = TABLE_N + 1;
 /// [`fill_beckmann`], [`fill_ggx`] and [`fill_phong`] (deterministic) into
 /// compact binary files (`src/tables/`, format
 /// `crate::multiple::bintable`) decoded at compile time: nothing is built
-/// at run time, and no call waits for a table.
-static BECKMANN: [f32; STRIDE] =
-    crate::multiple::bintable::decode(include_bytes!("../../tables/vgroove_partner_beckmann.bin"));
-static GGX: [f32; STRIDE] =
-    crate::multiple::bintable::decode(include_bytes!("../../tables/vgroove_partner_ggx.bin"));
+/// at run time, and no call waits for a table. Held as 16-bit steps of
+/// `pi / 2` ([`Q16`]: `eta` to 1.2e-5 rad, against a node spacing of
+/// about 1.5e-3; the f32 Phong table was 266 kB of the library, 133 kB now).
+/// The unit of the stored angles ([`Q16`] steps of it).
+const ETA_UNIT: f32 = FRAC_PI_2 as f32;
+static BECKMANN: [Q16; STRIDE] = decode_q16(
+    include_bytes!("../../tables/vgroove_partner_beckmann.bin"),
+    ETA_UNIT,
+);
+static GGX: [Q16; STRIDE] = decode_q16(
+    include_bytes!("../../tables/vgroove_partner_ggx.bin"),
+    ETA_UNIT,
+);
 /// `PHONG_W + 1` columns of `STRIDE` entries; column 0 is the Beckmann limit.
-static PHONG: [f32; PHONG_LEN] =
-    crate::multiple::bintable::decode(include_bytes!("../../tables/vgroove_partner_phong.bin"));
+static PHONG: [Q16; PHONG_LEN] = decode_q16(
+    include_bytes!("../../tables/vgroove_partner_phong.bin"),
+    ETA_UNIT,
+);
 
 /// Entries of the Phong table.
 pub const PHONG_LEN: usize = (PHONG_W + 1) * STRIDE;
@@ -399,12 +410,12 @@ fn phong_column(w: f64, out: &mut [f32]) {
 }
 
 #[inline]
-fn load(t: &[f32], j: usize) -> f64 {
-    t[j] as f64
+fn load(t: &[Q16], j: usize) -> f64 {
+    t[j].get() as f64 * ETA_UNIT as f64
 }
 
 #[inline]
-fn lookup(t: &[f32], u: f64) -> f64 {
+fn lookup(t: &[Q16], u: f64) -> f64 {
     let x = u.clamp(0.0, 1.0) * TABLE_N as f64;
     let j = (x as usize).min(TABLE_N - 1);
     let f = x - j as f64;
@@ -489,5 +500,41 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// The 16-bit partner tables hold their files' f32 angles to half a
+    /// step of `ETA_UNIT` (so none was clamped: every angle is in
+    /// `[0, pi/2]`).
+    #[test]
+    fn partner_tables_hold_their_files_to_half_a_step() {
+        use crate::multiple::bintable::{f32_at, layout};
+        let check = |name: &str, file: &[u8], q: &[Q16]| {
+            let (data, n) = layout(file);
+            assert_eq!(n, q.len(), "{name}");
+            let mut worst = 0.0f64;
+            for (i, q) in q.iter().enumerate() {
+                let v = f32_at(file, data, i) as f64;
+                assert!((0.0..=FRAC_PI_2 + 1e-6).contains(&v), "{name}[{i}] = {v}");
+                worst = worst.max((load(std::slice::from_ref(q), 0) - v).abs());
+            }
+            println!("{name}: worst |stored - file| = {worst:.2e} rad");
+            let bound = 0.5 * Q16::STEP as f64 * ETA_UNIT as f64 + 1e-7;
+            assert!(worst <= bound, "{name}: {worst} > {bound}");
+        };
+        check(
+            "beckmann",
+            include_bytes!("../../tables/vgroove_partner_beckmann.bin"),
+            &BECKMANN,
+        );
+        check(
+            "ggx",
+            include_bytes!("../../tables/vgroove_partner_ggx.bin"),
+            &GGX,
+        );
+        check(
+            "phong",
+            include_bytes!("../../tables/vgroove_partner_phong.bin"),
+            &PHONG,
+        );
     }
 }
