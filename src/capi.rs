@@ -258,7 +258,7 @@ pub struct msbsdf_material_desc {
     /// within 15% counting as equal (the smaller error wins). The default
     /// 0.03 picks analytic models only: TABULATED for every Beckmann or GGX
     /// conductor (errors 0.005-0.016 isotropic, about 0.025 anisotropic;
-    /// 1.1 to 1.6x SINGLE's time, 2-2.4x anisotropic) and for glass from
+    /// 1.1 to 1.6x SINGLE's time, 2-2.5x anisotropic) and for glass from
     /// alpha 0.2 (0.005-0.016, 1.4x), SINGLE for glass up to alpha 0.1
     /// (0.006). 0.1 keeps SINGLE for GGX conductors up to alpha 0.3 and
     /// for glass up to 0.5;

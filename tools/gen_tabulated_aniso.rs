@@ -4,7 +4,7 @@
 //! `(alpha_x, alpha_y)` on the grid `tabulated::corr_grid_alpha` (31 nodes
 //! per axis: ENERGY_COMPENSATED's 16 and the midpoints between them) and
 //! direction node (`tabulated::corr_node_dir`: the albedo table's 16
-//! cosines, 7 diamond-angle azimuths), the two factors `u = s sqrt(t)`,
+//! cosines, `tabulated::CORR_PHI` = 9 diamond-angle azimuths), the two factors `u = s sqrt(t)`,
 //! `v = s sqrt(b)` of the lobe `T u(wi) u(wo) + P v(wi) v(wo)`
 //! (`Tabulated::aniso_parts`; `t`, `b` from `Tabulated::aniso_factors`),
 //! with `s` such that the lobe has the multiply scattered albedo
@@ -50,9 +50,9 @@ use msbsdf::multiple::compensation::{
 };
 use msbsdf::multiple::compensation_aniso_tables::{AN_A, AN_MU, AN_PHI, CONDUCTOR_E_ANISO};
 use msbsdf::multiple::tabulated::{
-    CORR_A, CORR_BLOCK, CORR_LEN, CORR_MAGIC, CORR_MAX, CORR_PAIR_MAX, CORR_VALUES, HEADER_BYTES,
-    Tabulated, corr_decode, corr_dir_weights, corr_encode, corr_grid_alpha, corr_index,
-    corr_node_dir, dcorr_dir_weights,
+    CORR_A, CORR_BLOCK, CORR_LEN, CORR_MAGIC, CORR_MAX, CORR_PAIR_MAX, CORR_PHI, CORR_VALUES,
+    HEADER_BYTES, Tabulated, corr_decode, corr_dir_weights, corr_encode, corr_grid_alpha,
+    corr_index, corr_node_dir, dcorr_dir_weights,
 };
 use msbsdf::ndf::{Ndf, NdfKind};
 use msbsdf::rng::Rng;
@@ -325,7 +325,7 @@ fn main() {
         stats.clamped += st.clamped;
         stats.pair_clamped += st.pair_clamped;
         stats.steps = stats.steps.max(st.steps);
-        for k in 0..AN_PHI {
+        for k in 0..CORR_PHI {
             for i in 0..AN_MU {
                 let at = corr_index(n, jx, jy, k, i);
                 for (c, &v) in block[k * AN_MU + i].iter().enumerate() {
@@ -338,8 +338,8 @@ fn main() {
     }
     let command: Vec<String> = args.iter().skip(1).cloned().collect();
     let header = format!(
-        "ANISO_CORRECTION v3 (MSBSDF_MODEL_TABULATED): per [ndf: Beckmann, GGX][roughness \
-         pair (jx <= jy) of {CORR_A} x {CORR_A}: alpha = 2 (j / {})^2][azimuth: {AN_PHI} \
+        "ANISO_CORRECTION v4 (MSBSDF_MODEL_TABULATED): per [ndf: Beckmann, GGX][roughness \
+         pair (jx <= jy) of {CORR_A} x {CORR_A}: alpha = 2 (j / {})^2][azimuth: {CORR_PHI} \
          nodes of the diamond angle |y| / (|x| + |y|) from 0 to 1 (tabulated::corr_dir)][mu: \
          {AN_MU}] (ENERGY_COMPENSATED's anisotropic cosine grid) the two factors \
          u = s sqrt(t), v = s sqrt(b) of the lobe's table and peaked parts \
@@ -358,7 +358,7 @@ fn main() {
          Command: cargo run --release --example gen_tabulated_aniso{}{}\nCommit: {}\n\
          Time: {:.0} s\n",
         CORR_A - 1,
-        AN_PHI - 1,
+        CORR_PHI - 1,
         lo[0],
         hi[0],
         lo[1],
@@ -448,7 +448,7 @@ fn check(quad: usize) {
             continue;
         }
         nodes += 1;
-        let k = (pick.next_u32() % AN_PHI as u32) as usize;
+        let k = (pick.next_u32() % CORR_PHI as u32) as usize;
         let i = (pick.next_u32() % AN_MU as u32) as usize;
         let w = corr_node_dir(k * AN_MU + i);
         cases.push((n, ax, ay, w.z.acos(), w.y.atan2(w.x)));
@@ -495,27 +495,21 @@ fn check(quad: usize) {
         // E_exact interpolated in azimuth and cosine only (the material's
         // own roughness): the floor of any finer roughness grid.
         let e_dir = {
-            let phi_c =
-                wi.y.abs().atan2(wi.x.abs()) / std::f32::consts::FRAC_PI_2 * (AN_PHI - 1) as f32;
-            let k = (phi_c as usize).min(AN_PHI - 2);
-            let fk = phi_c - k as f32;
-            let m0 = aniso_grid_mu(0);
-            let mc = ((wi.z - m0) / (1.0 - m0)).clamp(0.0, 1.0).sqrt() * (AN_MU - 1) as f32;
-            let i = (mc as usize).min(AN_MU - 2);
-            let fi = mc - i as f32;
             let mut v = 0.0;
-            for (dk, wk) in [(0, 1.0 - fk), (1, fk)] {
-                for (di, wt) in [(0, 1.0 - fi), (1, fi)] {
-                    if wk * wt == 0.0 {
-                        continue;
-                    }
-                    let (mu, ph) = (aniso_grid_mu(i + di), aniso_grid_phi(k + dk));
-                    let s = (1.0 - mu * mu).max(0.0).sqrt();
-                    let w = Vec3::new(s * ph.cos(), s * ph.sin(), mu);
-                    let mut rr = Rng::new(0, 0);
-                    v += (wk * wt) as f64
-                        * single_albedo(|x, y| single.eval(x, y, &mut rr).x, ax, ay, w, None, quad);
+            for (r, wt) in corr_dir_weights(wi) {
+                if wt == 0.0 {
+                    continue;
                 }
+                let mut rr = Rng::new(0, 0);
+                v += wt as f64
+                    * single_albedo(
+                        |x, y| single.eval(x, y, &mut rr).x,
+                        ax,
+                        ay,
+                        corr_node_dir(r),
+                        None,
+                        quad,
+                    );
             }
             v
         };

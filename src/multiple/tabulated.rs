@@ -115,7 +115,7 @@
 //! per-direction factors `u = s sqrt(t)` and `v = s sqrt(b)`, which eval
 //! reads jointly from `data/tabulated_aniso.bin` ([`corr_values`]): per
 //! NDF, roughness pair on a 31 x 31 grid ([`corr_grid_alpha`]) and node of
-//! a direction grid (`corr_dir`: the albedo table's 16 cosines and 7
+//! a direction grid (`corr_dir`: the albedo table's 16 cosines and 9
 //! nodes of the diamond angle `|y| / (|x| + |y|)`, no `atan2`), linear on
 //! triangles in roughness (the lobe has a kink at isotropy) and bilinear
 //! in direction. `s` gives the lobe with `u` and `v` interpolated so the
@@ -126,7 +126,7 @@
 //! `E`, `E_p`, `E_iso` and `s` (anisotropic gold eval 2402 -> 1445
 //! instructions GGX, 3544 -> 2004 Beckmann, with Beckmann's peaked lobe
 //! by [`crate::ndf::beckmann::lambda_rational`]). Measured worst furnace
-//! error 0.06% at the nodes, 0.42% on the test's directions, 0.60% on 32
+//! error 0.06% at the nodes, 0.42% on the test's directions, 0.43% on 32
 //! random materials and directions (`docs/tabulated.md`).
 //!
 //! ## Sampling
@@ -221,9 +221,15 @@ pub const CORR_A: usize = 31;
 /// others by the symmetry `(alpha_x, alpha_y, phi) -> (alpha_y, alpha_x,
 /// pi/2 - phi)`.
 pub const CORR_PAIRS: usize = CORR_A * (CORR_A + 1) / 2;
-/// Values per roughness pair: ENERGY_COMPENSATED's azimuth and cosine grid
-/// (`[phi: AN_PHI][mu: AN_MU]`).
-pub const CORR_BLOCK: usize = AN_PHI * AN_MU;
+/// Azimuth nodes of the conductor's correction (uniform in the diamond
+/// angle, `corr_dir`): 9, against the albedo table's 7 (`AN_PHI`), which
+/// left `E_ss` interpolated between the nodes at 78.7 and 90 degrees 0.68%
+/// off at Beckmann (1.818, 0.482), 87.5 degrees.
+pub const CORR_PHI: usize = 9;
+/// Values per roughness pair: the diamond-angle azimuth and
+/// ENERGY_COMPENSATED's cosine grid
+/// (`[phi: CORR_PHI][mu: AN_MU]`).
+pub const CORR_BLOCK: usize = CORR_PHI * AN_MU;
 /// Nodes of the correction table `[ndf][pair][phi][mu]`.
 pub const CORR_LEN: usize = NDF_N * CORR_PAIRS * CORR_BLOCK;
 /// Stored values per node of the conductor's correction table: the
@@ -235,7 +241,7 @@ pub const CORR_VALUES: usize = 2;
 /// [`CORR_LEN`].
 pub const CORR_FILE_BYTES: usize = HEADER_BYTES + 2 * CORR_VALUES * CORR_LEN;
 /// First bytes of the correction table file.
-pub const CORR_MAGIC: &[u8; 28] = b"MSBSDF-TABULATED-ANISO-F-v3\n";
+pub const CORR_MAGIC: &[u8; 28] = b"MSBSDF-TABULATED-ANISO-F-v4\n";
 /// Largest stored factor of the dielectric's correction (the encoding's
 /// range; [`corr_encode`]).
 pub const CORR_MAX: f32 = 8.0;
@@ -274,7 +280,7 @@ pub const fn corr_index(ndf: usize, jx: usize, jy: usize, k: usize, i: usize) ->
     let (lo, hi, k) = if jx <= jy {
         (jx, jy, k)
     } else {
-        (jy, jx, AN_PHI - 1 - k)
+        (jy, jx, CORR_PHI - 1 - k)
     };
     (ndf * CORR_PAIRS + corr_pair(lo, hi)) * CORR_BLOCK + k * AN_MU + i
 }
@@ -393,7 +399,7 @@ fn corr_at(corners: &CorrCorners, d: &AnisoDir) -> [f32; 2] {
     let lanes = Vec4::new(1.0 - d.fi, 1.0 - d.fi, d.fi, d.fi);
     for &(b, w) in corners {
         let (k, fk) = if b & CORR_MIRROR != 0 {
-            (AN_PHI - 2 - d.k0, 1.0 - d.fk)
+            (CORR_PHI - 2 - d.k0, 1.0 - d.fk)
         } else {
             (d.k0, d.fk)
         };
@@ -444,14 +450,14 @@ fn u16x4(b: Option<&[u8; 8]>) -> Vec4 {
 
 /// The conductor correction's nodes of a direction `w` (`w.z >= 0`): its
 /// azimuth coordinate is the diamond angle `|y| / (|x| + |y|)` on
-/// [`AN_PHI`] uniform nodes from 0 (`phi` = 0) to 1 (`phi` = 90 degrees),
+/// [`CORR_PHI`] uniform nodes from 0 (`phi` = 0) to 1 (`phi` = 90 degrees),
 /// without the `atan2` of the albedo table's uniform azimuth grid
 /// (`AnisoDir::new`; two of them were a tenth of the anisotropic eval).
 /// Its nodes are within 0.8-1.6x of uniform spacing in `phi` (slope
 /// `1 / (cos phi + sin phi)^2`); nodes uniform in `sin^2 phi`, sparse at
 /// the axes, left the suite's GGX (0.1, 0.6) gold at 0.033 against 0.023.
 /// The exchange of the axes, `phi -> pi/2 - phi`, maps the coordinate `c`
-/// to `1 - c`: node `k` to `AN_PHI - 1 - k`, as on the uniform grid. At
+/// to `1 - c`: node `k` to `CORR_PHI - 1 - k`, as on the uniform grid. At
 /// the normal (no azimuth) it reads 0.5; the lobe's nodes there agree
 /// for every azimuth up to the solve's residual (the conductor's
 /// roughness blend [`alpha_proj2`] has a limit at the normal).
@@ -460,18 +466,18 @@ pub(crate) fn corr_dir(w: Vec3) -> AnisoDir {
     let (x, y) = (w.x.abs(), w.y.abs());
     let s = x + y;
     let c = if s > 0.0 { y / s } else { 0.5 };
-    let (k0, _, fk) = split(c * (AN_PHI - 1) as f32, AN_PHI);
+    let (k0, _, fk) = split(c * (CORR_PHI - 1) as f32, CORR_PHI);
     let (i0, _, fi) = split(compensation::aniso_mu_coord(w.z.abs()), AN_MU);
     AnisoDir { k0, fk, i0, fi }
 }
 
 /// The incident direction of node `r = k * AN_MU + i` of the conductor's
-/// correction (`corr_dir`: diamond angle `k / (AN_PHI - 1)`, the albedo
+/// correction (`corr_dir`: diamond angle `k / (CORR_PHI - 1)`, the albedo
 /// table's cosine node `i`).
 pub fn corr_node_dir(r: usize) -> Vec3 {
     let (mu, c) = (
         compensation::aniso_grid_mu(r % AN_MU),
-        (r / AN_MU) as f32 / (AN_PHI - 1) as f32,
+        (r / AN_MU) as f32 / (CORR_PHI - 1) as f32,
     );
     // y / (x + y) = c on the unit circle: (1 - c, c) normalised.
     let st = (1.0 - mu * mu).max(0.0).sqrt();
@@ -1579,7 +1585,7 @@ mod tests {
             for (jx, jy) in [(4, 11), (11, 4), (9, 9), (2, 27), (27, 2), (20, 13)] {
                 let (ax, ay) = (corr_grid_alpha(jx), corr_grid_alpha(jy));
                 let corners = corr_corners(ndf, ax, ay);
-                for k in 0..AN_PHI {
+                for k in 0..CORR_PHI {
                     for i in [0, 3, 7, 12, AN_MU - 1] {
                         let got = corr_at(&corners, &corr_dir(corr_node_dir(k * AN_MU + i)));
                         let want = corr_values(corr_index(ndf, jx, jy, k, i));
@@ -1597,6 +1603,6 @@ mod tests {
                 }
             }
         }
-        assert_eq!(checked, NDF_N * 6 * AN_PHI * 5);
+        assert_eq!(checked, NDF_N * 6 * CORR_PHI * 5);
     }
 }
