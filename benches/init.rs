@@ -204,6 +204,13 @@ const CASES: &[Case] = &[
         chosen: false,
     },
     Case {
+        name: "AUTO dielectric aniso",
+        model: MSBSDF_MODEL_AUTO,
+        ndf: MSBSDF_NDF_GGX,
+        facet: DIELECTRIC_ANISO,
+        chosen: false,
+    },
+    Case {
         name: "AUTO conductor: chosen model",
         model: MSBSDF_MODEL_AUTO,
         ndf: MSBSDF_NDF_GGX,
@@ -224,7 +231,18 @@ const CASES: &[Case] = &[
         facet: MSBSDF_FACET_DIELECTRIC,
         chosen: true,
     },
+    Case {
+        name: "AUTO dielectric aniso: chosen model",
+        model: MSBSDF_MODEL_AUTO,
+        ndf: MSBSDF_NDF_GGX,
+        facet: DIELECTRIC_ANISO,
+        chosen: true,
+    },
 ];
+
+/// The `facet` of a case: dielectric with `alpha_y = min(2 alpha_x, 1)`
+/// (see `desc`; `u32::MAX` is the same for conductors).
+const DIELECTRIC_ANISO: u32 = u32::MAX - 1;
 
 /// The `i`-th description of a case: roughness in [0.2, 0.9] and the index
 /// (conductor: around gold; dielectric: 1.2 to 2) change on every call, by
@@ -238,8 +256,11 @@ fn desc(c: &Case, i: usize) -> msbsdf_material_desc {
     d.alpha_x = 0.2 + 0.7 * u;
     d.alpha_y = d.alpha_x;
     match c.facet {
-        MSBSDF_FACET_DIELECTRIC => {
+        MSBSDF_FACET_DIELECTRIC | DIELECTRIC_ANISO => {
             d.facet = MSBSDF_FACET_DIELECTRIC;
+            if c.facet == DIELECTRIC_ANISO {
+                d.alpha_y = (2.0 * d.alpha_x).min(1.0);
+            }
             let eta = 1.2 + 0.8 * v;
             d.eta = msbsdf_rgb {
                 r: eta,

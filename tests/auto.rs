@@ -210,11 +210,16 @@ fn auto_eval_is_the_mean_of_the_chosen_evaluations() {
 }
 
 /// What the header promises of the default tolerance (0.03): analytic
-/// models only, one evaluation per query, within the tolerance by the
-/// table: TABULATED for every Beckmann or GGX conductor and for glass from
-/// alpha 0.2, SINGLE for smoother glass (`docs/auto_picks.md`). Fails when
-/// a regenerated table moves the default onto a walk (0.02 would have put
-/// anisotropic Beckmann conductors on INVARIANCE x8-x32).
+/// models, one evaluation per query, within the tolerance by the table:
+/// TABULATED for every Beckmann or GGX conductor and for isotropic glass
+/// from alpha 0.2, SINGLE for smoother glass (`docs/auto_picks.md`); for
+/// anisotropic glass, whose measured row (GGX glass (0.1, 0.6), session 9)
+/// has TABULATED at 0.039 and SINGLE at 0.048, a walk averaged over
+/// several evaluations, and an analytic model from the tolerance 0.05.
+/// Fails when a regenerated table moves the default onto a walk elsewhere
+/// (0.02 would have put anisotropic Beckmann conductors on INVARIANCE
+/// x8-x32), or anisotropic glass off its walk (a claim of TABULATED's
+/// isotropic error for it: 0.008 before its row was measured).
 #[test]
 fn default_tolerance_picks_the_analytic_tier() {
     let tolerance = MaterialDesc::default().tolerance;
@@ -225,6 +230,25 @@ fn default_tolerance_picks_the_analytic_tier() {
             for (ax, ay) in suite::AUTO_PICK_ROUGHNESS {
                 let d = suite::auto_pick_desc(ndf, facet, (ax, ay), tolerance);
                 let c = *Material::new(&d).expect("AUTO").chosen();
+                assert!(c.error <= d.tolerance, "{d:?}: {c:?}");
+                checked += 1;
+                if facet == FacetKind::Dielectric && ax != ay {
+                    assert!(
+                        !matches!(
+                            c.model,
+                            Model::Single | Model::Tabulated | Model::EnergyCompensated
+                        ) && c.evaluations > 1,
+                        "{d:?}: {c:?}"
+                    );
+                    let loose = suite::auto_pick_desc(ndf, facet, (ax, ay), 0.05);
+                    let c = *Material::new(&loose).expect("AUTO").chosen();
+                    assert!(
+                        matches!(c.model, Model::Single | Model::Tabulated) && c.evaluations == 1,
+                        "{loose:?}: {c:?}"
+                    );
+                    assert!(c.error <= loose.tolerance, "{loose:?}: {c:?}");
+                    continue;
+                }
                 let want = if facet == FacetKind::Dielectric && ax.max(ay) <= 0.1 {
                     Model::Single
                 } else {
@@ -232,8 +256,6 @@ fn default_tolerance_picks_the_analytic_tier() {
                 };
                 assert_eq!(c.model, want, "{d:?}: {c:?}");
                 assert_eq!(c.evaluations, 1, "{d:?}: {c:?}");
-                assert!(c.error <= d.tolerance, "{d:?}: {c:?}");
-                checked += 1;
             }
         }
     }

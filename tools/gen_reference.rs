@@ -24,7 +24,8 @@
 //!   estimator: its header's `estimator-id`), pool its samples with a new
 //!   pilot and second pass seeded above every seed its header names, and
 //!   rewrite it (earlier header lines kept as `earlier run:`); the albedo
-//!   table is left alone. A bigger machine pushes the reference to the
+//!   table is left alone; materials appended to the suite since start from
+//!   no samples. A bigger machine pushes the reference to the
 //!   target with `--resume --budget SECONDS`.
 //! - `--check [--samples N] [--items material:pair,...]`: the estimator against the library's HEITZ eval
 //!   and its walks from `wi` and from `wo` on hard and easy pairs (z per
@@ -180,7 +181,9 @@ fn main() {
         let data = reference::read_values(&text).expect("--resume: parse the existing values");
         let names: Vec<&str> = data.iter().map(|m| m.mat.name.as_str()).collect();
         let want: Vec<&str> = suite.iter().map(|m| m.name.as_str()).collect();
-        if names != want || data.iter().any(|m| m.pairs.len() != o.pairs) {
+        // Materials appended to the suite since (new ones go last) start
+        // from no samples; any other difference is another suite.
+        if !want.starts_with(&names) || data.iter().any(|m| m.pairs.len() != o.pairs) {
             eprintln!("--resume: {path} holds another suite or pair count");
             std::process::exit(2);
         }

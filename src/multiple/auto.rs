@@ -14,7 +14,9 @@
 //! `(alpha_x, alpha_y)`:
 //! - the rows measured for `(n, f)`; if there are none, the rows of the
 //!   same facet with another NDF (the harness measured glass with GGX
-//!   only: Beckmann glass uses them, an approximation); no rows (diffuse
+//!   only: Beckmann glass uses them, an approximation; its one
+//!   anisotropic row, (0.1, 0.6), is held against every anisotropic
+//!   glass); no rows (diffuse
 //!   facets, other NDFs): the first model that accepts the description
 //!   among HEITZ_RANDOM_WALK and NULL_SCATTERING, one evaluation;
 //! - a row measured for exactly this roughness alone; otherwise
@@ -45,9 +47,13 @@
 //! orders >= 2 of the walk; conductors and dielectrics) is within about 1%
 //! on the conductor rows and 0.5% on glass at 1.1-1.6x SINGLE's time, the
 //! knee of the front, and the default tolerance 0.03 lands on it: TABULATED
-//! for every conductor and for glass from alpha 0.2, SINGLE for smoother
-//! glass (`docs/auto_picks.md`, written by `cargo run --release --example
-//! auto_picks`, has every pick). ENERGY_COMPENSATED (error about 0.03-0.08)
+//! for every conductor and for isotropic glass from alpha 0.2, SINGLE for
+//! smoother glass (`docs/auto_picks.md`, written by `cargo run --release
+//! --example auto_picks`, has every pick). Anisotropic glass is the
+//! exception: TABULATED's measured error there is 0.039 (SINGLE 0.048; its
+//! lobe is the isotropic one at an effective roughness), so 0.03 takes
+//! HEITZ_RANDOM_WALK averaged over 16-128 evaluations and 0.05 SINGLE or
+//! TABULATED. ENERGY_COMPENSATED (error about 0.03-0.08)
 //! costs no less than TABULATED in the current table (the two have swapped
 //! order between harness runs; [`COST_TIE`] treats such costs as a tie),
 //! so it is not picked. 0.1 keeps SINGLE for GGX conductors up to alpha
@@ -1183,16 +1189,22 @@ mod tests {
         // GGX conductors (stored fronts): every isotropic roughness up to
         // the largest measured (1.0; 12 of the 13 values) and 12
         // tolerances, and the anisotropic pairs within it but the measured
-        // (0.1, 0.6). GGX glass (stored fronts, no anisotropic row): every
-        // pair within 1.0. Nothing else.
+        // (0.1, 0.6). GGX glass (stored fronts, with its measured
+        // anisotropic row (0.1, 0.6) since session 9): every pair within
+        // 1.0 but that one. Nothing else.
         assert_eq!(covered[0], 12 * 12, "{covered:?}");
         assert_eq!(covered[1], (12 * 11 - 1) * 12, "{covered:?}");
-        assert_eq!(covered[2], 12 * 12 * 12, "{covered:?}");
+        assert_eq!(covered[2], (12 * 12 - 1) * 12, "{covered:?}");
         assert!(compared > 1500, "{compared}");
         // The measured anisotropic row's roughness lies on the isotropic
         // nodes, so the lookup searches the measured pairs only for
         // descriptions on two nodes (the exclusion above still found it).
         assert!(FRONTS_GGX_CONDUCTOR.head.aniso_on_nodes);
         assert!(FRONTS_GGX_CONDUCTOR.head.n_aniso > 0);
+        // The glass's (0.1, 0.6) is not on its isotropic nodes (0.1, 0.5,
+        // 1): the lookup searches the measured pairs for every anisotropic
+        // description, and the comparison above covered that path.
+        assert!(!FRONTS_GGX_DIELECTRIC.head.aniso_on_nodes);
+        assert!(FRONTS_GGX_DIELECTRIC.head.n_aniso > 0);
     }
 }

@@ -20,7 +20,7 @@
 
 use super::reference::RefMaterial;
 use super::suite::{
-    CMaterial, Class, Combo, c_rng, discover, estimator_name, model_name, ndf_name,
+    CMaterial, Class, Combo, GROUPS, c_rng, discover, estimator_name, model_name, ndf_name,
 };
 use super::{Progress, Stats, median};
 use msbsdf::NdfId;
@@ -317,9 +317,10 @@ pub struct Row {
     pub combo: Combo,
     /// Evaluations per query.
     pub evals: u32,
-    /// Per class (conductor, dielectric): RMS relative error, mean ns per
-    /// query, materials covered.
-    pub class: [Option<(f64, f64, usize)>; 2],
+    /// Per reporting group (`suite::GROUPS`: conductor, dielectric,
+    /// anisotropic dielectric): RMS relative error, mean ns per query,
+    /// materials covered.
+    pub class: [Option<(f64, f64, usize)>; GROUPS.len()],
 }
 
 /// The class summary: one row per (model, estimator, evaluations).
@@ -332,15 +333,12 @@ pub fn summary(run: &Run, refs: &[RefMaterial]) -> Vec<Row> {
             vec![1]
         };
         for (ei, &n) in evals.iter().enumerate() {
-            let mut class = [None, None];
-            for (k, cl) in [Class::Conductor, Class::Dielectric]
-                .into_iter()
-                .enumerate()
-            {
+            let mut class = [None; GROUPS.len()];
+            for (k, slot) in class.iter_mut().enumerate() {
                 let rs: Vec<&MatResult> = run
                     .results
                     .iter()
-                    .filter(|r| r.combo == ci && refs[r.material].mat.class == cl)
+                    .filter(|r| r.combo == ci && refs[r.material].mat.group() == k)
                     .filter(|r| r.ns.len() > ei)
                     .collect();
                 if rs.is_empty() {
@@ -349,7 +347,7 @@ pub fn summary(run: &Run, refs: &[RefMaterial]) -> Vec<Row> {
                 let e2: f64 =
                     rs.iter().map(|r| r.rel_err(n).powi(2)).sum::<f64>() / rs.len() as f64;
                 let ns: f64 = rs.iter().map(|r| r.ns[ei]).sum::<f64>() / rs.len() as f64;
-                class[k] = Some((e2.sqrt(), ns, rs.len()));
+                *slot = Some((e2.sqrt(), ns, rs.len()));
             }
             rows.push(Row {
                 combo: *c,
@@ -362,7 +360,7 @@ pub fn summary(run: &Run, refs: &[RefMaterial]) -> Vec<Row> {
 }
 
 /// Header line of the summary CSV.
-pub const SUMMARY_COLUMNS: &str = "model,estimator,evaluations,conductor_rel_rms_error,conductor_ns_per_query,conductor_materials,dielectric_rel_rms_error,dielectric_ns_per_query,dielectric_materials";
+pub const SUMMARY_COLUMNS: &str = "model,estimator,evaluations,conductor_rel_rms_error,conductor_ns_per_query,conductor_materials,dielectric_rel_rms_error,dielectric_ns_per_query,dielectric_materials,dielectric_anisotropic_rel_rms_error,dielectric_anisotropic_ns_per_query,dielectric_anisotropic_materials";
 
 /// The summary CSV text.
 pub fn summary_csv(header: &[String], rows: &[Row]) -> String {
