@@ -240,6 +240,26 @@ pub const fn decode5_q16<
     out
 }
 
+/// Test helper: the worst `|unit q.get() - v|` over a table file's values
+/// `v` and their [`Q16`] copies `q` (as [`decode_q16`] stores them with
+/// `unit`), after checking the count and that every value is within the
+/// stored range `[0, unit Q16_SCALE]` (none clamped).
+#[cfg(test)]
+pub(crate) fn q16_file_error(name: &str, file: &[u8], q: &[Q16], unit: f32) -> f64 {
+    let (data, n) = layout(file);
+    assert_eq!(n, q.len(), "{name}");
+    let mut worst = 0.0f64;
+    for (i, q) in q.iter().enumerate() {
+        let v = f32_at(file, data, i) as f64;
+        assert!(
+            (0.0..=(unit * Q16_SCALE) as f64).contains(&v),
+            "{name}[{i}] = {v}"
+        );
+        worst = worst.max((q.get() as f64 * unit as f64 - v).abs());
+    }
+    worst
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -267,16 +287,9 @@ mod tests {
     #[test]
     fn q16_tables_hold_their_files_to_half_a_step() {
         let check = |name: &str, file: &[u8], q: &[Q16]| {
-            let (data, n) = layout(file);
-            assert_eq!(n, q.len(), "{name}");
-            let mut worst = 0.0f32;
-            for (i, q) in q.iter().enumerate() {
-                let v = f32_at(file, data, i);
-                assert!((0.0..=Q16_SCALE).contains(&v), "{name}[{i}] = {v}");
-                worst = worst.max((q.get() - v).abs());
-            }
+            let worst = q16_file_error(name, file, q, 1.0);
             println!("{name}: worst |stored - file| = {worst:.2e}");
-            assert!(worst <= 0.5 * Q16::STEP + 1e-7, "{name}: {worst}");
+            assert!(worst <= 0.5 * Q16::STEP as f64 + 1e-7, "{name}: {worst}");
         };
         check(
             "CONDUCTOR_E_ANISO",
