@@ -1049,6 +1049,8 @@ struct AnisoLobe {
     beta: f32,
     /// The NDF of the peaked lobe (the material's scaled by `w`).
     peak: Ndf,
+    /// `w^2` (GGX's peaked terms from SINGLE's, `ggx::d_lambda_scaled`).
+    w2: f32,
     /// The material's corners in the correction table.
     corners: CorrCorners,
     /// Without the correction (the table generator only): SINGLE's
@@ -1158,6 +1160,7 @@ impl Tabulated {
             AnisoLobe {
                 beta: b * (1.0 - r * r),
                 peak: Ndf::new(ndf.kind, ndf.alpha_x * width, ndf.alpha_y * width),
+                w2: width * width,
                 corners: corr_corners(ndf_index, ndf.alpha_x, ndf.alpha_y),
                 exact: None,
             }
@@ -1226,9 +1229,9 @@ impl Tabulated {
     /// v(wo)` with the factors `u = s sqrt(t)`, `v = s sqrt(b)`.
     pub fn aniso_parts(&self, wi: Vec3, wo: Vec3) -> Option<(f32, f32)> {
         let a = self.aniso.as_ref()?;
-        let ss1 = self.single_terms(wi, wo).0;
+        let (ss1, _, _, peak) = self.single_terms(wi, wo);
         let (_, table) = self.tint_and_table(wi, wo, ss1);
-        Some(((1.0 - a.beta) * table, a.beta * peak_lobe(&a.peak, wi, wo)))
+        Some(((1.0 - a.beta) * table, a.beta * peak))
     }
 
     /// `(sqrt(t(w)), sqrt(b(w)))` from the albedo tables (module docs; `p2`
@@ -1329,9 +1332,11 @@ impl Tabulated {
     }
 
     /// The multiply scattered `f |wo.z|` for `wi.z > 0`, `wo.z > 0`, given
-    /// the single-scattering `f_ss1 |wo.z|` with F = 1 of the same pair.
+    /// the single-scattering `f_ss1 |wo.z|` with F = 1 of the same pair and,
+    /// for an anisotropic material, the peaked lobe's `f_p |wo.z|` (both
+    /// from [`Self::single_terms`]).
     #[inline]
-    fn multiple(&self, wi: Vec3, wo: Vec3, ss1: f32) -> Vec3A {
+    fn multiple(&self, wi: Vec3, wo: Vec3, ss1: f32, peak: f32) -> Vec3A {
         let (tint, table) = self.tint_and_table(wi, wo, ss1);
         let Some(a) = &self.aniso else {
             return tint * table;
@@ -1354,8 +1359,7 @@ impl Tabulated {
                 ([ti, bi], [to, bo])
             }
         };
-        let lobe =
-            (1.0 - a.beta) * table * (ui * uo) + a.beta * peak_lobe(&a.peak, wi, wo) * (vi * vo);
+        let lobe = (1.0 - a.beta) * table * (ui * uo) + a.beta * peak * (vi * vo);
         tint * lobe
     }
 
@@ -1368,33 +1372,49 @@ impl Tabulated {
     /// Single scattering for `wi.z > 0`, `wo.z > 0`: `f_ss1 |wo.z|` with
     /// F = 1, the Fresnel factor of the half vector, and the visible-normal
     /// pdf of `wo`, sharing `D` and `Lambda(wi)`:
-    /// `pdf = D_wi(h) / (4 wi.h) = G1(wi) D(h) / (4 wi.z)`.
+    /// `pdf = D_wi(h) / (4 wi.h) = G1(wi) D(h) / (4 wi.z)`; last, for an
+    /// anisotropic material, the peaked lobe's `f_p |wo.z|` (0 otherwise;
+    /// GGX's from the same slope terms, `ggx::d_lambda_scaled`).
     #[inline(always)]
-    fn single_terms(&self, wi: Vec3, wo: Vec3) -> (f32, Vec3A, f32) {
+    fn single_terms(&self, wi: Vec3, wo: Vec3) -> (f32, Vec3A, f32, f32) {
         if let Some(a2) = self.iso_ggx_a2 {
             let (_, f, p) = iso_ggx_reflection(a2, wi, wo);
             if self.unit_fresnel {
-                return (f, Vec3A::ONE, p);
+                return (f, Vec3A::ONE, p, 0.0);
             }
             // wi.H = 1 + wi.wo > 0 for two directions above.
             let hv = wi + wo;
-            return (f, self.fresnel(wi.dot(hv) / hv.length()), p);
+            return (f, self.fresnel(wi.dot(hv) / hv.length()), p, 0.0);
         }
         let h = (wi + wo).normalize_or_zero();
         let ci = wi.dot(h);
         if ci <= 0.0 || h.z <= 0.0 {
-            return (0.0, Vec3A::ZERO, 0.0);
+            return (0.0, Vec3A::ZERO, 0.0, 0.0);
         }
-        let d = self.ndf.d(h);
-        let li = self.ndf.lambda(wi);
-        let lo = self.ndf.lambda(wo);
-        let base = d / (4.0 * wi.z);
         let fresnel = if self.unit_fresnel {
             Vec3A::ONE
         } else {
             self.fresnel(ci)
         };
-        (base / (1.0 + li + lo), fresnel, base / (1.0 + li))
+        let ([d, li, lo], peak) = match &self.aniso {
+            Some(a) if self.ndf.kind == NdfKind::Ggx => {
+                let (s, [dp, lip, lop]) = crate::ndf::ggx::d_lambda_scaled(
+                    self.ndf.alpha_x,
+                    self.ndf.alpha_y,
+                    a.w2,
+                    h,
+                    wi,
+                    wo,
+                );
+                (s, dp / (4.0 * wi.z * (1.0 + lip + lop)))
+            }
+            aniso => (
+                [self.ndf.d(h), self.ndf.lambda(wi), self.ndf.lambda(wo)],
+                aniso.as_ref().map_or(0.0, |a| peak_lobe(&a.peak, wi, wo)),
+            ),
+        };
+        let base = d / (4.0 * wi.z);
+        (base / (1.0 + li + lo), fresnel, base / (1.0 + li), peak)
     }
 
     /// The visible-normal pdf of `wo` alone (what [`Self::single_terms`]
@@ -1418,9 +1438,12 @@ impl Tabulated {
         if wo.z <= 0.0 {
             return (Vec3::ZERO, 0.0);
         }
-        let (ss1, fresnel, ps) = self.single_terms(wi, wo);
+        let (ss1, fresnel, ps, peak) = self.single_terms(wi, wo);
         let pdf = (1.0 - q) * ps + q * wo.z / PI;
-        (Vec3::from(fresnel * ss1 + self.multiple(wi, wo, ss1)), pdf)
+        (
+            Vec3::from(fresnel * ss1 + self.multiple(wi, wo, ss1, peak)),
+            pdf,
+        )
     }
 }
 
@@ -1468,8 +1491,8 @@ impl ScatterModel for Tabulated {
         if wo.z <= 0.0 {
             return Vec3::ZERO;
         }
-        let (ss1, fresnel, _) = self.single_terms(wi, wo);
-        Vec3::from(fresnel * ss1 + self.multiple(wi, wo, ss1))
+        let (ss1, fresnel, _, peak) = self.single_terms(wi, wo);
+        Vec3::from(fresnel * ss1 + self.multiple(wi, wo, ss1, peak))
     }
 
     fn sample(&self, wi: Vec3, rng: &mut Rng) -> Sample {

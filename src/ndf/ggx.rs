@@ -44,6 +44,45 @@ pub fn lambda_upper(ax: f32, ay: f32, v: Vec3) -> f32 {
     t / (2.0 * (1.0 + (1.0 + t).sqrt()))
 }
 
+/// `[D(m), Lambda(wi), Lambda(wo)]` at roughness `(ax, ay)` and at `(w ax,
+/// w ay)` (`w2 = w^2`), from one set of slope terms: [`d`] and
+/// [`lambda_upper`] (`m.z > 0`, `wi.z > 0`, `wo.z > 0`) of both NDFs, as
+/// TABULATED's anisotropic GGX lobe needs them (SINGLE's term and the
+/// peaked part share the half vector).
+#[inline(always)]
+pub fn d_lambda_scaled(
+    ax: f32,
+    ay: f32,
+    w2: f32,
+    m: Vec3,
+    wi: Vec3,
+    wo: Vec3,
+) -> ([f32; 3], [f32; 3]) {
+    // D: t = (m.x / ax)^2 + (m.y / ay)^2 + m.z^2; scaled, the slope part
+    // over w^2.
+    let q = (m.x / ax).powi(2) + (m.y / ay).powi(2);
+    let z2 = m.z * m.z;
+    let (t, tw) = (q + z2, q / w2 + z2);
+    let k = 1.0 / (PI * ax * ay);
+    let d = k / (t * t);
+    let dw = k / (w2 * tw * tw);
+    // Lambda: tau = ((ax v.x)^2 + (ay v.y)^2) / v.z^2; scaled, times w^2.
+    let lam = |v: Vec3| -> (f32, f32) {
+        let z2 = v.z * v.z;
+        if z2 == 0.0 {
+            return (f32::INFINITY, f32::INFINITY);
+        }
+        let t = ((ax * v.x).powi(2) + (ay * v.y).powi(2)) / z2;
+        let tw = w2 * t;
+        (
+            t / (2.0 * (1.0 + (1.0 + t).sqrt())),
+            tw / (2.0 * (1.0 + (1.0 + tw).sqrt())),
+        )
+    };
+    let ((li, liw), (lo, low)) = (lam(wi), lam(wo));
+    ([d, li, lo], [dw, liw, low])
+}
+
 /// Visible normal sampling from direction `v` (any hemisphere; `v.z > -1`)
 /// by the spherical-cap method (Dupuy and Benyoub 2023): in the stretched
 /// configuration the visible normals of the hemisphere are `v + c` with `c`
