@@ -258,16 +258,16 @@ pub struct msbsdf_material_desc {
     /// within 15% counting as equal (the smaller error wins). The default
     /// 0.03 picks analytic models for every conductor and isotropic glass:
     /// TABULATED for every Beckmann or GGX conductor (errors 0.005-0.016
-    /// isotropic, about 0.025 anisotropic; 1.1 to 1.6x SINGLE's time, 2-2.5x
+    /// isotropic, about 0.025 anisotropic; 1.1 to 1.6x SINGLE's time, 1.9-2.2x
     /// anisotropic) and for isotropic glass from alpha 0.2 (0.005-0.016,
-    /// 1.4x), SINGLE for glass up to alpha 0.1
+    /// 1.2-1.4x), SINGLE for glass up to alpha 0.1
     /// (0.006). 0.1 keeps SINGLE for GGX conductors up to alpha 0.3 and
     /// for glass up to 0.5;
     /// 0.01 picks walks averaged over 32 to 512 evaluations (0.1 to 3 ms
     /// per eval) for Beckmann conductors but alpha 1, anisotropic ones and
     /// GGX conductors at alpha 2: for references, not frames. The table of
     /// picks: `docs/auto_picks.md`. Anisotropic glass has one measured row
-    /// (GGX glass 1.5 at (0.1, 0.6): TABULATED 0.039 at 3.1x SINGLE's
+    /// (GGX glass 1.5 at (0.1, 0.6): TABULATED 0.039 at 2.8x SINGLE's
     /// time, SINGLE 0.048), which every anisotropic glass is held to,
     /// however slight its anisotropy (TABULATED measures 0.008 at (0.5,
     /// 0.55), 0.017 at (0.4, 0.6)): the default picks HEITZ_RANDOM_WALK
