@@ -394,14 +394,14 @@ typedef struct msbsdf_material_desc {
    * 0.01 picks walks averaged over 32 to 512 evaluations (0.1 to 3 ms
    * per eval) for Beckmann conductors but alpha 1, anisotropic ones and
    * GGX conductors at alpha 2: for references, not frames. The table of
-   * picks: `docs/auto_picks.md`. Anisotropic glass has one measured row
-   * (GGX glass 1.5 at (0.1, 0.6): TABULATED 0.039 at 2.8x SINGLE's
-   * time, SINGLE 0.048), which every anisotropic glass is held to,
-   * however slight its anisotropy (TABULATED measures 0.008 at (0.5,
-   * 0.55), 0.017 at (0.4, 0.6)): the default picks HEITZ_RANDOM_WALK
-   * averaged over 16 to 128 evaluations (0.04 to 0.3 ms per eval) there,
-   * 0.05 keeps it analytic (SINGLE or TABULATED); isotropic glass should
-   * pass `alpha_x == alpha_y`.
+   * picks: `docs/auto_picks.md`. Anisotropic glass has measured rows at
+   * `alpha_min / alpha_max` 0.91, 0.5 and 1/6 (GGX glass 1.5 at (0.5,
+   * 0.55), (0.3, 0.6), (0.1, 0.6): TABULATED 0.008, 0.026, 0.039 at
+   * about 3x SINGLE's time), and each description is held to the
+   * mildest one at least as anisotropic as itself: the default picks
+   * TABULATED down to a ratio of 0.5 and HEITZ_RANDOM_WALK averaged over
+   * 16 to 128 evaluations (0.04 to 0.3 ms per eval) below it; 0.05
+   * keeps every anisotropic glass analytic (SINGLE or TABULATED).
    */
   float tolerance;
   /**

@@ -392,11 +392,11 @@ fn reciprocity_reflection_and_eta_weighted_transmission() {
 /// RMS error `sqrt(sum (f - ref)^2 / sum ref^2)` per material, class error
 /// (RMS over the isotropic materials) at most 0.025 (the target);
 /// the reference's own relative standard error is ~1e-3. The anisotropic
-/// glass (0.1, 0.6), added to the suite in session 9 for AUTO's rows, is
-/// bounded apart: measured 0.0385 (SINGLE 0.0483; the lobe is the
+/// glass, added to the suite in session 9 for AUTO's rows, is bounded
+/// apart, each at its measurement plus a tenth so that a change that makes
+/// it worse fails: (0.1, 0.6) 0.0385 (SINGLE 0.0483; the lobe is the
 /// isotropic one at an effective roughness, `docs/tabulated_dielectric.md`),
-/// bounded at 0.042 (the measurement plus a tenth) so that a change that
-/// makes it worse fails.
+/// (0.5, 0.55) 0.0079, (0.3, 0.6) 0.0255.
 #[test]
 fn suite_error_against_reference_values() {
     let mats = suite_errors("dielectric", |num, ndf| {
@@ -412,7 +412,7 @@ fn suite_error_against_reference_values() {
     assert_eq!(iso.len(), 3, "isotropic dielectric materials of the suite");
     assert_eq!(
         aniso.len(),
-        1,
+        3,
         "anisotropic dielectric materials of the suite"
     );
     let mut report = String::new();
@@ -422,10 +422,18 @@ fn suite_error_against_reference_values() {
         report += &format!("{name}: {e:.4}\n");
     }
     let class = (class / iso.len() as f64).sqrt();
-    let (name, _, e_aniso) = aniso[0];
-    println!("{report}class relative RMS error {class:.4}; {name}: {e_aniso:.4}");
+    println!("{report}class relative RMS error {class:.4}");
     assert!(class <= 0.025, "{report}class {class}");
-    assert!(*e_aniso <= 0.042, "{name}: {e_aniso}");
+    for (name, _, e) in aniso {
+        let bound = match name.as_str() {
+            "ggx_glass_0.1x0.6" => 0.042,
+            "ggx_glass_0.5x0.55" => 0.0087,
+            "ggx_glass_0.3x0.6" => 0.028,
+            other => panic!("no bound for {other}"),
+        };
+        println!("{name}: {e:.4} (bound {bound})");
+        assert!(*e <= bound, "{name}: {e}");
+    }
 }
 
 /// Random table cells re-estimated with the library's walk (other seeds

@@ -14,17 +14,19 @@
 //! `(alpha_x, alpha_y)`:
 //! - the rows measured for `(n, f)`; if there are none, the rows of the
 //!   same facet with another NDF (the harness measured glass with GGX
-//!   only: Beckmann glass uses them, an approximation; its one
-//!   anisotropic row, (0.1, 0.6), is held against every anisotropic
-//!   glass); no rows (diffuse
+//!   only: Beckmann glass uses them, an approximation); no rows (diffuse
 //!   facets, other NDFs): the first model that accepts the description
 //!   among HEITZ_RANDOM_WALK and NULL_SCATTERING, one evaluation;
 //! - a row measured for exactly this roughness alone; otherwise
 //!   the isotropic rows that bracket `min(alpha)` and `max(alpha)` (the
-//!   nearest row when outside the measured range), plus the anisotropic
-//!   rows when `alpha_x != alpha_y`; a candidate's error and cost are the
-//!   worst over those rows (conservative: errors do not interpolate
-//!   linearly). Above the largest measured roughness the errors are scaled
+//!   nearest row when outside the measured range), plus, when `alpha_x !=
+//!   alpha_y`, the anisotropic rows of the mildest measured anisotropy
+//!   `alpha_min / alpha_max` at least as strong as the description's (the
+//!   strongest when it is stronger than all; TABULATED's error grows with
+//!   the anisotropy: glass 0.008, 0.017, 0.024, 0.032, 0.038 at 0.91,
+//!   0.67, 0.5, 0.33, 0.17, `docs/tabulated_dielectric.md`); a candidate's
+//!   error and cost are the worst over those rows (conservative: errors do
+//!   not interpolate linearly). Above the largest measured roughness the errors are scaled
 //!   by `alpha / alpha_max` (every bias measured grows with roughness);
 //! - among the candidates whose model accepts the description, the
 //!   cheapest with error within `tolerance`, where costs within
@@ -49,10 +51,12 @@
 //! knee of the front, and the default tolerance 0.03 lands on it: TABULATED
 //! for every conductor and for isotropic glass from alpha 0.2, SINGLE for
 //! smoother glass (`docs/auto_picks.md`, written by `cargo run --release
-//! --example auto_picks`, has every pick). Anisotropic glass is the
-//! exception: TABULATED's measured error there is 0.039 (SINGLE 0.048; its
-//! lobe is the isotropic one at an effective roughness), so 0.03 takes
-//! HEITZ_RANDOM_WALK averaged over 16-128 evaluations and 0.05 SINGLE or
+//! --example auto_picks`, has every pick). Strongly anisotropic glass is
+//! the exception: TABULATED's measured error is 0.039 at (0.1, 0.6)
+//! (SINGLE 0.048; its lobe is the isotropic one at an effective
+//! roughness), 0.026 at (0.3, 0.6) and 0.008 at (0.5, 0.55), so 0.03
+//! keeps TABULATED down to `alpha_min / alpha_max` 0.5 and below it takes
+//! HEITZ_RANDOM_WALK averaged over 16-128 evaluations; 0.05 SINGLE or
 //! TABULATED. ENERGY_COMPENSATED (error about 0.03-0.08)
 //! costs no less than TABULATED in the current table (the two have swapped
 //! order between harness runs; [`COST_TIE`] treats such costs as a tie),
@@ -271,16 +275,37 @@ fn code_of<T: PartialEq + Copy>(codes: &[T], x: T) -> Option<usize> {
     codes.iter().position(|&c| c == x)
 }
 
+/// Largest number of distinct anisotropies `alpha_min / alpha_max` among
+/// the anisotropic rows of one [`RowList`] that AUTO brackets by.
+const MAX_LEVELS: usize = 4;
+
+/// Index among the `n >= 1` decreasing anisotropies `level` of the first
+/// at most `q` (the mildest at least as strong), or the last.
+#[inline(always)]
+const fn level_index(level: &[f32; MAX_LEVELS], n: usize, q: f32) -> usize {
+    let mut k = 0;
+    while k + 1 < n && k + 1 < MAX_LEVELS && level[k] > q {
+        k += 1;
+    }
+    k
+}
+
 /// The isotropic rows of a [`RowList`] by increasing alpha (stable: equal
 /// alphas keep the table order), with their alphas, and its anisotropic
-/// rows in table order.
+/// rows in table order with their anisotropy `alpha_min / alpha_max`; the
+/// distinct anisotropies (levels) by decreasing value (the mildest first).
 #[derive(Clone, Copy)]
 struct Sorted {
     iso: [u8; N_ROWS],
     iso_alpha: [f32; N_ROWS],
     n_iso: usize,
     aniso: [u8; N_ROWS],
+    aniso_ratio: [f32; N_ROWS],
     n_aniso: usize,
+    level: [f32; MAX_LEVELS],
+    /// Distinct anisotropies, at most [`MAX_LEVELS`] (further ones are
+    /// merged into the last, the most anisotropic kept).
+    n_levels: usize,
 }
 
 impl Sorted {
@@ -289,7 +314,10 @@ impl Sorted {
         iso_alpha: [0.0; N_ROWS],
         n_iso: 0,
         aniso: [0; N_ROWS],
+        aniso_ratio: [0.0; N_ROWS],
         n_aniso: 0,
+        level: [0.0; MAX_LEVELS],
+        n_levels: 0,
     };
 
     /// Compile time.
@@ -311,12 +339,58 @@ impl Sorted {
                 out.iso_alpha[j] = row.alpha_x;
                 out.n_iso += 1;
             } else {
+                let (lo, hi) = if row.alpha_x < row.alpha_y {
+                    (row.alpha_x, row.alpha_y)
+                } else {
+                    (row.alpha_y, row.alpha_x)
+                };
                 out.aniso[out.n_aniso] = r;
+                out.aniso_ratio[out.n_aniso] = lo / hi;
                 out.n_aniso += 1;
             }
             i += 1;
         }
+        // The distinct anisotropies, decreasing; beyond MAX_LEVELS the
+        // most anisotropic are kept (insertion, dropping the mildest
+        // overflow is not needed with the shipped table: asserted).
+        let mut i = 0;
+        while i < out.n_aniso {
+            let q = out.aniso_ratio[i];
+            let mut seen = false;
+            let mut j = 0;
+            while j < out.n_levels {
+                seen = seen || out.level[j] == q;
+                j += 1;
+            }
+            if !seen {
+                assert!(
+                    out.n_levels < MAX_LEVELS,
+                    "more anisotropies than MAX_LEVELS"
+                );
+                let mut j = out.n_levels;
+                while j > 0 && out.level[j - 1] < q {
+                    out.level[j] = out.level[j - 1];
+                    j -= 1;
+                }
+                out.level[j] = q;
+                out.n_levels += 1;
+            }
+            i += 1;
+        }
         out
+    }
+
+    /// The anisotropy level of a description with `alpha_min / alpha_max
+    /// = q`: the mildest measured anisotropy at least as strong as `q`
+    /// (its rows bound the error from above when the error grows with the
+    /// anisotropy, as measured for TABULATED); the strongest when `q` is
+    /// stronger than every row's. `None` without anisotropic rows.
+    #[inline]
+    const fn level_of(&self, q: f32) -> Option<usize> {
+        if self.n_levels == 0 {
+            return None;
+        }
+        Some(level_index(&self.level, self.n_levels, q))
     }
 
     /// Positions in `iso` of the rows bracketing `a`: the largest alpha
@@ -423,10 +497,16 @@ fn relevant(d: &MaterialDesc) -> ([u8; MAX_RELEVANT], usize, f32) {
         let [below, above] = sorted.bracket(hi);
         push(below, &mut k);
         push(above, &mut k);
-        for &ri in &sorted.aniso[..sorted.n_aniso] {
-            if k < MAX_RELEVANT && !out[..k].contains(&ri) {
-                out[k] = ri;
-                k += 1;
+        if let Some(l) = sorted.level_of(lo / hi) {
+            for j in 0..sorted.n_aniso.min(N_ROWS) {
+                let ri = sorted.aniso[j];
+                if sorted.aniso_ratio[j] == sorted.level[l]
+                    && k < MAX_RELEVANT
+                    && !out[..k].contains(&ri)
+                {
+                    out[k] = ri;
+                    k += 1;
+                }
             }
         }
     }
@@ -543,9 +623,12 @@ struct FrontsHead {
     /// Per bracket state of an isotropic description: (start, length) in
     /// the entries.
     iso: [FrontRef; MAX_STATES],
-    /// Per bracket states of `min(alpha)` and `max(alpha)` of an
-    /// anisotropic description.
-    aniso: [[FrontRef; MAX_STATES]; MAX_STATES],
+    /// Per anisotropy level ([`Sorted::level_of`]) and bracket states of
+    /// `min(alpha)` and `max(alpha)` of an anisotropic description.
+    aniso: [[[FrontRef; MAX_STATES]; MAX_STATES]; MAX_LEVELS],
+    /// The anisotropy levels, decreasing, and how many (as [`Sorted`]).
+    level: [f32; MAX_LEVELS],
+    n_levels: usize,
     /// Entries used.
     used: usize,
     overflow: bool,
@@ -569,7 +652,9 @@ impl<const P: usize> Fronts<P> {
             n_aniso: 0,
             aniso_on_nodes: false,
             iso: [FrontRef::EMPTY; MAX_STATES],
-            aniso: [[FrontRef::EMPTY; MAX_STATES]; MAX_STATES],
+            aniso: [[[FrontRef::EMPTY; MAX_STATES]; MAX_STATES]; MAX_LEVELS],
+            level: [0.0; MAX_LEVELS],
+            n_levels: 0,
             used: 0,
             overflow: false,
         },
@@ -643,15 +728,32 @@ impl<const P: usize> Fronts<P> {
         let states = 2 * n;
         let mut lo = 0;
         while lo < states {
-            let (rel, k) = rel_of_states(sorted, lo, lo, false);
+            let (rel, k) = rel_of_states(sorted, lo, lo, None);
             f.head.iso[lo] = f.push_front(&rel, k);
-            let mut hi = lo;
-            while hi < states {
-                let (rel, k) = rel_of_states(sorted, lo, hi, true);
-                f.head.aniso[lo][hi] = f.push_front(&rel, k);
-                hi += 1;
-            }
             lo += 1;
+        }
+        // Without anisotropic rows, level 0 holds the isotropic rows alone.
+        f.head.level = sorted.level;
+        f.head.n_levels = sorted.n_levels;
+        let levels = if sorted.n_levels > 0 {
+            sorted.n_levels
+        } else {
+            1
+        };
+        let mut l = 0;
+        while l < levels {
+            let level = if sorted.n_levels > 0 { Some(l) } else { None };
+            let mut lo = 0;
+            while lo < states {
+                let mut hi = lo;
+                while hi < states {
+                    let (rel, k) = rel_of_states(sorted, lo, hi, level);
+                    f.head.aniso[l][lo][hi] = f.push_front(&rel, k);
+                    hi += 1;
+                }
+                lo += 1;
+            }
+            l += 1;
         }
         if f.head.overflow {
             f.head.n_states = 0;
@@ -795,7 +897,7 @@ const fn rel_of_states(
     sorted: &Sorted,
     lo: usize,
     hi: usize,
-    aniso: bool,
+    aniso: Option<usize>,
 ) -> ([u8; MAX_RELEVANT], usize) {
     let mut out = [0u8; MAX_RELEVANT];
     let mut k = 0;
@@ -813,11 +915,14 @@ const fn rel_of_states(
         }
         i += 1;
     }
-    if aniso {
+    if let Some(l) = aniso {
         let mut j = 0;
         while j < sorted.n_aniso {
             let ri = sorted.aniso[j];
-            if k < MAX_RELEVANT && !contains(&out, k, ri) {
+            if sorted.aniso_ratio[j] == sorted.level[l]
+                && k < MAX_RELEVANT
+                && !contains(&out, k, ri)
+            {
                 out[k] = ri;
                 k += 1;
             }
@@ -963,7 +1068,8 @@ pub(crate) fn best_from_fronts(d: &MaterialDesc) -> Option<Option<Choice>> {
         {
             return None;
         }
-        fronts.aniso[s_lo.min(MAX_STATES - 1)][s_hi.min(MAX_STATES - 1)]
+        let l = level_index(&fronts.level, fronts.n_levels, lo / hi);
+        fronts.aniso[l][s_lo.min(MAX_STATES - 1)][s_hi.min(MAX_STATES - 1)]
     };
     let (start, len) = (f.start as usize, f.len as usize);
     if len == 0 || start + len > entry.len() {
@@ -1128,6 +1234,46 @@ mod tests {
     /// descriptions of every facet and NDF; and they apply to the common
     /// cases (isotropic and anisotropic GGX conductors, GGX glass; Beckmann
     /// conductors have no stored fronts: size).
+    /// An anisotropic description is held to the anisotropic rows of the
+    /// mildest measured anisotropy at least as strong as its own (GGX
+    /// glass: rows at `alpha_min / alpha_max` 0.909, 0.5 and 1/6), the
+    /// strongest when it is stronger than all; never to a milder one.
+    #[test]
+    fn anisotropic_rows_are_bracketed_by_anisotropy() {
+        let sorted = &OWN_SORTED[code_of(&NDF_CODES, NdfId::Ggx).expect("GGX")]
+            [code_of(&FACET_CODES, FacetKind::Dielectric).expect("dielectric")];
+        assert_eq!(sorted.n_levels, 3);
+        let level = |q: f32| sorted.level[sorted.level_of(q).expect("levels")];
+        assert_eq!(level(0.95), 0.5 / 0.55);
+        assert_eq!(level(0.5 / 0.55), 0.5 / 0.55);
+        assert_eq!(level(0.9), 0.5);
+        assert_eq!(level(0.5), 0.5);
+        assert_eq!(level(0.49), 0.1 / 0.6);
+        assert_eq!(level(0.05), 0.1 / 0.6);
+        let aniso_rows = |ax: f32, ay: f32| -> Vec<(f32, f32)> {
+            let d = MaterialDesc {
+                model: Model::Auto,
+                ndf: NdfId::Ggx,
+                facet: FacetKind::Dielectric,
+                alpha_x: ax,
+                alpha_y: ay,
+                eta: Vec3::splat(1.5),
+                ..MaterialDesc::default()
+            };
+            let (rel, n, _) = relevant(&d);
+            rel[..n]
+                .iter()
+                .map(|&r| &ROWS[r as usize])
+                .filter(|r| r.alpha_x != r.alpha_y)
+                .map(|r| (r.alpha_x, r.alpha_y))
+                .collect()
+        };
+        assert_eq!(aniso_rows(0.52, 0.5), vec![(0.5, 0.55)]);
+        assert_eq!(aniso_rows(0.4, 0.6), vec![(0.3, 0.6)]);
+        assert_eq!(aniso_rows(0.3, 1.0), vec![(0.1, 0.6)]);
+        assert_eq!(aniso_rows(0.05, 0.9), vec![(0.1, 0.6)]);
+    }
+
     #[test]
     fn fronts_agree_with_the_candidate_search() {
         let alphas = [
@@ -1190,11 +1336,12 @@ mod tests {
         // the largest measured (1.0; 12 of the 13 values) and 12
         // tolerances, and the anisotropic pairs within it but the measured
         // (0.1, 0.6). GGX glass (stored fronts, with its measured
-        // anisotropic row (0.1, 0.6) since session 9): every pair within
-        // 1.0 but that one. Nothing else.
+        // anisotropic rows (0.1, 0.6), (0.5, 0.55) and (0.3, 0.6) since
+        // session 9): every pair within 1.0 but the two of them on the
+        // grid. Nothing else.
         assert_eq!(covered[0], 12 * 12, "{covered:?}");
         assert_eq!(covered[1], (12 * 11 - 1) * 12, "{covered:?}");
-        assert_eq!(covered[2], (12 * 12 - 1) * 12, "{covered:?}");
+        assert_eq!(covered[2], (12 * 12 - 2) * 12, "{covered:?}");
         assert!(compared > 1500, "{compared}");
         // The measured anisotropic row's roughness lies on the isotropic
         // nodes, so the lookup searches the measured pairs only for

@@ -244,14 +244,18 @@ pub const CONDUCTOR_ALPHAS: [f32; 5] = [0.05, 0.1, 0.3, 0.6, 1.0];
 pub const ANISO: (f32, f32) = (0.1, 0.6);
 /// Roughness values of the GGX glass.
 pub const GLASS_ALPHAS: [f32; 3] = [0.1, 0.5, 1.0];
+/// Anisotropic glass of milder anisotropy than [`ANISO`] in the suite
+/// (after it): `alpha_min / alpha_max` 0.909 and 0.5.
+pub const GLASS_ANISO_MILD: [(f32, f32); 2] = [(0.5, 0.55), (0.3, 0.6)];
 /// Glass index.
 pub const GLASS_ETA: f32 = 1.5;
 
 /// Roughness pairs of the table of AUTO's picks (`examples/auto_picks.rs`,
 /// `docs/auto_picks.md`) and of the test of the default tolerance
 /// (`tests/auto.rs`): isotropic from 0.02 to the tables' largest, 2, then
-/// anisotropic pairs (both orientations of one).
-pub const AUTO_PICK_ROUGHNESS: [(f32, f32); 15] = [
+/// anisotropic pairs (both orientations of one; the last two mildly
+/// anisotropic).
+pub const AUTO_PICK_ROUGHNESS: [(f32, f32); 17] = [
     (0.02, 0.02),
     (0.05, 0.05),
     (0.1, 0.1),
@@ -267,6 +271,8 @@ pub const AUTO_PICK_ROUGHNESS: [(f32, f32); 15] = [
     (0.1, 0.6),
     (0.6, 0.1),
     (0.3, 1.0),
+    (0.5, 0.55),
+    (0.4, 0.6),
 ];
 
 /// An AUTO description of gold (conductor facets) or glass of index
@@ -331,8 +337,9 @@ fn glass(ndf: NdfId, ax: f32, ay: f32) -> SuiteMaterial {
 
 /// The full suite: GGX and Beckmann gold, copper, aluminium at the five
 /// isotropic roughnesses and (0.1, 0.6); GGX glass 1.5 at 0.1, 0.5, 1.0
-/// and (0.1, 0.6) (the anisotropic glass, last: its figures are reported
-/// apart from the dielectric class's, see `speed_accuracy`).
+/// and (0.1, 0.6), (0.5, 0.55), (0.3, 0.6) (the anisotropic glass, last:
+/// its figures are reported apart from the dielectric class's, see
+/// `speed_accuracy`).
 pub fn full_suite() -> Vec<SuiteMaterial> {
     let mut v = Vec::new();
     for ndf in [NdfId::Ggx, NdfId::Beckmann] {
@@ -349,6 +356,11 @@ pub fn full_suite() -> Vec<SuiteMaterial> {
     // Last, so the earlier materials keep their indices (and the
     // reference's seeds and pooled samples).
     v.push(glass(NdfId::Ggx, ANISO.0, ANISO.1));
+    // Milder anisotropy (AUTO brackets anisotropic rows by
+    // `alpha_min / alpha_max`: 0.909 and 0.5 here, 1/6 above).
+    for (ax, ay) in GLASS_ANISO_MILD {
+        v.push(glass(NdfId::Ggx, ax, ay));
+    }
     v
 }
 
