@@ -743,7 +743,7 @@ pub struct TabulatedDielectric {
     plane: Tri,
     /// The furnace scales of an isotropic material at the cosine nodes
     /// `[side][mu]` in units of [`SCALE_STEP`] (the scale table's plane
-    /// read once, at construction).
+    /// read once, at construction; zeros for an anisotropic one).
     scale: [u16; 2 * SCALE_MU_N],
     /// Continuous scale-table coordinate of the index.
     scale_eta: f32,
@@ -777,7 +777,13 @@ impl TabulatedDielectric {
             inv_e2: 1.0 / (e * e),
             eta,
             plane: lobe_tri(ndf_index, alpha, eta),
-            scale: node_scales(&scale_tri(ndf_index, alpha_rms, scale_eta)),
+            // An anisotropic material reads the scales at each pair's
+            // effective roughness (`multiple_with`), never these.
+            scale: if ndf.alpha_x != ndf.alpha_y {
+                [0; 2 * SCALE_MU_N]
+            } else {
+                node_scales(&scale_tri(ndf_index, alpha_rms, scale_eta))
+            },
             scale_eta,
             anisotropic: ndf.alpha_x != ndf.alpha_y,
             dcorr: (ndf.alpha_x != ndf.alpha_y).then(|| {
