@@ -1410,9 +1410,12 @@ impl Tabulated {
                 );
                 (s, dp / (4.0 * wi.z * (1.0 + lip + lop)))
             }
+            // Isotropic, or anisotropic Beckmann (TABULATED's other NDF).
             aniso => (
                 [self.ndf.d(h), self.ndf.lambda(wi), self.ndf.lambda(wo)],
-                aniso.as_ref().map_or(0.0, |a| peak_lobe(&a.peak, wi, wo)),
+                aniso
+                    .as_ref()
+                    .map_or(0.0, |a| beckmann_peak_lobe(&a.peak, h, wi, wo)),
             ),
         };
         let base = d / (4.0 * wi.z);
@@ -1449,24 +1452,22 @@ impl Tabulated {
     }
 }
 
-/// The peaked lobe of anisotropic conductors: SINGLE's `f_ss1 |wo.z|`
-/// with F = 1 of the NDF `p` for `wi.z > 0`, `wo.z > 0`. Beckmann's
-/// Smith `Lambda` by the rational fit of Walter et al. 2007 (eq. 27, in
-/// `Lambda = 1 / G1 - 1` form; [`crate::ndf::beckmann::lambda_rational`]):
-/// the exact one (f64 `erfcx` and `exp`) was a sixth of the anisotropic
-/// Beckmann eval, and the furnace correction is solved with this lobe.
+/// The peaked lobe of anisotropic Beckmann conductors: SINGLE's `f_ss1
+/// |wo.z|` with F = 1 of the Beckmann NDF `p` for `wi.z > 0`, `wo.z > 0`
+/// and their half vector `h` (GGX's comes with SINGLE's term,
+/// [`crate::ndf::ggx::d_lambda_scaled`]). Smith `Lambda` by the rational
+/// fit of Walter et al. 2007 (eq. 27, in `Lambda = 1 / G1 - 1` form;
+/// [`crate::ndf::beckmann::lambda_rational`]): the exact one (f64 `erfcx`
+/// and `exp`) was a sixth of the anisotropic Beckmann eval, and the
+/// furnace correction is solved with this lobe.
 #[inline]
-fn peak_lobe(p: &Ndf, wi: Vec3, wo: Vec3) -> f32 {
-    let h = (wi + wo).normalize_or_zero();
-    let (li, lo) = if p.kind == NdfKind::Beckmann {
-        (
-            crate::ndf::beckmann::lambda_rational(p.alpha_x, p.alpha_y, wi),
-            crate::ndf::beckmann::lambda_rational(p.alpha_x, p.alpha_y, wo),
-        )
-    } else {
-        (p.lambda(wi), p.lambda(wo))
-    };
-    p.d(h) / (4.0 * wi.z * (1.0 + li + lo))
+fn beckmann_peak_lobe(p: &Ndf, h: Vec3, wi: Vec3, wo: Vec3) -> f32 {
+    use crate::ndf::beckmann::{d, lambda_rational};
+    let (li, lo) = (
+        lambda_rational(p.alpha_x, p.alpha_y, wi),
+        lambda_rational(p.alpha_x, p.alpha_y, wo),
+    );
+    d(p.alpha_x, p.alpha_y, h) / (4.0 * wi.z * (1.0 + li + lo))
 }
 
 /// Both directions in the frame where `wi.z > 0` (two-sided conductor).

@@ -7,13 +7,31 @@
 use glam::{DVec3, Vec3};
 use std::f32::consts::PI;
 
+/// The slope term `(m.x / ax)^2 + (m.y / ay)^2` of `D(m)`.
+#[inline(always)]
+fn slope2(ax: f32, ay: f32, m: Vec3) -> f32 {
+    (m.x / ax).powi(2) + (m.y / ay).powi(2)
+}
+
+/// `tau = ((ax v.x)^2 + (ay v.y)^2) / v.z^2` of `Lambda(v)` (`v.z != 0`).
+#[inline(always)]
+fn tau(ax: f32, ay: f32, v: Vec3) -> f32 {
+    ((ax * v.x).powi(2) + (ay * v.y).powi(2)) / (v.z * v.z)
+}
+
+/// `Lambda = (sqrt(1 + tau) - 1) / 2`, stable for small `tau`.
+#[inline(always)]
+fn lambda_of_tau(t: f32) -> f32 {
+    t / (2.0 * (1.0 + (1.0 + t).sqrt()))
+}
+
 /// D(m) for a unit normal `m` (0 below the macro-surface).
 #[inline]
 pub fn d(ax: f32, ay: f32, m: Vec3) -> f32 {
     if m.z <= 0.0 {
         return 0.0;
     }
-    let t = (m.x / ax).powi(2) + (m.y / ay).powi(2) + m.z * m.z;
+    let t = slope2(ax, ay, m) + m.z * m.z;
     1.0 / (PI * ax * ay * t * t)
 }
 
@@ -35,13 +53,10 @@ pub fn sigma(ax: f32, ay: f32, v: Vec3) -> f32 {
 /// Smith Lambda of the unit direction `v` for `v.z > 0` (infinite at z = 0).
 #[inline]
 pub fn lambda_upper(ax: f32, ay: f32, v: Vec3) -> f32 {
-    let z2 = v.z * v.z;
-    if z2 == 0.0 {
+    if v.z * v.z == 0.0 {
         return f32::INFINITY;
     }
-    let t = ((ax * v.x).powi(2) + (ay * v.y).powi(2)) / z2;
-    // (sqrt(1 + t) - 1) / 2, stable for small t.
-    t / (2.0 * (1.0 + (1.0 + t).sqrt()))
+    lambda_of_tau(tau(ax, ay, v))
 }
 
 /// `[D(m), Lambda(wi), Lambda(wo)]` at roughness `(ax, ay)` and at `(w ax,
@@ -58,26 +73,20 @@ pub fn d_lambda_scaled(
     wi: Vec3,
     wo: Vec3,
 ) -> ([f32; 3], [f32; 3]) {
-    // D: t = (m.x / ax)^2 + (m.y / ay)^2 + m.z^2; scaled, the slope part
-    // over w^2.
-    let q = (m.x / ax).powi(2) + (m.y / ay).powi(2);
+    // D: the slope term over w^2 at the scaled roughness.
+    let q = slope2(ax, ay, m);
     let z2 = m.z * m.z;
     let (t, tw) = (q + z2, q / w2 + z2);
     let k = 1.0 / (PI * ax * ay);
     let d = k / (t * t);
     let dw = k / (w2 * tw * tw);
-    // Lambda: tau = ((ax v.x)^2 + (ay v.y)^2) / v.z^2; scaled, times w^2.
+    // Lambda: tau times w^2 at the scaled roughness.
     let lam = |v: Vec3| -> (f32, f32) {
-        let z2 = v.z * v.z;
-        if z2 == 0.0 {
+        if v.z * v.z == 0.0 {
             return (f32::INFINITY, f32::INFINITY);
         }
-        let t = ((ax * v.x).powi(2) + (ay * v.y).powi(2)) / z2;
-        let tw = w2 * t;
-        (
-            t / (2.0 * (1.0 + (1.0 + t).sqrt())),
-            tw / (2.0 * (1.0 + (1.0 + tw).sqrt())),
-        )
+        let t = tau(ax, ay, v);
+        (lambda_of_tau(t), lambda_of_tau(w2 * t))
     };
     let ((li, liw), (lo, low)) = (lam(wi), lam(wo));
     ([d, li, lo], [dw, liw, low])
