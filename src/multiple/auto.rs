@@ -303,8 +303,7 @@ struct Sorted {
     aniso_ratio: [f32; N_ROWS],
     n_aniso: usize,
     level: [f32; MAX_LEVELS],
-    /// Distinct anisotropies, at most [`MAX_LEVELS`] (further ones are
-    /// merged into the last, the most anisotropic kept).
+    /// Distinct anisotropies, at most [`MAX_LEVELS`] (more fail the build).
     n_levels: usize,
 }
 
@@ -350,9 +349,8 @@ impl Sorted {
             }
             i += 1;
         }
-        // The distinct anisotropies, decreasing; beyond MAX_LEVELS the
-        // most anisotropic are kept (insertion, dropping the mildest
-        // overflow is not needed with the shipped table: asserted).
+        // The distinct anisotropies, decreasing (insertion; more than
+        // MAX_LEVELS fail the build).
         let mut i = 0;
         while i < out.n_aniso {
             let q = out.aniso_ratio[i];
@@ -498,16 +496,7 @@ fn relevant(d: &MaterialDesc) -> ([u8; MAX_RELEVANT], usize, f32) {
         push(below, &mut k);
         push(above, &mut k);
         if let Some(l) = sorted.level_of(lo / hi) {
-            for j in 0..sorted.n_aniso.min(N_ROWS) {
-                let ri = sorted.aniso[j];
-                if sorted.aniso_ratio[j] == sorted.level[l]
-                    && k < MAX_RELEVANT
-                    && !out[..k].contains(&ri)
-                {
-                    out[k] = ri;
-                    k += 1;
-                }
-            }
+            k = push_level_rows(sorted, l, &mut out, k);
         }
     }
     let scale = if max_alpha > 0.0 && hi > max_alpha {
@@ -916,20 +905,30 @@ const fn rel_of_states(
         i += 1;
     }
     if let Some(l) = aniso {
-        let mut j = 0;
-        while j < sorted.n_aniso {
-            let ri = sorted.aniso[j];
-            if sorted.aniso_ratio[j] == sorted.level[l]
-                && k < MAX_RELEVANT
-                && !contains(&out, k, ri)
-            {
-                out[k] = ri;
-                k += 1;
-            }
-            j += 1;
-        }
+        k = push_level_rows(sorted, l, &mut out, k);
     }
     (out, k)
+}
+
+/// Appends to the first `k` relevant rows `out` the anisotropic rows of
+/// anisotropy level `l` not already there (at most [`MAX_RELEVANT`] in
+/// all); returns the new count.
+const fn push_level_rows(
+    sorted: &Sorted,
+    l: usize,
+    out: &mut [u8; MAX_RELEVANT],
+    mut k: usize,
+) -> usize {
+    let mut j = 0;
+    while j < sorted.n_aniso && j < N_ROWS {
+        let ri = sorted.aniso[j];
+        if sorted.aniso_ratio[j] == sorted.level[l] && k < MAX_RELEVANT && !contains(out, k, ri) {
+            out[k] = ri;
+            k += 1;
+        }
+        j += 1;
+    }
+    k
 }
 
 const fn contains(v: &[u8; MAX_RELEVANT], k: usize, x: u8) -> bool {
@@ -1228,12 +1227,6 @@ mod tests {
     use super::*;
     use glam::Vec3;
 
-    /// The precomputed fronts give exactly what the per-candidate search
-    /// gives, wherever they apply, over a grid of roughness pairs (at,
-    /// between, below and above the measured rows), tolerances and
-    /// descriptions of every facet and NDF; and they apply to the common
-    /// cases (isotropic and anisotropic GGX conductors, GGX glass; Beckmann
-    /// conductors have no stored fronts: size).
     /// An anisotropic description is held to the anisotropic rows of the
     /// mildest measured anisotropy at least as strong as its own (GGX
     /// glass: rows at `alpha_min / alpha_max` 0.909, 0.5 and 1/6), the
@@ -1274,6 +1267,12 @@ mod tests {
         assert_eq!(aniso_rows(0.05, 0.9), vec![(0.1, 0.6)]);
     }
 
+    /// The precomputed fronts give exactly what the per-candidate search
+    /// gives, wherever they apply, over a grid of roughness pairs (at,
+    /// between, below and above the measured rows), tolerances and
+    /// descriptions of every facet and NDF; and they apply to the common
+    /// cases (isotropic and anisotropic GGX conductors, GGX glass; Beckmann
+    /// conductors have no stored fronts: size).
     #[test]
     fn fronts_agree_with_the_candidate_search() {
         let alphas = [
