@@ -99,10 +99,15 @@ fn eta_coord(eta: f32) -> f32 {
 /// Abscissa of mu in the anisotropic table (quadratic spacing).
 #[inline]
 pub(crate) fn aniso_mu_coord(mu: f32) -> f32 {
+    aniso_mu_root(mu) * (an::AN_MU - 1) as f32
+}
+
+/// [`aniso_mu_coord`] over `AN_MU - 1`: in `[0, 1]`.
+#[inline]
+pub(crate) fn aniso_mu_root(mu: f32) -> f32 {
     ((mu - t::MU_MIN) / (1.0 - t::MU_MIN))
         .clamp(0.0, 1.0)
         .sqrt()
-        * (an::AN_MU - 1) as f32
 }
 
 /// Abscissa of alpha in the anisotropic table.

@@ -343,8 +343,8 @@ pub fn corr_header() -> &'static str {
 pub(crate) const CORR_MIRROR: u32 = 1 << 31;
 
 /// The three roughness corners of a material in the correction table: the
-/// index of each corner's block (with [`CORR_MIRROR`] when it is stored as
-/// its transpose) and its weight.
+/// byte offset in the file of each corner's block (with [`CORR_MIRROR`]
+/// when it is stored as its transpose) and its weight.
 type CorrCorners = [(u32, f32); 3];
 
 /// The corners of `(alpha_x, alpha_y)` for NDF index `ndf`: linear on the
@@ -362,7 +362,8 @@ fn corr_corners(ndf: usize, ax: f32, ay: f32) -> CorrCorners {
     triangle(fx, fy).map(|((dx, dy), w)| {
         let (lo, hi, m) = stored_pair(jx + dx, jy + dy);
         let pair = CORR_PAIR_BASE[lo.min(CORR_A - 1)] as usize + hi;
-        (((ndf * CORR_PAIRS + pair) * CORR_BLOCK) as u32 | m, w)
+        let block = (ndf * CORR_PAIRS + pair) * CORR_BLOCK;
+        ((HEADER_BYTES + 2 * CORR_VALUES * block) as u32 | m, w)
     })
 }
 
@@ -397,15 +398,17 @@ pub(crate) fn stored_pair(a: usize, b: usize) -> (usize, usize, u32) {
 /// encoding's constant factor once at the end. `[1, 1]` outside the file.
 #[inline]
 fn corr_at(corners: &CorrCorners, d: &AnisoDir) -> [f32; 2] {
-    let mut acc = Vec4::ZERO;
+    // Per direction, once for the three corners: the byte offset of its
+    // lower azimuth row in a block, plain and mirrored (node `CORR_PHI - 2
+    // - k0`, weight `1 - fk`), and the lane weights of the two rows.
+    let row = |k: usize| 2 * CORR_VALUES * (k * AN_MU + d.i0);
+    let (plain, mirrored) = (row(d.k0), row(CORR_PHI - 2 - d.k0));
     let lanes = Vec4::new(1.0 - d.fi, 1.0 - d.fi, d.fi, d.fi);
+    let (w_lo, w_hi) = (lanes * (1.0 - d.fk), lanes * d.fk);
+    let mut acc = Vec4::ZERO;
     for &(b, w) in corners {
-        let (k, fk) = if b & CORR_MIRROR != 0 {
-            (CORR_PHI - 2 - d.k0, 1.0 - d.fk)
-        } else {
-            (d.k0, d.fk)
-        };
-        let at = HEADER_BYTES + 2 * CORR_VALUES * ((b & !CORR_MIRROR) as usize + k * AN_MU + d.i0);
+        let mirror = b & CORR_MIRROR != 0;
+        let at = (b & !CORR_MIRROR) as usize + if mirror { mirrored } else { plain };
         let Some(r) = RAW_CORR
             .get(at..)
             .and_then(|r| r.first_chunk::<{ 2 * CORR_VALUES * (AN_MU + 2) }>())
@@ -415,7 +418,9 @@ fn corr_at(corners: &CorrCorners, d: &AnisoDir) -> [f32; 2] {
         // The chunk ends with the upper row's two nodes.
         const _: () = assert!(2 * CORR_VALUES * AN_MU + 8 == 2 * CORR_VALUES * (AN_MU + 2));
         let (lo, hi) = (u16x4(r.first_chunk::<8>()), u16x4(r.last_chunk::<8>()));
-        acc += (lo * lo * (w * (1.0 - fk)) + hi * hi * (w * fk)) * lanes;
+        // Mirrored, the lower row read is the upper one of the direction.
+        let (a, c) = if mirror { (w_hi, w_lo) } else { (w_lo, w_hi) };
+        acc += (lo * lo * a + hi * hi * c) * w;
     }
     let s = acc * (CORR_PAIR_MAX / (65535.0 * 65535.0));
     [s.x + s.z, s.y + s.w]
@@ -468,8 +473,9 @@ pub(crate) fn corr_dir(w: Vec3) -> AnisoDir {
     let (x, y) = (w.x.abs(), w.y.abs());
     let s = x + y;
     let c = if s > 0.0 { y / s } else { 0.5 };
-    let (k0, _, fk) = split(c * (CORR_PHI - 1) as f32, CORR_PHI);
-    let (i0, _, fi) = split(compensation::aniso_mu_coord(w.z.abs()), AN_MU);
+    // Both coordinates are in [0, 1]: `split_root` needs no clamp.
+    let (k0, fk) = split_root(c, CORR_PHI);
+    let (i0, fi) = split_root(compensation::aniso_mu_root(w.z.abs()), AN_MU);
     AnisoDir { k0, fk, i0, fi }
 }
 
@@ -948,12 +954,21 @@ pub fn project_exit<const N: usize>(wo: Vec3, w: f64, moments: &mut [[f64; N]; M
 /// The multiply scattered albedo with F = 1 from `mu_i`.
 #[inline]
 pub fn ms_albedo(ndf: usize, alpha: (usize, usize, f32), mu_i: f32) -> f32 {
-    let (a0, a1, fa) = alpha;
+    let (a0, _, fa) = alpha;
     let (i0, fi) = split_root(mu_i.clamp(0.0, 1.0).sqrt(), MU_N);
-    let i1 = i0 + 1;
-    let v =
-        |a| ALBEDO[albedo_index(ndf, a, i0)] * (1.0 - fi) + ALBEDO[albedo_index(ndf, a, i1)] * fi;
-    v(a0) * (1.0 - fa) + v(a1) * fa
+    // The upper roughness node's row follows the lower one's: the four
+    // values lie in one chunk, read with one bounds check.
+    match ALBEDO
+        .get(albedo_index(ndf, a0, i0)..)
+        .and_then(|s| s.first_chunk::<{ MU_N + 2 }>())
+    {
+        Some(c) => {
+            let lo = c[0] + (c[1] - c[0]) * fi;
+            let hi = c[MU_N] + (c[MU_N + 1] - c[MU_N]) * fi;
+            lo + (hi - lo) * fa
+        }
+        None => 0.0,
+    }
 }
 
 /// Cosine of the azimuth difference of two directions (1 when either is
@@ -1297,8 +1312,9 @@ impl Tabulated {
         let root = ((0.5 * (proj2[0] + proj2[1])).sqrt() / MAX_ALPHA)
             .clamp(0.0, 1.0)
             .sqrt();
-        let (s0, _, fs) = split(root * (SCALE_ALPHA_N - 1) as f32, SCALE_ALPHA_N);
-        let (a0, _, fa) = split(root * (ALPHA_N - 1) as f32, ALPHA_N);
+        // `root` is in [0, 1]: `split_root` needs no clamp.
+        let (s0, fs) = split_root(root, SCALE_ALPHA_N);
+        let (a0, fa) = split_root(root, ALPHA_N);
         let (s, fe) = scale_pair((scale_index(self.ndf_index, s0, 0), fs), ri, ro);
         ((lobe_index(self.ndf_index, a0, 0, 0), fa), s, fe)
     }
