@@ -1246,7 +1246,7 @@ impl Tabulated {
     /// v(wo)` with the factors `u = s sqrt(t)`, `v = s sqrt(b)`.
     pub fn aniso_parts(&self, wi: Vec3, wo: Vec3) -> Option<(f32, f32)> {
         let a = self.aniso.as_ref()?;
-        let (ss1, _, _, peak) = self.single_terms(wi, wo);
+        let (ss1, _, _, peak) = self.single_terms(wi, wo, None);
         let (_, table) = self.tint_and_table(wi, wo, ss1);
         Some(((1.0 - a.beta) * table, a.beta * peak))
     }
@@ -1392,9 +1392,11 @@ impl Tabulated {
     /// pdf of `wo`, sharing `D` and `Lambda(wi)`:
     /// `pdf = D_wi(h) / (4 wi.h) = G1(wi) D(h) / (4 wi.z)`; last, for an
     /// anisotropic material, the peaked lobe's `f_p |wo.z|` (0 otherwise;
-    /// GGX's from the same slope terms, `ggx::d_lambda_scaled`).
+    /// GGX's from the same slope terms, `ggx::d_lambda_scaled`). `h`: the
+    /// half vector when the caller has it (the sampled visible normal),
+    /// otherwise computed here.
     #[inline(always)]
-    fn single_terms(&self, wi: Vec3, wo: Vec3) -> (f32, Vec3A, f32, f32) {
+    fn single_terms(&self, wi: Vec3, wo: Vec3, h: Option<Vec3>) -> (f32, Vec3A, f32, f32) {
         if let Some(a2) = self.iso_ggx_a2 {
             let (_, f, p) = iso_ggx_reflection(a2, wi, wo);
             if self.unit_fresnel {
@@ -1404,7 +1406,7 @@ impl Tabulated {
             let hv = wi + wo;
             return (f, self.fresnel(wi.dot(hv) / hv.length()), p, 0.0);
         }
-        let h = (wi + wo).normalize_or_zero();
+        let h = h.unwrap_or_else(|| (wi + wo).normalize_or_zero());
         let ci = wi.dot(h);
         if ci <= 0.0 || h.z <= 0.0 {
             return (0.0, Vec3A::ZERO, 0.0, 0.0);
@@ -1453,13 +1455,13 @@ impl Tabulated {
     }
 
     /// `f |wo.z|` and pdf of a pair in the frame where `wi.z > 0`, with the
-    /// mixture weight `q` of `wi`.
+    /// mixture weight `q` of `wi` and, when known, the half vector `h`.
     #[inline]
-    fn eval_pdf_upper(&self, wi: Vec3, wo: Vec3, q: f32) -> (Vec3, f32) {
+    fn eval_pdf_upper(&self, wi: Vec3, wo: Vec3, q: f32, h: Option<Vec3>) -> (Vec3, f32) {
         if wo.z <= 0.0 {
             return (Vec3::ZERO, 0.0);
         }
-        let (ss1, fresnel, ps, peak) = self.single_terms(wi, wo);
+        let (ss1, fresnel, ps, peak) = self.single_terms(wi, wo, h);
         let pdf = (1.0 - q) * ps + q * wo.z / PI;
         (
             Vec3::from(fresnel * ss1 + self.multiple(wi, wo, ss1, peak)),
@@ -1510,7 +1512,7 @@ impl ScatterModel for Tabulated {
         if wo.z <= 0.0 {
             return Vec3::ZERO;
         }
-        let (ss1, fresnel, _, peak) = self.single_terms(wi, wo);
+        let (ss1, fresnel, _, peak) = self.single_terms(wi, wo, None);
         Vec3::from(fresnel * ss1 + self.multiple(wi, wo, ss1, peak))
     }
 
@@ -1525,19 +1527,20 @@ impl ScatterModel for Tabulated {
         let [u0, u1, u2] = u;
         let (wi_l, _, flipped) = upper(wi, Vec3::Z);
         let q = self.cosine_weight(wi_l.z);
-        let wo = if u0 < q {
-            cosine_sample(u1, u2)
+        // The sampled visible normal is the pair's half vector.
+        let (wo, h) = if u0 < q {
+            (cosine_sample(u1, u2), None)
         } else {
             let m = self.ndf.sample_visible(wi_l, u1, u2);
             if wi_l.dot(m) <= 0.0 {
                 return Sample::ABSORBED;
             }
-            reflect(wi_l, m)
+            (reflect(wi_l, m), Some(m))
         };
         if wo.z <= 0.0 {
             return Sample::ABSORBED;
         }
-        let (f, pdf) = self.eval_pdf_upper(wi_l, wo, q);
+        let (f, pdf) = self.eval_pdf_upper(wi_l, wo, q, h);
         if pdf.is_nan() || pdf <= 0.0 {
             return Sample::ABSORBED;
         }
