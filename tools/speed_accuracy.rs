@@ -360,7 +360,7 @@ fn main() {
         "speed against accuracy: relative RMS error of one eval query (mean of `evaluations` msbsdf_eval calls) vs the HEITZ_RANDOM_WALK reference, RMS over the class's materials; median ns per query, mean over them".to_string(),
         format!("command: {command}"),
         format!(
-            "reference: {ref_path} ({} materials x {} pairs); {} evaluations per pair for the statistics (seeds: msbsdf_rng_seed(1000 + combo index, material * pairs + pair)); timing: median of {} runs of max(4, {} / evaluations) queries, one thread, on a shared 2-core machine",
+            "reference: {ref_path} ({} materials x {} pairs); {} evaluations per pair for the statistics (seeds: msbsdf_rng_seed(1000 + combo index, material * pairs + pair)); timing: median of {} interleaved rounds (each times every combination and material once) of max(4, {} / evaluations) queries, one thread, on a shared 2-core machine",
             refs.len(),
             refs[0].pairs.len(),
             o.samples,

@@ -39,7 +39,8 @@ pub struct Options {
     pub table_evals: Vec<u32>,
     /// Evaluations per pair for the statistics.
     pub samples: u32,
-    /// Timing runs (median taken).
+    /// Timing rounds (median taken; each round times every combination
+    /// and material once, so that load changes fall on all alike).
     pub timing_runs: usize,
     /// Evaluations per timing run (at least 4 queries).
     pub timing_evals: u32,
@@ -178,23 +179,19 @@ pub struct Run {
 fn time_queries(m: &CMaterial, pairs: &[(glam::Vec3, glam::Vec3)], n: u32, o: &Options) -> f64 {
     let q = ((o.timing_evals / n).max(4)) as usize;
     let mut rng = c_rng(99, 1);
-    let mut times = Vec::with_capacity(o.timing_runs);
-    for _ in 0..o.timing_runs {
-        let t = Instant::now();
-        for j in 0..q {
-            let (wi, wo) = pairs[j % pairs.len()];
-            let mut s = [0.0f64; 3];
-            for _ in 0..n {
-                let v = m.eval(wi, wo, &mut rng);
-                s[0] += v[0];
-                s[1] += v[1];
-                s[2] += v[2];
-            }
-            black_box(s);
+    let t = Instant::now();
+    for j in 0..q {
+        let (wi, wo) = pairs[j % pairs.len()];
+        let mut s = [0.0f64; 3];
+        for _ in 0..n {
+            let v = m.eval(wi, wo, &mut rng);
+            s[0] += v[0];
+            s[1] += v[1];
+            s[2] += v[2];
         }
-        times.push(t.elapsed().as_nanos() as f64 / q as f64);
+        black_box(s);
     }
-    median(&times)
+    t.elapsed().as_nanos() as f64 / q as f64
 }
 
 /// Measures every accepted (model, estimator) on `refs`.
@@ -281,28 +278,52 @@ pub fn run(refs: &[RefMaterial], o: &Options) -> Run {
         },
     );
     bar.finish();
-    // Timing, one thread, after the statistics.
+    // Timing, one thread, after the statistics: `timing_runs` rounds, each
+    // timing every (combination, material, evaluation count) once, and
+    // the median over the rounds. Interleaved, so that a change of the
+    // shared machine's load during the phase (tens of seconds) falls on
+    // every combination alike instead of on whichever was timed then: the
+    // costs relative to SINGLE (the Pareto tables, AUTO's table) are
+    // ratios of times taken seconds apart, not minutes. Each timed run
+    // follows an untimed one of the same queries, so that it measures the
+    // warm caches the consecutive runs of the earlier order had (the
+    // table models' data would otherwise be evicted by the combinations
+    // timed in between).
     let mut results = stats;
-    let mut bar = Progress::new("timing", results.len() as u64, o.quiet);
+    // (result, its material, the material's pairs, evaluations per query).
+    let mut timed = Vec::new();
+    let mut mats = Vec::new();
     for (k, res) in results.iter_mut().enumerate() {
         let c = combos[res.combo];
         let r = &refs[res.material];
-        let pairs: Vec<_> = r.pairs.iter().map(|p| (p.wi, p.wo)).collect();
         if let Some(m) = CMaterial::new(&r.mat.c_desc(c.model, c.estimator)) {
             res.evals = if c.stochastic {
                 o.evals.clone()
             } else {
                 vec![1]
             };
-            res.ns = res
-                .evals
-                .iter()
-                .map(|&n| time_queries(&m, &pairs, n, o))
-                .collect();
+            for &n in &res.evals {
+                timed.push((k, mats.len(), n));
+            }
+            let pairs: Vec<_> = r.pairs.iter().map(|p| (p.wi, p.wo)).collect();
+            mats.push((m, pairs));
         }
-        bar.update(k as u64 + 1);
+    }
+    let mut times = vec![Vec::with_capacity(o.timing_runs); timed.len()];
+    let mut bar = Progress::new("timing", (o.timing_runs * timed.len()) as u64, o.quiet);
+    for round in 0..o.timing_runs {
+        for (t, &(_, mi, n)) in timed.iter().enumerate() {
+            let (m, pairs) = &mats[mi];
+            black_box(time_queries(m, pairs, n, o));
+            times[t].push(time_queries(m, pairs, n, o));
+            bar.update((round * timed.len() + t + 1) as u64);
+        }
     }
     bar.finish();
+    // `timed` lists each result's evaluation counts in order.
+    for (t, &(k, _, _)) in timed.iter().enumerate() {
+        results[k].ns.push(median(&times[t]));
+    }
     Run {
         combos,
         results,
