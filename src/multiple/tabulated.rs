@@ -139,7 +139,7 @@
 //! density and the weight is `eval / pdf`.
 
 use super::compensation::{self, Aniso, AnisoDir};
-use super::compensation_aniso_tables::{AN_MU, AN_PHI};
+use super::compensation_aniso_tables::AN_MU;
 use crate::bsdf::{Sample, ScatterModel};
 use crate::desc::MaterialDesc;
 use crate::facet::Facet;
@@ -455,6 +455,39 @@ fn u16x4(b: Option<&[u8; 8]>) -> Vec4 {
     }
 }
 
+/// Two pairs of little-endian `u16` (`lo` then `hi`) as the lanes of a
+/// `Vec4`: on x86-64 two 4-byte loads, one interleave, one unpack and one
+/// conversion (the dielectric correction's two cosine nodes of two
+/// azimuth rows, which are not adjacent).
+#[inline(always)]
+pub(crate) fn u16x2x2(lo: &[u8; 4], hi: &[u8; 4]) -> Vec4 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{
+            _mm_cvtepi32_ps, _mm_cvtsi32_si128, _mm_setzero_si128, _mm_unpacklo_epi16,
+            _mm_unpacklo_epi32,
+        };
+        // SAFETY: only register operations on values already read; SSE2
+        // is part of the x86-64 baseline. Zero-extended to i32, every u16
+        // converts exactly.
+        Vec4::from(unsafe {
+            let (a, b) = (
+                _mm_cvtsi32_si128(i32::from_le_bytes(*lo)),
+                _mm_cvtsi32_si128(i32::from_le_bytes(*hi)),
+            );
+            _mm_cvtepi32_ps(_mm_unpacklo_epi16(
+                _mm_unpacklo_epi32(a, b),
+                _mm_setzero_si128(),
+            ))
+        })
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let x = |b: &[u8; 4], j: usize| u16::from_le_bytes([b[2 * j], b[2 * j + 1]]) as f32;
+        Vec4::new(x(lo, 0), x(lo, 1), x(hi, 0), x(hi, 1))
+    }
+}
+
 /// The conductor correction's nodes of a direction `w` (`w.z >= 0`): its
 /// azimuth coordinate is the diamond angle `|y| / (|x| + |y|)` on
 /// [`CORR_PHI`] uniform nodes from 0 (`phi` = 0) to 1 (`phi` = 90 degrees),
@@ -491,35 +524,6 @@ pub fn corr_node_dir(r: usize) -> Vec3 {
     let st = (1.0 - mu * mu).max(0.0).sqrt();
     let n = ((1.0 - c) * (1.0 - c) + c * c).sqrt();
     Vec3::new(st * (1.0 - c) / n, st * c / n, mu)
-}
-
-/// One roughness corner of the dielectric's anisotropic correction table
-/// (`u16` values read in place from the file `raw`, [`corr_encode`] with
-/// [`CORR_MAX`]): the block of azimuth x cosine nodes starting at value
-/// `block`, read at a direction's nodes `(k, i0)`, `(k, i0 + 1)`, `(k + 1,
-/// i0)`, `(k + 1, i0 + 1)` (azimuth row `k` mirrored to `AN_PHI - 2 - k`
-/// when `mirror`: the symmetry `(alpha_x, alpha_y, phi) -> (alpha_y,
-/// alpha_x, pi/2 - phi)`), bilinear; 1 outside the file.
-#[inline(always)]
-pub(crate) fn corr_corner(raw: &[u8], block: usize, mirror: bool, d: &AnisoDir) -> f32 {
-    let (k, fk) = if mirror {
-        (AN_PHI - 2 - d.k0, 1.0 - d.fk)
-    } else {
-        (d.k0, d.fk)
-    };
-    let at = HEADER_BYTES + 2 * (block + k * AN_MU + d.i0);
-    let [a0, a1, b0, b1] = match raw
-        .get(at..)
-        .and_then(|r| r.first_chunk::<{ 2 * AN_MU + 4 }>())
-    {
-        Some(r) => {
-            let v = |o: usize| corr_decode(u16::from_le_bytes([r[2 * o], r[2 * o + 1]]), CORR_MAX);
-            [v(0), v(1), v(AN_MU), v(AN_MU + 1)]
-        }
-        None => [1.0; 4],
-    };
-    let (u, v) = (a0 + (a1 - a0) * d.fi, b0 + (b1 - b0) * d.fi);
-    u + (v - u) * fk
 }
 
 /// The conductor correction's azimuth-cosine nodes of a direction and

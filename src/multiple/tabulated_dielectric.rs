@@ -125,7 +125,9 @@ use crate::facet::Facet;
 use crate::frame::flip_z;
 use crate::multiple::compensation::AnisoDir;
 use crate::multiple::compensation_aniso_tables::{AN_MU, AN_PHI};
-use crate::multiple::tabulated::{CORR_MIRROR, corr_corner, stored_pair, tabulated_ndf, triangle};
+use crate::multiple::tabulated::{
+    CORR_MAX, CORR_MIRROR, stored_pair, tabulated_ndf, triangle, u16x2x2,
+};
 use crate::multiple::tabulated::{
     DIELECTRIC_BLEND_S2, MAX_ALPHA, MU_N, alpha_proj2, cos_phi, cosine_sample, decode, ndf_index,
     split, split_root, text_header,
@@ -317,8 +319,11 @@ pub fn dcorr_header() -> &'static str {
 
 /// An anisotropic material's corners in the correction table: up to six
 /// blocks (three roughness corners of a triangle, see
-/// [`dcorr_corners`], times two index nodes) with their weights, and the
-/// weight of the corners with an axis at roughness node 0 (which read 1).
+/// [`dcorr_corners`], times two index nodes) as byte offsets in the file
+/// (with [`CORR_MIRROR`] when the pair is stored as its transpose) with
+/// their weights (unused corners: offset of the first block, weight 0),
+/// and the weight of the corners with an axis at roughness node 0 (which
+/// read 1).
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct DCorr {
     corners: [(u32, f32); 6],
@@ -337,7 +342,7 @@ fn dcorr_corners(ndf: usize, ax: f32, ay: f32, eta: (usize, usize, f32)) -> DCor
     let (jy, _, fy) = split(alpha_coord(ay), ALPHA_N);
     let (e0, _, fe) = eta;
     let mut out = DCorr {
-        corners: [(0, 0.0); 6],
+        corners: [(HEADER_BYTES as u32, 0.0); 6],
         one: 0.0,
     };
     for (c, ((dx, dy), w)) in triangle(fx, fy).into_iter().enumerate() {
@@ -350,25 +355,48 @@ fn dcorr_corners(ndf: usize, ax: f32, ay: f32, eta: (usize, usize, f32)) -> DCor
         for (de, we) in [(0, 1.0 - fe), (1, fe)] {
             let block =
                 ((ndf * DCORR_PAIRS + dcorr_pair(lo, hi)) * DCORR_ETA_N + e0 + de) * DCORR_BLOCK;
-            out.corners[2 * c + de] = (block as u32 | m, w * we);
+            out.corners[2 * c + de] = ((HEADER_BYTES + 2 * block) as u32 | m, w * we);
         }
     }
     out
 }
 
 /// The correction `s` of a direction on `side` (0 thin, 1 dense) at its
-/// azimuth and cosine nodes.
+/// azimuth and cosine nodes: bilinear in azimuth and cosine, per corner
+/// the four nodes as two 4-byte reads (the cosine pairs of the two
+/// azimuth rows) converted in SIMD lanes, squared (the encoding,
+/// `tabulated::corr_decode`) and weighted; the row offsets and lane
+/// weights of the direction, plain and mirrored, once for the six
+/// corners. 1 outside the file.
 #[inline]
 fn dcorr_at(c: &DCorr, side: usize, d: &AnisoDir) -> f32 {
-    let mut s = c.one;
+    let row = |k: usize| 2 * (side * AN_PHI * AN_MU + k * AN_MU + d.i0);
+    let (plain, mirrored) = (row(d.k0), row(AN_PHI - 2 - d.k0));
+    let (fi, fk) = (d.fi, d.fk);
+    let cos = Vec4::new(1.0 - fi, fi, 1.0 - fi, fi);
+    // Lanes [a0, a1, b0, b1]: rows k and k + 1 of the read; mirrored, the
+    // row read first is the direction's upper one.
+    let w_plain = cos * Vec4::new(1.0 - fk, 1.0 - fk, fk, fk);
+    let w_mirror = cos * Vec4::new(fk, fk, 1.0 - fk, 1.0 - fk);
+    let mut acc = Vec4::ZERO;
     for &(b, w) in &c.corners {
-        if w == 0.0 {
-            continue;
-        }
-        let block = (b & !CORR_MIRROR) as usize + side * AN_PHI * AN_MU;
-        s += corr_corner(RAW_DCORR, block, b & CORR_MIRROR != 0, d) * w;
+        let mirror = b & CORR_MIRROR != 0;
+        let at = (b & !CORR_MIRROR) as usize + if mirror { mirrored } else { plain };
+        let Some(r) = RAW_DCORR
+            .get(at..)
+            .and_then(|r| r.first_chunk::<{ 2 * AN_MU + 4 }>())
+        else {
+            return 1.0;
+        };
+        // The two cosine nodes of row k (the chunk's first 4 bytes) and
+        // of row k + 1 (its last 4).
+        let v = match (r.first_chunk::<4>(), r.last_chunk::<4>()) {
+            (Some(lo), Some(hi)) => u16x2x2(lo, hi),
+            _ => Vec4::ZERO,
+        };
+        acc += v * v * (if mirror { w_mirror } else { w_plain }) * w;
     }
-    s
+    c.one + (acc.x + acc.y + acc.z + acc.w) * (CORR_MAX / (65535.0 * 65535.0))
 }
 
 /// Roughness of node `a`.
@@ -1020,6 +1048,57 @@ mod tests {
         let r = (1.0 - z * z).max(0.0).sqrt();
         let (s, c) = (2.0 * PI * v).sin_cos();
         Vec3::new(r * c, r * s, z)
+    }
+
+    /// Eval's read of the anisotropic correction (`dcorr_at`: SIMD lanes,
+    /// byte offsets, mirrored corners) gives the stored node values: at
+    /// roughness and index nodes (corner weight 1), both sides, every
+    /// azimuth node and a few cosine nodes, pairs stored as given and as
+    /// transposes, the value decoded byte by byte from the file
+    /// (`tabulated::corr_decode`), within 1e-5 relative. Fails when the
+    /// mirrored lane weights are swapped.
+    #[test]
+    fn correction_read_matches_the_stored_nodes() {
+        use crate::multiple::tabulated::corr_decode;
+        let mut checked = 0;
+        for ndf in 0..NDF_N {
+            for (jx, jy) in [(2, 6), (6, 2), (4, 4), (1, 8), (8, 1), (3, 7)] {
+                for e in [0, 3, DCORR_ETA_N - 2] {
+                    let c = dcorr_corners(ndf, grid_alpha(jx), grid_alpha(jy), (e, e + 1, 0.0));
+                    for side in 0..2 {
+                        for k in 0..AN_PHI {
+                            for i in [0, 5, 11, AN_MU - 1] {
+                                // The node as the lower one of its cell, or
+                                // the upper one of the last cell.
+                                let (k0, fk) = if k + 1 < AN_PHI {
+                                    (k, 0.0)
+                                } else {
+                                    (k - 1, 1.0)
+                                };
+                                let (i0, fi) = if i + 1 < AN_MU {
+                                    (i, 0.0)
+                                } else {
+                                    (i - 1, 1.0)
+                                };
+                                let d = AnisoDir { k0, fk, i0, fi };
+                                let got = dcorr_at(&c, side, &d);
+                                let at = HEADER_BYTES + 2 * dcorr_index(ndf, jx, jy, e, side, k, i);
+                                let want = corr_decode(
+                                    u16::from_le_bytes([RAW_DCORR[at], RAW_DCORR[at + 1]]),
+                                    CORR_MAX,
+                                );
+                                assert!(
+                                    (got - want).abs() <= 1e-5 * want.abs().max(1e-3),
+                                    "ndf {ndf} ({jx}, {jy}) e {e} side {side} k {k} i {i}: {got} vs {want}"
+                                );
+                                checked += 1;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        assert_eq!(checked, NDF_N * 6 * 3 * 2 * AN_PHI * 4);
     }
 
     /// The peaked part's `f_ss1 |wo.z|` that eval takes from SINGLE
