@@ -46,13 +46,13 @@ use glam::Vec3;
 use msbsdf::bsdf::ScatterModel;
 use msbsdf::facet::Facet;
 use msbsdf::multiple::compensation::{
-    aniso_grid_mu, aniso_grid_phi, lower_hemisphere_nodes, single_albedo, single_albedo_nodes,
+    aniso_grid_mu, lower_hemisphere_nodes, single_albedo, single_albedo_nodes,
 };
 use msbsdf::multiple::compensation_aniso_tables::{AN_A, AN_MU, AN_PHI, CONDUCTOR_E_ANISO};
 use msbsdf::multiple::tabulated::{
     CORR_A, CORR_BLOCK, CORR_LEN, CORR_MAGIC, CORR_MAX, CORR_PAIR_MAX, CORR_PHI, CORR_VALUES,
     HEADER_BYTES, Tabulated, corr_decode, corr_dir_weights, corr_encode, corr_grid_alpha,
-    corr_index, corr_node_dir, dcorr_dir_weights,
+    corr_index, corr_node_dir, dcorr_dir_weights, dcorr_node_dir,
 };
 use msbsdf::ndf::{Ndf, NdfKind};
 use msbsdf::rng::Rng;
@@ -74,13 +74,6 @@ fn quadrature(ax: f32, ay: f32, wi: Vec3, n: usize) -> Vec<(Vec3, f64)> {
     let mut out = Vec::with_capacity(n * n);
     single_albedo_nodes(ax, ay, wi, None, n, |wo, w| out.push((wo, w)));
     out
-}
-
-/// Incident direction of node `r = k * AN_MU + i`.
-fn node_dir(r: usize) -> Vec3 {
-    let (mu, phi) = (aniso_grid_mu(r % AN_MU), aniso_grid_phi(r / AN_MU));
-    let st = (1.0 - mu * mu).max(0.0).sqrt();
-    Vec3::new(st * phi.cos(), st * phi.sin(), mu)
 }
 
 /// Statistics of one block: largest relative residual at the nodes after
@@ -665,7 +658,7 @@ fn dielectric_system(
     for r in 0..rows {
         let side = r / half;
         let sign = if side == 0 { 1.0 } else { -1.0 };
-        let up = node_dir(r % half);
+        let up = dcorr_node_dir(r % half);
         let world = |v: Vec3| Vec3::new(v.x, v.y, v.z * sign);
         let wi = world(up);
         let eta_l = if side == 0 { eta } else { 1.0 / eta };
@@ -742,7 +735,8 @@ fn solve<R: AsRef<[f64]>>(m: &[R], target: &[f64]) -> (Vec<f32>, Stats) {
 /// lobe table's roughness nodes `1 <= jx <= jy` (9 per axis), index node
 /// (`DCORR_ETA_N`: the lobe table's 6 and the midpoint of the lowest
 /// interval) and
-/// side, on ENERGY_COMPENSATED's azimuth and cosine grid, factors
+/// side, on `AN_PHI` diamond-angle azimuths and ENERGY_COMPENSATED's
+/// cosine grid, factors
 /// `s` such that the lobe (read at the pair's effective roughness, with
 /// its isotropic furnace scales) scaled by `s(wi) s(wo)` has the multiply
 /// scattered albedo `1 - E_ss` (reflected plus transmitted) at every node
@@ -794,12 +788,14 @@ fn dielectric(args: &[String], quad: usize) {
     }
     let command: Vec<String> = args.iter().skip(1).cloned().collect();
     let header = format!(
-        "DIELECTRIC ANISO_CORRECTION v2 (MSBSDF_MODEL_TABULATED, dielectric facets): factors s \
+        "DIELECTRIC ANISO_CORRECTION v3 (MSBSDF_MODEL_TABULATED, dielectric facets): factors s \
          per [ndf: Beckmann, GGX][pair of the lobe table's roughness nodes 1 <= jx <= jy <= \
          {}][index node: {DCORR_ETA_N}: the lobe table's, uniform in ln E from {ETA_MIN} to \
          {ETA_MAX}, and the midpoint in ln E of the lowest interval as node 1][side: thin, \
          dense][phi: {AN_PHI}][mu: {AN_MU}] \
-         (ENERGY_COMPENSATED's anisotropic azimuth and cosine grid) as little-endian u16 v, \
+         (azimuth: diamond angle |y| / (|x| + |y|) on uniform nodes from 0 to 1, \
+         tabulated::diamond_dir; mu: ENERGY_COMPENSATED's anisotropic cosine grid) as \
+         little-endian u16 v, \
          s = {CORR_MAX} (v / 65535)^2, after this {HEADER_BYTES}-byte header; (jx > jy, k) \
          reads (jy, jx, {} - k); an axis at node 0 reads 1. The lobe \
          (TabulatedDielectric::without_aniso_correction minus SINGLE) scaled by s(wi) s(wo) \

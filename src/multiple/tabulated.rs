@@ -139,7 +139,7 @@
 //! density and the weight is `eval / pdf`.
 
 use super::compensation::{self, Aniso, AnisoDir};
-use super::compensation_aniso_tables::AN_MU;
+use super::compensation_aniso_tables::{AN_MU, AN_PHI};
 use crate::bsdf::{Sample, ScatterModel};
 use crate::desc::MaterialDesc;
 use crate::facet::Facet;
@@ -503,11 +503,20 @@ pub(crate) fn u16x2x2(lo: &[u8; 4], hi: &[u8; 4]) -> Vec4 {
 /// roughness blend [`alpha_proj2`] has a limit at the normal).
 #[inline]
 pub(crate) fn corr_dir(w: Vec3) -> AnisoDir {
+    diamond_dir(w, CORR_PHI)
+}
+
+/// A direction's nodes on a grid of `n_phi` diamond-angle azimuths (as
+/// [`corr_dir`]) and the albedo table's cosines: the conductor's
+/// correction (`n_phi` = [`CORR_PHI`]) and the dielectric's
+/// (`AN_PHI`, `tabulated_dielectric::DCORR_BLOCK`).
+#[inline(always)]
+pub(crate) fn diamond_dir(w: Vec3, n_phi: usize) -> AnisoDir {
     let (x, y) = (w.x.abs(), w.y.abs());
     let s = x + y;
     let c = if s > 0.0 { y / s } else { 0.5 };
     // Both coordinates are in [0, 1]: `split_root` needs no clamp.
-    let (k0, fk) = split_root(c, CORR_PHI);
+    let (k0, fk) = split_root(c, n_phi);
     let (i0, fi) = split_root(compensation::aniso_mu_root(w.z.abs()), AN_MU);
     AnisoDir { k0, fk, i0, fi }
 }
@@ -516,9 +525,22 @@ pub(crate) fn corr_dir(w: Vec3) -> AnisoDir {
 /// correction (`corr_dir`: diamond angle `k / (CORR_PHI - 1)`, the albedo
 /// table's cosine node `i`).
 pub fn corr_node_dir(r: usize) -> Vec3 {
+    diamond_node_dir(r, CORR_PHI)
+}
+
+/// The incident direction of node `r = k * AN_MU + i` of the dielectric's
+/// anisotropic correction ([`diamond_dir`] with `AN_PHI` azimuths).
+pub fn dcorr_node_dir(r: usize) -> Vec3 {
+    diamond_node_dir(r, AN_PHI)
+}
+
+/// The direction of node `r = k * AN_MU + i` of a [`diamond_dir`] grid of
+/// `n_phi` azimuths: diamond angle `k / (n_phi - 1)`, the albedo table's
+/// cosine node `i`.
+fn diamond_node_dir(r: usize, n_phi: usize) -> Vec3 {
     let (mu, c) = (
         compensation::aniso_grid_mu(r % AN_MU),
-        (r / AN_MU) as f32 / (CORR_PHI - 1) as f32,
+        (r / AN_MU) as f32 / (n_phi - 1) as f32,
     );
     // y / (x + y) = c on the unit circle: (1 - c, c) normalised.
     let st = (1.0 - mu * mu).max(0.0).sqrt();
@@ -534,10 +556,10 @@ pub fn corr_dir_weights(w: Vec3) -> [(usize, f32); 4] {
 }
 
 /// The dielectric correction's azimuth-cosine nodes of a direction and
-/// their bilinear weights (the albedo table's grid, `AnisoDir::new`;
-/// generator).
+/// their bilinear weights, as eval reads them (`diamond_dir` with
+/// `AN_PHI` azimuths; generator).
 pub fn dcorr_dir_weights(w: Vec3) -> [(usize, f32); 4] {
-    dir_weights(&AnisoDir::new(w))
+    dir_weights(&diamond_dir(w, AN_PHI))
 }
 
 /// The four nodes `k * AN_MU + i` of a direction's cell and their

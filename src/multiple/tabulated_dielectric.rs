@@ -126,7 +126,7 @@ use crate::frame::flip_z;
 use crate::multiple::compensation::AnisoDir;
 use crate::multiple::compensation_aniso_tables::{AN_MU, AN_PHI};
 use crate::multiple::tabulated::{
-    CORR_MAX, CORR_MIRROR, stored_pair, tabulated_ndf, triangle, u16x2x2,
+    CORR_MAX, CORR_MIRROR, diamond_dir, stored_pair, tabulated_ndf, triangle, u16x2x2,
 };
 use crate::multiple::tabulated::{
     DIELECTRIC_BLEND_S2, MAX_ALPHA, MU_N, alpha_proj2, cos_phi, cosine_sample, decode, ndf_index,
@@ -233,8 +233,9 @@ pub const fn scale_index(ndf: usize, a: usize, e: usize, side: usize, i: usize) 
 /// `jx > jy` through the symmetry `(alpha_x, alpha_y, phi) -> (alpha_y,
 /// alpha_x, pi/2 - phi)`).
 pub const DCORR_PAIRS: usize = (ALPHA_N - 1) * ALPHA_N / 2;
-/// Values per roughness pair and index node: `[side][phi][mu]` on
-/// ENERGY_COMPENSATED's anisotropic azimuth and cosine grid (side 0
+/// Values per roughness pair and index node: `[side][phi][mu]` on `AN_PHI`
+/// diamond-angle azimuths (`tabulated::diamond_dir`: `|y| / (|x| + |y|)`,
+/// no `atan2`) and ENERGY_COMPENSATED's anisotropic cosine grid (side 0
 /// thin, 1 dense).
 pub const DCORR_BLOCK: usize = 2 * AN_PHI * AN_MU;
 /// Relative index nodes of the anisotropic furnace correction: the lobe
@@ -248,7 +249,7 @@ pub const DCORR_LEN: usize = NDF_N * DCORR_PAIRS * DCORR_ETA_N * DCORR_BLOCK;
 /// [`DCORR_LEN`] little-endian `u16` (`tabulated::corr_encode`).
 pub const DCORR_FILE_BYTES: usize = HEADER_BYTES + 2 * DCORR_LEN;
 /// First bytes of the correction file.
-pub const DCORR_MAGIC: &[u8; 37] = b"MSBSDF-TABULATED-DIELECTRIC-ANISO-v2\n";
+pub const DCORR_MAGIC: &[u8; 37] = b"MSBSDF-TABULATED-DIELECTRIC-ANISO-v3\n";
 
 /// Relative index of node `e` of the anisotropic correction.
 pub fn dcorr_grid_eta(e: usize) -> f32 {
@@ -873,8 +874,8 @@ impl TabulatedDielectric {
             // side (none for the generator's uncorrected lobe).
             let corr = match (&self.dcorr, scaled) {
                 (Some(c), true) => {
-                    dcorr_at(c, dense as usize, &AnisoDir::new(wi))
-                        * dcorr_at(c, (dense == reflection) as usize, &AnisoDir::new(wo))
+                    dcorr_at(c, dense as usize, &diamond_dir(wi, AN_PHI))
+                        * dcorr_at(c, (dense == reflection) as usize, &diamond_dir(wo, AN_PHI))
                 }
                 _ => 1.0,
             };
