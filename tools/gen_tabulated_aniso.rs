@@ -735,8 +735,8 @@ fn solve<R: AsRef<[f64]>>(m: &[R], target: &[f64]) -> (Vec<f32>, Stats) {
 /// lobe table's roughness nodes `1 <= jx <= jy` (9 per axis), index node
 /// (`DCORR_ETA_N`: the lobe table's 6 and the midpoint of the lowest
 /// interval) and
-/// side, on `AN_PHI` diamond-angle azimuths and ENERGY_COMPENSATED's
-/// cosine grid, factors
+/// side, on `AN_PHI` azimuths (`tabulated::dcorr_dir`) and
+/// ENERGY_COMPENSATED's cosine grid, factors
 /// `s` such that the lobe (read at the pair's effective roughness, with
 /// its isotropic furnace scales) scaled by `s(wi) s(wo)` has the multiply
 /// scattered albedo `1 - E_ss` (reflected plus transmitted) at every node
@@ -793,8 +793,9 @@ fn dielectric(args: &[String], quad: usize) {
          {}][index node: {DCORR_ETA_N}: the lobe table's, uniform in ln E from {ETA_MIN} to \
          {ETA_MAX}, and the midpoint in ln E of the lowest interval as node 1][side: thin, \
          dense][phi: {AN_PHI}][mu: {AN_MU}] \
-         (azimuth: diamond angle |y| / (|x| + |y|) on uniform nodes from 0 to 1, \
-         tabulated::diamond_dir; mu: ENERGY_COMPENSATED's anisotropic cosine grid) as \
+         (azimuth: uniform nodes from 0 to 1 of u = c - 0.4637 c (1 - c) (1 - 2 c), c = |y| \
+         / (|x| + |y|) the diamond angle, tabulated::dcorr_phi, within 0.35 degrees of phi / 90 \
+         degrees; mu: ENERGY_COMPENSATED's anisotropic cosine grid) as \
          little-endian u16 v, \
          s = {CORR_MAX} (v / 65535)^2, after this {HEADER_BYTES}-byte header; (jx > jy, k) \
          reads (jy, jx, {} - k); an axis at node 0 reads 1. The lobe \

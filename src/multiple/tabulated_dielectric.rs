@@ -126,7 +126,7 @@ use crate::frame::flip_z;
 use crate::multiple::compensation::AnisoDir;
 use crate::multiple::compensation_aniso_tables::{AN_MU, AN_PHI};
 use crate::multiple::tabulated::{
-    CORR_MAX, CORR_MIRROR, diamond_dir, stored_pair, tabulated_ndf, triangle, u16x2x2,
+    CORR_MAX, CORR_MIRROR, dcorr_dir, stored_pair, tabulated_ndf, triangle, u16x2x2,
 };
 use crate::multiple::tabulated::{
     DIELECTRIC_BLEND_S2, MAX_ALPHA, MU_N, alpha_proj2, cos_phi, cosine_sample, decode, ndf_index,
@@ -234,9 +234,10 @@ pub const fn scale_index(ndf: usize, a: usize, e: usize, side: usize, i: usize) 
 /// alpha_x, pi/2 - phi)`).
 pub const DCORR_PAIRS: usize = (ALPHA_N - 1) * ALPHA_N / 2;
 /// Values per roughness pair and index node: `[side][phi][mu]` on `AN_PHI`
-/// diamond-angle azimuths (`tabulated::diamond_dir`: `|y| / (|x| + |y|)`,
-/// no `atan2`) and ENERGY_COMPENSATED's anisotropic cosine grid (side 0
-/// thin, 1 dense).
+/// azimuths uniform in `tabulated::dcorr_phi` (within 0.35 degrees of
+/// uniform in `phi`, from the diamond angle `|y| / (|x| + |y|)` without an
+/// `atan2`) and ENERGY_COMPENSATED's anisotropic cosine grid (side 0 thin,
+/// 1 dense).
 pub const DCORR_BLOCK: usize = 2 * AN_PHI * AN_MU;
 /// Relative index nodes of the anisotropic furnace correction: the lobe
 /// table's [`ETA_N`] (where the lobe's linear interpolation in `ln E` has
@@ -874,8 +875,8 @@ impl TabulatedDielectric {
             // side (none for the generator's uncorrected lobe).
             let corr = match (&self.dcorr, scaled) {
                 (Some(c), true) => {
-                    dcorr_at(c, dense as usize, &diamond_dir(wi, AN_PHI))
-                        * dcorr_at(c, (dense == reflection) as usize, &diamond_dir(wo, AN_PHI))
+                    dcorr_at(c, dense as usize, &dcorr_dir(wi))
+                        * dcorr_at(c, (dense == reflection) as usize, &dcorr_dir(wo))
                 }
                 _ => 1.0,
             };
