@@ -96,8 +96,9 @@
 //! (`data/tabulated_aniso_dielectric.bin`, `gen_tabulated_aniso --
 //! --dielectric`): per NDF, pair of the lobe table's roughness nodes,
 //! index node of its own ([`DCORR_ETA_N`]: the lobe table's index nodes
-//! and the midpoint of the lowest interval) and side, on
-//! ENERGY_COMPENSATED's anisotropic azimuth and cosine grid, the factors
+//! and the midpoint of the lowest interval) and side, on 7 azimuths
+//! (uniform in `tabulated::dcorr_phi` of the diamond angle: no `atan2`)
+//! and ENERGY_COMPENSATED's anisotropic cosine grid, the factors
 //! that give the lobe the albedo `1 - E_ss(w)` (SINGLE's reflected plus
 //! transmitted albedo by quadrature) at every node from both sides; linear
 //! on triangles in roughness, linear in `ln E`, bilinear in azimuth and
