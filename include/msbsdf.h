@@ -397,7 +397,7 @@ typedef struct msbsdf_material_desc {
    * picks: `docs/auto_picks.md`. Anisotropic glass has measured rows at
    * `alpha_min / alpha_max` 0.91, 0.5 and 1/6 (GGX glass 1.5 at (0.5,
    * 0.55), (0.3, 0.6), (0.1, 0.6): TABULATED 0.008, 0.026, 0.039 at
-   * about 3x SINGLE's time), and each description is held to the
+   * about 2.4x SINGLE's time), and each description is held to the
    * mildest one at least as anisotropic as itself: the default picks
    * TABULATED down to a ratio of 0.5 and HEITZ_RANDOM_WALK averaged over
    * 16 to 128 evaluations (0.04 to 0.3 ms per eval) below it; 0.05
