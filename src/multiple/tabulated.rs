@@ -503,7 +503,7 @@ pub(crate) fn u16x2x2(lo: &[u8; 4], hi: &[u8; 4]) -> Vec4 {
 /// roughness blend [`alpha_proj2`] has a limit at the normal).
 #[inline]
 pub(crate) fn corr_dir(w: Vec3) -> AnisoDir {
-    diamond_dir(w, CORR_PHI)
+    grid_dir(diamond(w), w, CORR_PHI)
 }
 
 /// The diamond angle `|y| / (|x| + |y|)` of a direction (0.5 along the
@@ -524,12 +524,6 @@ fn grid_dir(c: f32, w: Vec3, n_phi: usize) -> AnisoDir {
     let (k0, fk) = split_root(c, n_phi);
     let (i0, fi) = split_root(compensation::aniso_mu_root(w.z.abs()), AN_MU);
     AnisoDir { k0, fk, i0, fi }
-}
-
-/// A direction's nodes as [`corr_dir`] with `n_phi` diamond-angle azimuths.
-#[inline(always)]
-fn diamond_dir(w: Vec3, n_phi: usize) -> AnisoDir {
-    grid_dir(diamond(w), w, n_phi)
 }
 
 /// Coefficient of the dielectric correction's azimuth coordinate
@@ -561,7 +555,10 @@ pub(crate) fn dcorr_dir(w: Vec3) -> AnisoDir {
 /// correction (`corr_dir`: diamond angle `k / (CORR_PHI - 1)`, the albedo
 /// table's cosine node `i`).
 pub fn corr_node_dir(r: usize) -> Vec3 {
-    diamond_node_dir(r, CORR_PHI)
+    diamond_node(
+        compensation::aniso_grid_mu(r % AN_MU),
+        (r / AN_MU) as f32 / (CORR_PHI - 1) as f32,
+    )
 }
 
 /// The incident direction of node `r = k * AN_MU + i` of the dielectric's
@@ -581,17 +578,8 @@ pub fn dcorr_node_dir(r: usize) -> Vec3 {
     diamond_node(compensation::aniso_grid_mu(r % AN_MU), 0.5 * (lo + hi))
 }
 
-/// The direction of node `r = k * AN_MU + i` of a [`diamond_dir`] grid of
-/// `n_phi` azimuths: diamond angle `k / (n_phi - 1)`, the albedo table's
-/// cosine node `i`.
-fn diamond_node_dir(r: usize, n_phi: usize) -> Vec3 {
-    diamond_node(
-        compensation::aniso_grid_mu(r % AN_MU),
-        (r / AN_MU) as f32 / (n_phi - 1) as f32,
-    )
-}
-
-/// The direction of cosine `mu` and diamond angle `c`.
+/// The direction of cosine `mu` and diamond angle `c` ([`diamond`]):
+/// `y / (x + y) = c` on the unit circle, `(1 - c, c)` normalised.
 fn diamond_node(mu: f32, c: f32) -> Vec3 {
     let st = (1.0 - mu * mu).max(0.0).sqrt();
     let n = ((1.0 - c) * (1.0 - c) + c * c).sqrt();
