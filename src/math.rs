@@ -123,6 +123,23 @@ pub fn beta(a: f64, b: f64) -> f64 {
     (ln_gamma(a) + ln_gamma(b) - ln_gamma(a + b)).exp()
 }
 
+/// The `x` in `[lo, hi]` where the increasing function `f` reaches `y`, by
+/// 60 bisection steps (to f64 precision for intervals of order 1; `lo` or
+/// `hi` when `y` lies outside `f`'s range there). For tables built once,
+/// not for eval.
+pub fn invert_increasing(f: impl Fn(f64) -> f64, y: f64, lo: f64, hi: f64) -> f64 {
+    let (mut lo, mut hi) = (lo, hi);
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if f(mid) < y {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -563,19 +563,11 @@ pub fn corr_node_dir(r: usize) -> Vec3 {
 
 /// The incident direction of node `r = k * AN_MU + i` of the dielectric's
 /// anisotropic correction ([`dcorr_dir`]): the diamond angle whose
-/// [`dcorr_phi`] is `k / (AN_PHI - 1)` (by bisection, to f32 precision).
+/// [`dcorr_phi`] is `k / (AN_PHI - 1)` (by bisection).
 pub fn dcorr_node_dir(r: usize) -> Vec3 {
-    let u = (r / AN_MU) as f32 / (AN_PHI - 1) as f32;
-    let (mut lo, mut hi) = (0.0f32, 1.0f32);
-    for _ in 0..40 {
-        let mid = 0.5 * (lo + hi);
-        if dcorr_phi(mid) < u {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    diamond_node(compensation::aniso_grid_mu(r % AN_MU), 0.5 * (lo + hi))
+    let u = (r / AN_MU) as f64 / (AN_PHI - 1) as f64;
+    let c = crate::math::invert_increasing(|c| dcorr_phi(c as f32) as f64, u, 0.0, 1.0);
+    diamond_node(compensation::aniso_grid_mu(r % AN_MU), c as f32)
 }
 
 /// The direction of cosine `mu` and diamond angle `c` ([`diamond`]):

@@ -340,16 +340,7 @@ pub fn fill_phong(out: &mut [f32]) {
 fn invert(cdf: fn(f64) -> f64, out: &mut [f32]) {
     for (j, slot) in out.iter_mut().enumerate() {
         let u = j as f64 / TABLE_N as f64;
-        let (mut lo, mut hi) = (0.0f64, FRAC_PI_2);
-        for _ in 0..60 {
-            let mid = 0.5 * (lo + hi);
-            if cdf(mid) < u {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
-        }
-        *slot = (0.5 * (lo + hi)) as f32;
+        *slot = crate::math::invert_increasing(cdf, u, 0.0, FRAC_PI_2) as f32;
     }
 }
 
