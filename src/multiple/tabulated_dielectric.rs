@@ -860,43 +860,24 @@ impl TabulatedDielectric {
         if mu_i == 0.0 || mu_o == 0.0 {
             return 0.0;
         }
-        let (aniso_plane, aniso_scale);
         let dense = (wi.z > 0.0) != self.thin_outside;
         let reflection = (wi.z > 0.0) == (wo.z > 0.0);
-        let (p, sp, corr) = if self.anisotropic {
-            let (ax2, ay2) = (
-                self.ndf.alpha_x * self.ndf.alpha_x,
-                self.ndf.alpha_y * self.ndf.alpha_y,
-            );
-            let b = DIELECTRIC_BLEND_S2;
-            let a = (0.5 * (alpha_proj2(ax2, ay2, wi, b) + alpha_proj2(ax2, ay2, wo, b))).sqrt();
-            aniso_plane = lobe_tri(self.ndf_index, split(alpha_coord(a), ALPHA_N), self.eta);
-            aniso_scale = scale_tri(self.ndf_index, a, self.scale_eta);
-            // The anisotropic furnace correction s(wi) s(wo), each on its
-            // side (none for the generator's uncorrected lobe).
-            let corr = match (&self.dcorr, scaled) {
-                (Some(c), true) => {
-                    dcorr_at(c, dense as usize, &dcorr_dir(wi))
-                        * dcorr_at(c, (dense == reflection) as usize, &dcorr_dir(wo))
-                }
-                _ => 1.0,
-            };
-            (&aniso_plane, Some(&aniso_scale), corr)
-        } else {
-            (&self.plane, None, 1.0)
-        };
-        let (ri, ro) = (mu_i.sqrt(), mu_o.sqrt());
-        let (ni, no) = (mu_nodes(ri), mu_nodes(ro));
         let dense_o = dense == reflection;
-        let s = match (scaled, sp) {
-            (false, _) => 1.0,
-            (true, Some(sp)) => scale_at(sp, dense, ri) * scale_at(sp, dense_o, ro) * corr,
-            (true, None) => {
+        let (ri, ro) = (mu_i.sqrt(), mu_o.sqrt());
+        let (plane, s) = if self.anisotropic {
+            self.aniso_plane_and_scale(wi, wo, (dense, dense_o), (ri, ro), scaled)
+        } else if scaled {
+            (
+                self.plane,
                 self.node_scale(dense, ri)
                     * self.node_scale(dense_o, ro)
-                    * (SCALE_STEP * SCALE_STEP)
-            }
+                    * (SCALE_STEP * SCALE_STEP),
+            )
+        } else {
+            (self.plane, 1.0)
         };
+        let p = &plane;
+        let (ni, no) = (mu_nodes(ri), mu_nodes(ro));
         let cp = cos_phi(wi, wo);
         let f = if reflection {
             let (v, b) = lobe_cell(p, if dense { R_DENSE } else { R_THIN }, ni, no);
@@ -909,6 +890,47 @@ impl TabulatedDielectric {
             series(lobe_cell(p, T_THIN, ni, no).0, cp) * mu_o
         };
         s * f
+    }
+
+    /// An anisotropic material's lobe triangle at the pair's effective
+    /// roughness (the mean square of the directions' projected ones,
+    /// `tabulated::alpha_proj2` with the dielectric's blend) and the
+    /// furnace scale `s(wi) s(wo)` of that roughness times the anisotropic
+    /// correction's (when `scaled`; the correction is left out for the
+    /// generator's uncorrected lobe), for the pair's sides `(dense,
+    /// dense_o)` and the square roots of its cosines. Not inlined: the
+    /// isotropic path stays free of its registers and stack.
+    #[inline(never)]
+    fn aniso_plane_and_scale(
+        &self,
+        wi: Vec3,
+        wo: Vec3,
+        (dense, dense_o): (bool, bool),
+        (ri, ro): (f32, f32),
+        scaled: bool,
+    ) -> (Tri, f32) {
+        let (ax2, ay2) = (
+            self.ndf.alpha_x * self.ndf.alpha_x,
+            self.ndf.alpha_y * self.ndf.alpha_y,
+        );
+        let b = DIELECTRIC_BLEND_S2;
+        let a = (0.5 * (alpha_proj2(ax2, ay2, wi, b) + alpha_proj2(ax2, ay2, wo, b))).sqrt();
+        let plane = lobe_tri(self.ndf_index, split(alpha_coord(a), ALPHA_N), self.eta);
+        if !scaled {
+            return (plane, 1.0);
+        }
+        let sp = scale_tri(self.ndf_index, a, self.scale_eta);
+        let corr = match &self.dcorr {
+            Some(c) => {
+                dcorr_at(c, dense as usize, &dcorr_dir(wi))
+                    * dcorr_at(c, dense_o as usize, &dcorr_dir(wo))
+            }
+            None => 1.0,
+        };
+        (
+            plane,
+            scale_at(&sp, dense, ri) * scale_at(&sp, dense_o, ro) * corr,
+        )
     }
 
     /// The furnace scale of an isotropic material on one side (`dense`) at
