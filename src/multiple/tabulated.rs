@@ -562,7 +562,7 @@ pub fn corr_node_dir(r: usize) -> Vec3 {
 }
 
 /// The incident direction of node `r = k * AN_MU + i` of the dielectric's
-/// anisotropic correction ([`dcorr_dir`]): the diamond angle whose
+/// anisotropic correction (`dcorr_dir`): the diamond angle whose
 /// [`dcorr_phi`] is `k / (AN_PHI - 1)` (by bisection).
 pub fn dcorr_node_dir(r: usize) -> Vec3 {
     let u = (r / AN_MU) as f64 / (AN_PHI - 1) as f64;
