@@ -331,28 +331,22 @@ impl Single {
         let both = lobes & LOBE_ALL == LOBE_ALL;
         match self.facet {
             Facet::Dielectric { eta } => {
-                if lobes & LOBE_ALL == 0 {
+                let Some(DielectricDirection {
+                    wi_l,
+                    m,
+                    ci,
+                    f,
+                    eta_l,
+                    reflected,
+                    wo,
+                    flipped,
+                }) = self.dielectric_direction(wi, u, lobes, eta)
+                else {
                     return Sample::ABSORBED;
-                }
-                let (wi_l, _, eta_l, flipped) = orient(wi, Vec3::Z, eta);
-                let m = self.ndf.sample_visible(wi_l, u1, u2);
-                let ci = wi_l.dot(m);
-                if ci <= 0.0 {
-                    return Sample::ABSORBED;
-                }
+                };
                 let g1 = self.ndf.g1(wi_l);
                 let dvis = self.ndf.d_visible(wi_l, m);
-                let f = fresnel::dielectric(ci, eta_l);
-                let reflect_here = if both {
-                    u[0] < f
-                } else {
-                    lobes & LOBE_REFLECTION != 0
-                };
-                let (wo, weight, pdf) = if reflect_here {
-                    let wo = reflect(wi_l, m);
-                    if wo.z <= 0.0 || (ci < GRAZING_HALF_COS && !self.half_vector_sees(wi_l, wo)) {
-                        return Sample::ABSORBED;
-                    }
+                let (wo, weight, pdf) = if reflected {
                     let g = self.g2_reflection(wi_l, wo) / g1;
                     if both {
                         (wo, g, f * dvis / (4.0 * ci))
@@ -360,12 +354,6 @@ impl Single {
                         (wo, f * g, dvis / (4.0 * ci))
                     }
                 } else {
-                    let Some(wo) = refract(wi_l, m, eta_l) else {
-                        return Sample::ABSORBED;
-                    };
-                    if wo.z >= 0.0 {
-                        return Sample::ABSORBED;
-                    }
                     let jac = match refraction_half(wi_l, wo, eta_l) {
                         Some(r) => r.jacobian,
                         None => 0.0, // index-matched: a Dirac lobe, no density
@@ -402,6 +390,94 @@ impl Single {
                 Sample::new(wi, wo, weight, pdf)
             }
         }
+    }
+}
+
+/// A direction sampled from the dielectric lobes ([`Single::dielectric_direction`]),
+/// in the frame where `wi_l.z > 0`, with what its weight and pdf need.
+struct DielectricDirection {
+    wi_l: Vec3,
+    /// The sampled visible normal and `wi_l . m`.
+    m: Vec3,
+    ci: f32,
+    /// Fresnel reflectance at `ci`.
+    f: f32,
+    /// Relative index seen from `wi_l`'s side.
+    eta_l: f32,
+    reflected: bool,
+    /// The sampled direction (local frame).
+    wo: Vec3,
+    /// The frame was flipped (`wi.z < 0`).
+    flipped: bool,
+}
+
+impl Single {
+    /// The direction part of [`Single::sample_lobes`] for dielectric facets
+    /// of relative index `eta`: a visible normal from `u[1], u[2]`,
+    /// reflection or refraction chosen by `u[0]` against the Fresnel
+    /// reflectance (when both lobes are asked for), and the same refusals
+    /// (`None`: absorbed).
+    #[inline(always)]
+    fn dielectric_direction(
+        &self,
+        wi: Vec3,
+        u: [f32; 3],
+        lobes: u32,
+        eta: f32,
+    ) -> Option<DielectricDirection> {
+        if lobes & LOBE_ALL == 0 {
+            return None;
+        }
+        let (wi_l, _, eta_l, flipped) = orient(wi, Vec3::Z, eta);
+        let m = self.ndf.sample_visible(wi_l, u[1], u[2]);
+        let ci = wi_l.dot(m);
+        if ci <= 0.0 {
+            return None;
+        }
+        let f = fresnel::dielectric(ci, eta_l);
+        let reflected = if lobes & LOBE_ALL == LOBE_ALL {
+            u[0] < f
+        } else {
+            lobes & LOBE_REFLECTION != 0
+        };
+        let wo = if reflected {
+            let wo = reflect(wi_l, m);
+            if wo.z <= 0.0 || (ci < GRAZING_HALF_COS && !self.half_vector_sees(wi_l, wo)) {
+                return None;
+            }
+            wo
+        } else {
+            let wo = refract(wi_l, m, eta_l)?;
+            if wo.z >= 0.0 {
+                return None;
+            }
+            wo
+        };
+        Some(DielectricDirection {
+            wi_l,
+            m,
+            ci,
+            f,
+            eta_l,
+            reflected,
+            wo,
+            flipped,
+        })
+    }
+
+    /// The direction [`Single::sample_lobes`] gives for dielectric facets
+    /// from the same uniforms, without its weight and pdf (`None`: absorbed,
+    /// or not a dielectric). For samplers that evaluate the pair anyway
+    /// (TABULATED's mixture): the weight's `G2` (with its Beta function in
+    /// transmission) is not computed twice. Where `sample_lobes` would give
+    /// a pdf of 0 (a refraction without a half vector), this gives the
+    /// direction; the caller's evaluation of the pair's pdf tells.
+    pub fn sample_dielectric_direction(&self, wi: Vec3, u: [f32; 3], lobes: u32) -> Option<Vec3> {
+        let Facet::Dielectric { eta } = self.facet else {
+            return None;
+        };
+        let d = self.dielectric_direction(wi, u, lobes, eta)?;
+        Some(if d.flipped { flip_z(d.wo) } else { d.wo })
     }
 }
 

@@ -968,21 +968,21 @@ impl TabulatedDielectric {
         self.ndf.d(h) * self.ndf.g2_correlated(wi, wo) / (4.0 * wi.z)
     }
 
-    /// `(f |wo.z|, pdf)` of a pair; `q` the mixture weights of `wi` when
-    /// the pdf is wanted.
+    /// `(f |wo.z|, pdf, SINGLE's pdf)` of a pair; `q` the mixture weights
+    /// of `wi` when the pdfs are wanted.
     #[inline(always)]
-    fn eval_pdf_full(&self, wi: Vec3, wo: Vec3, q: Option<(f32, f32)>) -> (Vec3, f32) {
+    fn eval_pdf_full(&self, wi: Vec3, wo: Vec3, q: Option<(f32, f32)>) -> (Vec3, f32, f32) {
         // SINGLE's value, pdf and, for reflection, its value with F = 1
         // (the peaked part's f_ss1 |wo.z|).
         let (fs, ps, f1) = self.single.eval_pdf_f1(wi, wo, LOBE_ALL, true, q.is_some());
         if wi.z == 0.0 || wo.z == 0.0 {
-            return (fs, ps);
+            return (fs, ps, ps);
         }
         let ms = self.multiple_with(wi, wo, || f1, true);
         let f = fs + Vec3::splat(ms);
         match q {
-            Some(q) => (f, mix_pdf(q, wi, wo, ps)),
-            None => (f, 0.0),
+            Some(q) => (f, mix_pdf(q, wi, wo, ps), ps),
+            None => (f, 0.0, 0.0),
         }
     }
 }
@@ -1015,23 +1015,29 @@ impl ScatterModel for TabulatedDielectric {
         }
         let (qr, qt) = self.cosine_weights(wi);
         let up = |v: Vec3| if wi.z > 0.0 { v } else { flip_z(v) };
-        let wo = if u0 < qr {
-            up(cosine_sample(u1, u2))
+        let (wo, from_single) = if u0 < qr {
+            (up(cosine_sample(u1, u2)), false)
         } else if u0 < qr + qt {
-            up(flip_z(cosine_sample(u1, u2)))
+            (up(flip_z(cosine_sample(u1, u2))), false)
         } else {
             let v = ((u0 - qr - qt) / (1.0 - qr - qt)).min(1.0 - f32::EPSILON * 0.5);
-            let s = self.single.sample_lobes(wi, [v, u1, u2], LOBE_ALL);
-            if s.pdf <= 0.0 {
-                return Sample::ABSORBED;
+            // SINGLE's direction without its weight: the pair is evaluated
+            // below anyway.
+            match self
+                .single
+                .sample_dielectric_direction(wi, [v, u1, u2], LOBE_ALL)
+            {
+                Some(wo) => (wo, true),
+                None => return Sample::ABSORBED,
             }
-            s.wo
         };
         if wo.z == 0.0 {
             return Sample::ABSORBED;
         }
-        let (f, pdf) = self.eval_pdf_full(wi, wo, Some((qr, qt)));
-        if pdf.is_nan() || pdf <= 0.0 {
+        let (f, pdf, ps) = self.eval_pdf_full(wi, wo, Some((qr, qt)));
+        // A direction of SINGLE's sampler where SINGLE's pdf is 0 (no
+        // half vector) is absorbed, as SINGLE's sample would be.
+        if pdf.is_nan() || pdf <= 0.0 || (from_single && ps <= 0.0) {
             return Sample::ABSORBED;
         }
         Sample::new(wi, wo, f / pdf, pdf)
