@@ -45,6 +45,7 @@ fn ir_mode(args: &[String]) {
         "single" => Model::Single,
         "vgroove_ns" => Model::VGrooveNonsymmetric,
         "tabulated" => Model::Tabulated,
+        "ec" => Model::EnergyCompensated,
         _ => Model::VGroove,
     };
     let ndf = match get(3) {

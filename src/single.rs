@@ -369,20 +369,10 @@ impl Single {
                 Sample::new(wi, wo, Vec3::splat(weight), pdf)
             }
             _ => {
-                if lobes & LOBE_REFLECTION == 0 {
+                let Some((wi_l, m, ci, wo, flipped)) = self.conductor_direction(wi, u1, u2, lobes)
+                else {
                     return Sample::ABSORBED;
-                }
-                let flipped = wi.z < 0.0;
-                let wi_l = if flipped { flip_z(wi) } else { wi };
-                let m = self.ndf.sample_visible(wi_l, u1, u2);
-                let ci = wi_l.dot(m);
-                if ci <= 0.0 {
-                    return Sample::ABSORBED;
-                }
-                let wo = reflect(wi_l, m);
-                if wo.z <= 0.0 || (ci < GRAZING_HALF_COS && !self.half_vector_sees(wi_l, wo)) {
-                    return Sample::ABSORBED;
-                }
+                };
                 let weight =
                     self.conductor_fresnel(ci) * self.g2_reflection(wi_l, wo) / self.ndf.g1(wi_l);
                 let pdf = self.ndf.d_visible(wi_l, m) / (4.0 * ci);
@@ -465,19 +455,53 @@ impl Single {
         })
     }
 
-    /// The direction [`Single::sample_lobes`] gives for dielectric facets
-    /// from the same uniforms, without its weight and pdf (`None`: absorbed,
-    /// or not a dielectric). For samplers that evaluate the pair anyway
-    /// (TABULATED's mixture): the weight's `G2` (with its Beta function in
-    /// transmission) is not computed twice. Where `sample_lobes` would give
-    /// a pdf of 0 (a refraction without a half vector), this gives the
-    /// direction; the caller's evaluation of the pair's pdf tells.
-    pub fn sample_dielectric_direction(&self, wi: Vec3, u: [f32; 3], lobes: u32) -> Option<Vec3> {
-        let Facet::Dielectric { eta } = self.facet else {
+    /// The direction part of [`Single::sample_lobes`] for reflecting
+    /// facets: `(wi_l, m, wi_l . m, wo_l, flipped)` in the frame where
+    /// `wi_l.z > 0` (`None`: absorbed).
+    #[inline(always)]
+    fn conductor_direction(
+        &self,
+        wi: Vec3,
+        u1: f32,
+        u2: f32,
+        lobes: u32,
+    ) -> Option<(Vec3, Vec3, f32, Vec3, bool)> {
+        if lobes & LOBE_REFLECTION == 0 {
             return None;
-        };
-        let d = self.dielectric_direction(wi, u, lobes, eta)?;
-        Some(if d.flipped { flip_z(d.wo) } else { d.wo })
+        }
+        let flipped = wi.z < 0.0;
+        let wi_l = if flipped { flip_z(wi) } else { wi };
+        let m = self.ndf.sample_visible(wi_l, u1, u2);
+        let ci = wi_l.dot(m);
+        if ci <= 0.0 {
+            return None;
+        }
+        let wo = reflect(wi_l, m);
+        if wo.z <= 0.0 || (ci < GRAZING_HALF_COS && !self.half_vector_sees(wi_l, wo)) {
+            return None;
+        }
+        Some((wi_l, m, ci, wo, flipped))
+    }
+
+    /// The direction [`Single::sample_lobes`] gives from the same uniforms,
+    /// without its weight and pdf (`None`: absorbed). For samplers that
+    /// evaluate the pair anyway (TABULATED's glass mixture,
+    /// ENERGY_COMPENSATED's conductor mixture): the weight's Fresnel
+    /// factor, `D_visible` and `G2` (with its Beta function in
+    /// transmission) are not computed twice. Where `sample_lobes` would
+    /// give a pdf of 0 (a refraction without a half vector), this gives
+    /// the direction; the caller's evaluation of the pair's pdf tells.
+    pub fn sample_direction(&self, wi: Vec3, u: [f32; 3], lobes: u32) -> Option<Vec3> {
+        match self.facet {
+            Facet::Dielectric { eta } => {
+                let d = self.dielectric_direction(wi, u, lobes, eta)?;
+                Some(if d.flipped { flip_z(d.wo) } else { d.wo })
+            }
+            _ => {
+                let (_, _, _, wo, flipped) = self.conductor_direction(wi, u[1], u[2], lobes)?;
+                Some(if flipped { flip_z(wo) } else { wo })
+            }
+        }
     }
 }
 

@@ -966,11 +966,16 @@ impl ScatterModel for Compensated {
                 let wi_l = if flipped { flip_z(wi) } else { wi };
                 let p_ss = self.p_single(wi_l, tint);
                 let wo = if u[0] < p_ss {
-                    let s = self.single.sample_with(wi_l, [0.0, u[1], u[2]], rng);
-                    if s.flags == crate::bsdf::SAMPLE_ABSORBED {
-                        return Sample::ABSORBED;
+                    // SINGLE's direction without its weight: the pair is
+                    // evaluated below anyway.
+                    match self.single.sample_direction(
+                        wi_l,
+                        [0.0, u[1], u[2]],
+                        crate::bsdf::LOBE_ALL,
+                    ) {
+                        Some(wo) => wo,
+                        None => return Sample::ABSORBED,
                     }
-                    s.wo
                 } else {
                     // Cosine-weighted hemisphere (Malley).
                     let (u1, u2) = (u[1], u[2]);

@@ -1023,10 +1023,7 @@ impl ScatterModel for TabulatedDielectric {
             let v = ((u0 - qr - qt) / (1.0 - qr - qt)).min(1.0 - f32::EPSILON * 0.5);
             // SINGLE's direction without its weight: the pair is evaluated
             // below anyway.
-            match self
-                .single
-                .sample_dielectric_direction(wi, [v, u1, u2], LOBE_ALL)
-            {
+            match self.single.sample_direction(wi, [v, u1, u2], LOBE_ALL) {
                 Some(wo) => (wo, true),
                 None => return Sample::ABSORBED,
             }
