@@ -148,8 +148,9 @@ impl AnisoDir {
     /// The nodes and weights of `w`. (The azimuth by libm's `atan2f`: the
     /// V-groove module's f64 `atan2_pos` takes fewer instructions but,
     /// with two dependent divisions, measured 8% more time in an eval
-    /// that called it twice. TABULATED's conductors read their own
-    /// direction grid without an `atan2`, `tabulated::corr_dir`.)
+    /// that called it twice. TABULATED's anisotropic corrections read
+    /// their own direction grids without an `atan2`, `tabulated::corr_dir`
+    /// and `tabulated::dcorr_dir`.)
     #[inline]
     pub(crate) fn new(w: Vec3) -> AnisoDir {
         let phi = w.y.abs().atan2(w.x.abs());
