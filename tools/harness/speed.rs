@@ -290,7 +290,8 @@ pub fn run(refs: &[RefMaterial], o: &Options) -> Run {
     // table models' data would otherwise be evicted by the combinations
     // timed in between).
     let mut results = stats;
-    // (result, its material, the material's pairs, evaluations per query).
+    // Per timing: (index in `results`, index in `mats`, evaluations per
+    // query); per created material: (the material, its pairs).
     let mut timed = Vec::new();
     let mut mats = Vec::new();
     for (k, res) in results.iter_mut().enumerate() {
