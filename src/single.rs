@@ -331,22 +331,13 @@ impl Single {
         let both = lobes & LOBE_ALL == LOBE_ALL;
         match self.facet {
             Facet::Dielectric { eta } => {
-                let Some(DielectricDirection {
-                    wi_l,
-                    m,
-                    ci,
-                    f,
-                    eta_l,
-                    reflected,
-                    wo,
-                    flipped,
-                }) = self.dielectric_direction(wi, u, lobes, eta)
-                else {
+                let Some(d) = self.dielectric_direction(wi, u, lobes, eta) else {
                     return Sample::ABSORBED;
                 };
+                let (wi_l, wo, f, ci) = (d.wi_l, d.wo, d.f, d.ci);
                 let g1 = self.ndf.g1(wi_l);
-                let dvis = self.ndf.d_visible(wi_l, m);
-                let (wo, weight, pdf) = if reflected {
+                let dvis = self.ndf.d_visible(wi_l, d.m);
+                let (wo, weight, pdf) = if d.reflected {
                     let g = self.g2_reflection(wi_l, wo) / g1;
                     if both {
                         (wo, g, f * dvis / (4.0 * ci))
@@ -354,7 +345,7 @@ impl Single {
                         (wo, f * g, dvis / (4.0 * ci))
                     }
                 } else {
-                    let jac = match refraction_half(wi_l, wo, eta_l) {
+                    let jac = match refraction_half(wi_l, wo, d.eta_l) {
                         Some(r) => r.jacobian,
                         None => 0.0, // index-matched: a Dirac lobe, no density
                     };
@@ -365,7 +356,7 @@ impl Single {
                         (wo, (1.0 - f) * g, dvis * jac)
                     }
                 };
-                let wo = if flipped { flip_z(wo) } else { wo };
+                let wo = if d.flipped { flip_z(wo) } else { wo };
                 Sample::new(wi, wo, Vec3::splat(weight), pdf)
             }
             _ => {
