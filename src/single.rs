@@ -422,11 +422,7 @@ impl Single {
             lobes & LOBE_REFLECTION != 0
         };
         let wo = if reflected {
-            let wo = reflect(wi_l, m);
-            if wo.z <= 0.0 || (ci < GRAZING_HALF_COS && !self.half_vector_sees(wi_l, wo)) {
-                return None;
-            }
-            wo
+            self.reflected_direction(wi_l, m, ci)?
         } else {
             let wo = refract(wi_l, m, eta_l)?;
             if wo.z >= 0.0 {
@@ -467,11 +463,21 @@ impl Single {
         if ci <= 0.0 {
             return None;
         }
+        let wo = self.reflected_direction(wi_l, m, ci)?;
+        Some((wi_l, m, ci, wo, flipped))
+    }
+
+    /// `wi_l` (`wi_l.z > 0`) reflected at the sampled visible normal `m`
+    /// (`ci = wi_l . m > 0`), both facets' rule: `None` below the surface,
+    /// or at a grazing half vector the pair's own half vector does not
+    /// see.
+    #[inline(always)]
+    fn reflected_direction(&self, wi_l: Vec3, m: Vec3, ci: f32) -> Option<Vec3> {
         let wo = reflect(wi_l, m);
         if wo.z <= 0.0 || (ci < GRAZING_HALF_COS && !self.half_vector_sees(wi_l, wo)) {
             return None;
         }
-        Some((wi_l, m, ci, wo, flipped))
+        Some(wo)
     }
 
     /// The direction [`Single::sample_lobes`] gives from the same uniforms,
