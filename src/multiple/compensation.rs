@@ -1104,6 +1104,29 @@ pub fn lower_hemisphere_nodes(nz: usize, np: usize, mut node: impl FnMut(Vec3, f
     }
 }
 
+/// Nodes per steradian that [`single_albedo_nodes`] (`n x n`) places
+/// around a reflected direction `wo` of `wi` (both above): the inverse of
+/// the weight it gives the node there, for any `wo`, 0 where no normal
+/// reflects `wi` into `wo`. Lets a generator split a broad lobe between
+/// these nodes and a grid of directions (a partition of unity by node
+/// density): with strongly anisotropic roughness the normals' reflections
+/// crowd into a band and leave most of the hemisphere nearly empty.
+pub fn single_albedo_node_density(alpha_x: f32, alpha_y: f32, wi: Vec3, wo: Vec3, n: usize) -> f64 {
+    let (ax, ay) = (alpha_x as f64, alpha_y as f64);
+    let h = (wi.as_dvec3() + wo.as_dvec3()).normalize_or_zero();
+    let ci = wi.as_dvec3().dot(h);
+    if h.z <= 0.0 || ci <= 0.0 {
+        return 0.0;
+    }
+    let (sx, sy) = ((h.x / ax).powi(2), (h.y / ay).powi(2));
+    // u = tan^2 / (1 + tan^2) of the stretched slope, s = 1 - (1 - u)^(1/4).
+    let one_minus_u = h.z * h.z / (sx + sy + h.z * h.z);
+    let du_ds = 4.0 * one_minus_u.powf(0.75);
+    let tt = sx + sy + h.z * h.z;
+    let density = h.z / (std::f64::consts::PI * ax * ay * tt * tt) / du_ds;
+    (n * n) as f64 * density / (4.0 * ci)
+}
+
 /// The quadrature of [`single_albedo`]: calls `node(wo, weight)` for each
 /// outgoing direction, so that `sum f(wi, wo) |wo.z| weight` is the
 /// directional albedo of a lobe concentrated around the microfacet
@@ -1183,6 +1206,36 @@ impl Compensated {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// [`single_albedo_node_density`] is the inverse of the weight
+    /// [`single_albedo_nodes`] gives each reflected node (within 1e-3: the
+    /// nodes' directions are `f32`), isotropic and strongly anisotropic,
+    /// both NDF-stretch directions, `wi` at 0-85 degrees; and it is 0 where
+    /// no normal reflects `wi` (`wo` below the horizon is never asked for;
+    /// `wo = -wi` reflected through the horizon is).
+    #[test]
+    fn node_density_is_the_inverse_node_weight() {
+        let mut checked = 0;
+        for (ax, ay) in [(0.3f32, 0.3f32), (0.05, 1.9), (1.9, 0.05), (0.6, 0.1)] {
+            for (th, ph) in [(0.0f32, 0.0f32), (30.0, 20.0), (60.0, 90.0), (85.0, 45.0)] {
+                let (th, ph) = (th.to_radians(), ph.to_radians());
+                let wi = Vec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos());
+                single_albedo_nodes(ax, ay, wi, None, 48, |wo, w| {
+                    let d = single_albedo_node_density(ax, ay, wi, wo, 48);
+                    assert!(
+                        (d * w - 1.0).abs() < 1e-3,
+                        "({ax}, {ay}) {wi} {wo}: {}",
+                        d * w
+                    );
+                    checked += 1;
+                });
+            }
+        }
+        assert!(checked > 10_000, "{checked}");
+        let wi = Vec3::new(0.6, 0.0, 0.8);
+        let grazing = Vec3::new(-0.6, 0.0, -0.8);
+        assert_eq!(single_albedo_node_density(0.3, 0.3, wi, grazing, 48), 0.0);
+    }
 
     /// The conductor lobe's normalisation from the tint at the [`COARSE`]
     /// nodes against the integral of what eval reads (`E` and `T` bilinear,
