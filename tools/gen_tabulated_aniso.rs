@@ -46,8 +46,7 @@ use glam::Vec3;
 use msbsdf::bsdf::ScatterModel;
 use msbsdf::facet::Facet;
 use msbsdf::multiple::compensation::{
-    aniso_grid_mu, lower_hemisphere_nodes, single_albedo, single_albedo_node_density,
-    single_albedo_nodes,
+    aniso_grid_mu, broad_reflection_nodes, lower_hemisphere_nodes, single_albedo,
 };
 use msbsdf::multiple::compensation_aniso_tables::{AN_A, AN_MU, AN_PHI, CONDUCTOR_E_ANISO};
 use msbsdf::multiple::tabulated::{
@@ -66,16 +65,6 @@ const NDFS: [NdfKind; 2] = [NdfKind::Beckmann, NdfKind::Ggx];
 
 /// Smallest stored factor (the lobe scaled by `S_MIN^2` at most).
 const S_MIN: f32 = 0.02;
-
-/// Reflected directions and weights of `compensation::single_albedo`'s
-/// quadrature (`compensation::single_albedo_nodes`, reflection only):
-/// `int f dwo ~ sum w f(wo)` for a lobe `f |wo.z|` concentrated around the
-/// normals.
-fn quadrature(ax: f32, ay: f32, wi: Vec3, n: usize) -> Vec<(Vec3, f64)> {
-    let mut out = Vec::with_capacity(n * n);
-    single_albedo_nodes(ax, ay, wi, None, n, |wo, w| out.push((wo, w)));
-    out
-}
 
 /// Statistics of one block: largest relative residual at the nodes after
 /// rounding, clamp hits, Sinkhorn steps.
@@ -182,18 +171,18 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
         let wi = corr_node_dir(r);
         target[r] =
             1.0 - single_albedo(|x, y| single.eval(x, y, &mut rng).x, ax, ay, wi, None, quad);
-        for (wo, w) in quadrature(ax, ay, wi, quad) {
-            if wo.z <= 0.0 {
-                continue;
-            }
+        // The lobe is broad: the normals' nodes alone leave most of the
+        // hemisphere nearly empty when the roughness is strongly
+        // anisotropic (`broad_reflection_nodes`).
+        broad_reflection_nodes(ax, ay, wi, quad, (2 * quad / 3, 4 * quad / 3), |wo, w| {
             let Some((t, p)) = tab.aniso_parts(wi, wo) else {
-                continue;
+                return;
             };
             for (node, b) in corr_dir_weights(wo) {
                 mt[r][node] += t as f64 * w * b as f64;
                 mp[r][node] += p as f64 * w * b as f64;
             }
-        }
+        });
     }
     // With u = s sqrt(t), v = s sqrt(b) at every node, the albedo from node
     // r is s_r sum_n M[r][n] s_n.
@@ -356,7 +345,7 @@ fn main() {
     }
     let command: Vec<String> = args.iter().skip(1).cloned().collect();
     let header = format!(
-        "ANISO_CORRECTION v4 (MSBSDF_MODEL_TABULATED): per [ndf: Beckmann, GGX][roughness \
+        "ANISO_CORRECTION v5 (MSBSDF_MODEL_TABULATED): per [ndf: Beckmann, GGX][roughness \
          pair (jx <= jy) of {CORR_A} x {CORR_A}: alpha = 2 (j / {})^2][azimuth: {CORR_PHI} \
          nodes of the diamond angle |y| / (|x| + |y|) from 0 to 1 (tabulated::corr_dir)][mu: \
          {AN_MU}] (ENERGY_COMPENSATED's anisotropic cosine grid) the two factors \
@@ -366,7 +355,9 @@ fn main() {
          reads (jy, jx, {} - k). The lobe parts.0 u(wi) u(wo) + parts.1 v(wi) v(wo), u and v \
          interpolated as eval does, has the multiply scattered albedo 1 - E_ss at every \
          node, E_ss SINGLE's albedo with F = 1; both by deterministic quadrature \
-         (compensation::single_albedo's normals, {quad} x {quad} per node), s by the \
+         (E_ss over compensation::single_albedo's normals, {quad} x {quad} per node; the \
+         lobe over compensation::broad_reflection_nodes: those normals and a {} x {} \
+         direction grid split by node density), s by the \
          symmetric Sinkhorn iteration on the integrated interpolation weights (residual 1e-6 \
          or 3000 steps); no random numbers. [1, 1] where an axis has roughness < 1e-3; \
          diagonal nodes at alpha_y (1 + 1e-4); s clamped to [{S_MIN}, {CORR_MAX}]. Range u \
@@ -377,6 +368,8 @@ fn main() {
          Time: {:.0} s\n",
         CORR_A - 1,
         CORR_PHI - 1,
+        2 * quad / 3,
+        4 * quad / 3,
         lo[0],
         hi[0],
         lo[1],
@@ -704,23 +697,11 @@ fn dielectric_system(
                 }
             }
         };
-        // Reflection: the normals' nodes and a grid of directions, each
-        // node weighted by its quadrature's share of the node density
-        // there (the lobe is broad; the normals' reflections alone leave
-        // most of the hemisphere empty when the roughness is strongly
-        // anisotropic, and the solve then boosted what they missed).
-        let grid_density = |wo: Vec3| {
-            let u = (1.0 - wo.z.abs() as f64).max(0.0).sqrt();
-            (nz * np) as f64 / (4.0 * std::f64::consts::PI * u.max(0.5 / nz as f64))
-        };
-        for (wo, w) in quadrature(ax, ay, up, quad) {
-            let (r1, r2) = (1.0 / w, grid_density(wo));
-            add(world(wo), w * r1 / (r1 + r2), side, &mut rng);
-        }
-        lower_hemisphere_nodes(nz, np, |down, w| {
-            let wo = Vec3::new(down.x, down.y, -down.z);
-            let (r1, r2) = (single_albedo_node_density(ax, ay, up, wo, quad), 1.0 / w);
-            add(world(wo), w * r2 / (r1 + r2), side, &mut rng);
+        // Reflection: the lobe is broad, and with strongly anisotropic
+        // roughness the normals' reflections alone leave most of the
+        // hemisphere empty (the solve then boosted what they missed).
+        broad_reflection_nodes(ax, ay, up, quad, (nz, np), |wo, w| {
+            add(world(wo), w, side, &mut rng)
         });
         lower_hemisphere_nodes(nz, np, |wo, w| add(world(wo), w, 1 - side, &mut rng));
     }
@@ -828,7 +809,7 @@ fn dielectric(args: &[String], quad: usize) {
     }
     let command: Vec<String> = args.iter().skip(1).cloned().collect();
     let header = format!(
-        "DIELECTRIC ANISO_CORRECTION v3 (MSBSDF_MODEL_TABULATED, dielectric facets): factors s \
+        "DIELECTRIC ANISO_CORRECTION v4 (MSBSDF_MODEL_TABULATED, dielectric facets): factors s \
          per [ndf: Beckmann, GGX][pair of the lobe table's roughness nodes 1 <= jx <= jy <= \
          {}][index node: {DCORR_ETA_N}: the lobe table's, uniform in ln E from {ETA_MIN} to \
          {ETA_MAX}, and the midpoint in ln E of the lowest interval as node 1][side: thin, \
@@ -841,8 +822,10 @@ fn dielectric(args: &[String], quad: usize) {
          reads (jy, jx, {} - k); an axis at node 0 reads 1. The lobe \
          (TabulatedDielectric::without_aniso_correction minus SINGLE) scaled by s(wi) s(wo) \
          has the multiply scattered albedo 1 - E_ss (reflection plus transmission) at every \
-         node of both sides; E_ss and the reflection by quadrature over {quad} x {quad} \
-         normals, the transmission over a {} x {} direction grid; symmetric Sinkhorn \
+         node of both sides; E_ss by quadrature over {quad} x {quad} normals, the \
+         reflection over compensation::broad_reflection_nodes (those normals and the upper \
+         half of the transmission's grid, split by node density), the transmission over a \
+         {} x {} direction grid; symmetric Sinkhorn \
          iteration per block (residual 1e-6 or 3000 steps); no random numbers. Diagonal \
          nodes at alpha_y (1 + 1e-4); clamped to [{S_MIN}, {CORR_MAX}]. Range {lo:.4} - \
          {hi:.4}; worst |albedo - (1 - E_ss)| at the nodes after rounding {:.2e}; {} clamped \
@@ -1169,7 +1152,7 @@ fn dielectric_sweep() {
                     }
                     let mut o = out.lock().expect("out");
                     o.extend(rows);
-                    if idx % 20 == 0 {
+                    if idx.is_multiple_of(20) {
                         eprint!(
                             "\r{}/{} materials, {:.0} s   ",
                             idx,

@@ -1071,8 +1071,11 @@ pub fn glass_albedo(
         let (a, b) = (world(a), world(b));
         eval(a, b) - single(a, b)
     };
-    let r_ms = single_albedo(&mut rest, alpha_x, alpha_y, up, None, n);
     let (nz, np) = (n / 3, 2 * n / 3);
+    let mut r_ms = 0.0;
+    broad_reflection_nodes(alpha_x, alpha_y, up, n, (nz, np), |wo, w| {
+        r_ms += rest(up, wo) as f64 * w;
+    });
     let mut t_ms = 0.0;
     lower_hemisphere_nodes(nz, np, |wo, w| {
         t_ms += rest(up, wo) as f64 * w;
@@ -1102,6 +1105,38 @@ pub fn lower_hemisphere_nodes(nz: usize, np: usize, mut node: impl FnMut(Vec3, f
             node(wo, dz * tau / np as f64);
         }
     }
+}
+
+/// Nodes for the reflected albedo of a lobe that may be both peaked (the
+/// single-scattering shape) and broad: [`single_albedo_nodes`]' `n x n`
+/// (reflection only) and the upper half of [`lower_hemisphere_nodes`]'
+/// `nz x np` grid, each node's weight multiplied by its quadrature's share
+/// of the two node densities there ([`single_albedo_node_density`]; a
+/// partition of unity, so the sum stays an integral). The normals alone
+/// leave most of the hemisphere nearly empty when the roughness is
+/// strongly anisotropic (their reflections crowd into a band); the grid
+/// alone misses a narrow peak. Used by the table generator and the tests.
+pub fn broad_reflection_nodes(
+    alpha_x: f32,
+    alpha_y: f32,
+    wi: Vec3,
+    n: usize,
+    (nz, np): (usize, usize),
+    mut node: impl FnMut(Vec3, f64),
+) {
+    let grid_density = |wo: Vec3| {
+        let u = (1.0 - wo.z.abs() as f64).max(0.0).sqrt();
+        (nz * np) as f64 / (4.0 * std::f64::consts::PI * u.max(0.5 / nz as f64))
+    };
+    single_albedo_nodes(alpha_x, alpha_y, wi, None, n, |wo, w| {
+        let (r1, r2) = (1.0 / w, grid_density(wo));
+        node(wo, w * r1 / (r1 + r2));
+    });
+    lower_hemisphere_nodes(nz, np, |down, w| {
+        let wo = Vec3::new(down.x, down.y, -down.z);
+        let r1 = single_albedo_node_density(alpha_x, alpha_y, wi, wo, n);
+        node(wo, w * (1.0 / w) / (r1 + 1.0 / w));
+    });
 }
 
 /// Nodes per steradian that [`single_albedo_nodes`] (`n x n`) places
