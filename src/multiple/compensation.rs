@@ -1037,9 +1037,11 @@ pub fn single_albedo(
 /// deterministic quadrature, for `wi` on either side (`eval` and `single`
 /// are `f |wo.z|` of one channel in the world frame: the model and its
 /// single-scattering part, SINGLE's): in the frame where `wi` is up,
-/// `single`'s albedo and the reflection of `eval - single` (which holds
-/// the peaked part) over microfacet normals ([`single_albedo`], `n x n`;
-/// 400 x 400 for roughness up to 1, 800 x 800 above), and the
+/// `single`'s albedo over microfacet normals ([`single_albedo`], `n x n`;
+/// 400 x 400 for roughness up to 1, 800 x 800 above), the reflection of
+/// `eval - single` (which holds the peaked part and a broad lobe) over
+/// those normals and the upper half of the transmission's grid
+/// ([`broad_reflection_nodes`]), and the
 /// transmission of `eval - single` (smooth, but not confined to the
 /// directions a refraction reaches) over [`lower_hemisphere_nodes`]' `n /
 /// 3 x 2 n / 3` grid (133 x 266, 266 x 533). `eta` is the relative index
