@@ -267,6 +267,10 @@ fn main() {
         dielectric_random(&args);
         return;
     }
+    if args.iter().any(|a| a == "--sweep") {
+        conductor_sweep();
+        return;
+    }
     if args.iter().any(|a| a == "--dielectric-sweep") {
         dielectric_sweep();
         return;
@@ -1104,6 +1108,58 @@ fn dielectric_random(args: &[String]) {
 /// Reflected plus transmitted albedo of TABULATED glass `t` (SINGLE `s`)
 /// from `wi` by the quadrature of `tests/tabulated_dielectric.rs`
 /// (`compensation::glass_albedo`).
+/// `--sweep`: the furnace of anisotropic TABULATED with F = 1 (eval over
+/// `compensation::broad_reflection_nodes`, 400 x 400 normals and a 266 x
+/// 533 grid) on the grid of [`dielectric_sweep`] without the index: both
+/// NDFs, roughness pairs `alpha_x < alpha_y` of {0.05, 0.11, 0.3, 0.6, 1,
+/// 1.9}, `wi` at 0, 30, 60, 75, 85 and 89 degrees, 9 azimuths from 0 to 90.
+fn conductor_sweep() {
+    let alphas = [0.05f32, 0.11, 0.3, 0.6, 1.0, 1.9];
+    let white = Facet::Conductor {
+        eta: Vec3::ZERO,
+        k: Vec3::ONE,
+    };
+    let mut res = Vec::new();
+    for n in 0..2 {
+        for (i, &ax) in alphas.iter().enumerate() {
+            for &ay in &alphas[i + 1..] {
+                let tab = Tabulated::new(Ndf::new(NDFS[n], ax, ay), white);
+                let mut rng = Rng::new(0, 0);
+                for th in [0.0f32, 30.0, 60.0, 75.0, 85.0, 89.0] {
+                    for k in 0..9 {
+                        let (th, ph) = (th.to_radians(), (k as f32 * 11.25).to_radians());
+                        let wi = Vec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos());
+                        let mut q = 0.0;
+                        broad_reflection_nodes(ax, ay, wi, 400, (266, 533), |wo, w| {
+                            q += tab.eval(wi, wo, &mut rng).x as f64 * w;
+                        });
+                        res.push((n, ax, ay, wi, q - 1.0));
+                    }
+                }
+            }
+        }
+    }
+    res.sort_by(|a, b| b.4.abs().total_cmp(&a.4.abs()));
+    let pct = |p: f64| res[((res.len() - 1) as f64 * (1.0 - p)) as usize].4.abs();
+    println!(
+        "{} directions: worst {:.4}, 99% {:.4}, 90% {:.4}, median {:.4}, over 0.5%: {}",
+        res.len(),
+        pct(1.0),
+        pct(0.99),
+        pct(0.9),
+        pct(0.5),
+        res.iter().filter(|r| r.4.abs() > 0.005).count()
+    );
+    for &(n, ax, ay, wi, d) in res.iter().take(12) {
+        println!(
+            "{:?} ({ax:.3},{ay:.3}) theta {:.0} phi {:.1}: {d:+.4}",
+            NDFS[n],
+            wi.z.acos().to_degrees(),
+            wi.y.atan2(wi.x).to_degrees()
+        );
+    }
+}
+
 /// `--dielectric-sweep`: the furnace of anisotropic glass on a fixed grid
 /// (no random numbers) that reaches the corners of the range: both NDFs,
 /// roughness pairs `alpha_x < alpha_y` of {0.05, 0.11, 0.3, 0.6, 1, 1.9},
