@@ -1120,10 +1120,10 @@ fn conductor_sweep() {
         k: Vec3::ONE,
     };
     let mut res = Vec::new();
-    for n in 0..2 {
+    for (n, &kind) in NDFS.iter().enumerate() {
         for (i, &ax) in alphas.iter().enumerate() {
             for &ay in &alphas[i + 1..] {
-                let tab = Tabulated::new(Ndf::new(NDFS[n], ax, ay), white);
+                let tab = Tabulated::new(Ndf::new(kind, ax, ay), white);
                 let mut rng = Rng::new(0, 0);
                 for th in [0.0f32, 30.0, 60.0, 75.0, 85.0, 89.0] {
                     for k in 0..9 {
