@@ -1108,6 +1108,27 @@ fn dielectric_random(args: &[String]) {
 /// Reflected plus transmitted albedo of TABULATED glass `t` (SINGLE `s`)
 /// from `wi` by the quadrature of `tests/tabulated_dielectric.rs`
 /// (`compensation::glass_albedo`).
+/// Prints the spread of furnace errors `albedo - 1`: their count, the
+/// worst, 99th and 90th percentiles and median of their magnitudes, and
+/// how many exceed 0.5%.
+fn print_spread(errors: impl Iterator<Item = f64>) {
+    let mut a: Vec<f64> = errors.map(f64::abs).collect();
+    a.sort_by(|x, y| y.total_cmp(x));
+    let pct = |p: f64| {
+        a.get(((a.len().max(1) - 1) as f64 * (1.0 - p)) as usize)
+            .copied()
+    };
+    println!(
+        "{} directions: worst {:.4}, 99% {:.4}, 90% {:.4}, median {:.4}, over 0.5%: {}",
+        a.len(),
+        pct(1.0).unwrap_or(0.0),
+        pct(0.99).unwrap_or(0.0),
+        pct(0.9).unwrap_or(0.0),
+        pct(0.5).unwrap_or(0.0),
+        a.iter().filter(|&&e| e > 0.005).count()
+    );
+}
+
 /// `--sweep`: the furnace of anisotropic TABULATED with F = 1 (eval over
 /// `compensation::broad_reflection_nodes`, 400 x 400 normals and a 266 x
 /// 533 grid) on the grid of [`dielectric_sweep`] without the index: both
@@ -1140,16 +1161,7 @@ fn conductor_sweep() {
         }
     }
     res.sort_by(|a, b| b.4.abs().total_cmp(&a.4.abs()));
-    let pct = |p: f64| res[((res.len() - 1) as f64 * (1.0 - p)) as usize].4.abs();
-    println!(
-        "{} directions: worst {:.4}, 99% {:.4}, 90% {:.4}, median {:.4}, over 0.5%: {}",
-        res.len(),
-        pct(1.0),
-        pct(0.99),
-        pct(0.9),
-        pct(0.5),
-        res.iter().filter(|r| r.4.abs() > 0.005).count()
-    );
+    print_spread(res.iter().map(|r| r.4));
     for &(n, ax, ay, wi, d) in res.iter().take(12) {
         println!(
             "{:?} ({ax:.3},{ay:.3}) theta {:.0} phi {:.1}: {d:+.4}",
@@ -1223,16 +1235,7 @@ fn dielectric_sweep() {
     eprintln!();
     let mut res = out.into_inner().expect("out");
     res.sort_by(|a, b| b.2.abs().total_cmp(&a.2.abs()));
-    let pct = |p: f64| res[((res.len() - 1) as f64 * (1.0 - p)) as usize].2.abs();
-    println!(
-        "{} directions: worst {:.4}, 99% {:.4}, 90% {:.4}, median {:.4}, over 0.5%: {}",
-        res.len(),
-        pct(1.0),
-        pct(0.99),
-        pct(0.9),
-        pct(0.5),
-        res.iter().filter(|r| r.2.abs() > 0.005).count()
-    );
+    print_spread(res.iter().map(|r| r.2));
     for &(i, wi, d) in res.iter().take(15) {
         let (n, ax, ay, eta) = materials[i];
         println!(
