@@ -1195,45 +1195,26 @@ fn dielectric_sweep() {
         }
     }
     let t0 = std::time::Instant::now();
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let out = std::sync::Mutex::new(Vec::new());
-    std::thread::scope(|sc| {
-        for _ in 0..2 {
-            sc.spawn(|| {
-                loop {
-                    let idx = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                    let Some(&(n, ax, ay, eta)) = materials.get(idx) else {
-                        break;
-                    };
-                    let ndf = Ndf::new(NDFS[n], ax, ay);
-                    let facet = Facet::Dielectric { eta };
-                    let t = TabulatedDielectric::new(ndf, facet);
-                    let s = Single::new(ndf, facet, G2Form::HeightCorrelated);
-                    let mut rows = Vec::new();
-                    for th in [0.0f32, 30.0, 60.0, 75.0, 85.0, 89.0] {
-                        for k in 0..9 {
-                            let (th, ph) = (th.to_radians(), (k as f32 * 11.25).to_radians());
-                            let wi = Vec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos());
-                            let q = glass_albedo(&t, &s, wi, ax, ay, eta);
-                            rows.push((idx, wi, q - 1.0));
-                        }
-                    }
-                    let mut o = out.lock().expect("out");
-                    o.extend(rows);
-                    if idx.is_multiple_of(20) {
-                        eprint!(
-                            "\r{}/{} materials, {:.0} s   ",
-                            idx,
-                            materials.len(),
-                            t0.elapsed().as_secs_f32()
-                        );
-                    }
-                }
-            });
+    let results = run_jobs(&materials, 2, "materials", t0, |&(n, ax, ay, eta)| {
+        let ndf = Ndf::new(NDFS[n], ax, ay);
+        let facet = Facet::Dielectric { eta };
+        let t = TabulatedDielectric::new(ndf, facet);
+        let s = Single::new(ndf, facet, G2Form::HeightCorrelated);
+        let mut rows = Vec::new();
+        for th in [0.0f32, 30.0, 60.0, 75.0, 85.0, 89.0] {
+            for k in 0..9 {
+                let (th, ph) = (th.to_radians(), (k as f32 * 11.25).to_radians());
+                let wi = Vec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos());
+                rows.push((wi, glass_albedo(&t, &s, wi, ax, ay, eta) - 1.0));
+            }
         }
+        (rows, Stats::default())
     });
-    eprintln!();
-    let mut res = out.into_inner().expect("out");
+    let mut res: Vec<(usize, Vec3, f64)> = results
+        .into_iter()
+        .flatten()
+        .flat_map(|(idx, rows, _)| rows.into_iter().map(move |(wi, d)| (idx, wi, d)))
+        .collect();
     res.sort_by(|a, b| b.2.abs().total_cmp(&a.2.abs()));
     print_spread(res.iter().map(|r| r.2));
     for &(i, wi, d) in res.iter().take(15) {
