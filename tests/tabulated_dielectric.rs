@@ -180,7 +180,8 @@ fn anisotropic_furnace_at_correction_nodes() {
 /// lobe table's 6 and the midpoint 1.166 of the lowest interval), the same
 /// directions: what the linear interpolation in `ln E` leaves. Measured
 /// worst per index (the 6-node table in brackets): 1.15 0.0167 (0.0672),
-/// 1.5 0.0222 (0.0222), 1.8 0.0092 (0.0079), 2.7 0.0056 (0.0051); all
+/// 1.5 0.0222 (0.0222), 1.8 0.0092 (0.0079), 2.7 0.0056 (0.0051), with
+/// version 4 of the table 0.0171, 0.0220, 0.0092, 0.0057; all
 /// Beckmann or GGX (0.28, 1.125), 1.5 from inside at 60 degrees along x.
 /// An 11-node grid (every lobe interval halved) measured 0.0152, 0.0076,
 /// 0.0030, 0.0020 but needed 161 kB more, paid for by 16-bit furnace
@@ -256,7 +257,8 @@ fn anisotropic_furnace_at_the_range_corners() {
 /// only) and scaled by the anisotropic correction
 /// `data/tabulated_aniso_dielectric.bin`, exact at its nodes (9 roughness
 /// nodes per axis, 7 indices) in the generator's quadrature; measured
-/// worst 0.0204 (Beckmann (0.3, 1) from inside at 60 degrees along x, an
+/// worst 0.0204, 0.0203 with version 4 of the table (Beckmann (0.3, 1)
+/// from inside at 60 degrees along x, an
 /// index-interpolation error: 0.0084 with 11 index nodes; 0.0262 at the
 /// session's start, Beckmann (0.3, 1) from outside at 85 degrees along y,
 /// now 0.0185, which is the interpolation in roughness: its roughness
