@@ -1109,11 +1109,21 @@ pub fn lower_hemisphere_nodes(nz: usize, np: usize, mut node: impl FnMut(Vec3, f
     }
 }
 
+/// Nodes per steradian of [`lower_hemisphere_nodes`]' `nz x np` grid at a
+/// direction of cosine `|wo.z|`: the inverse of its node weight, the
+/// product of `2 u / nz` and `2 pi / np` with `u = sqrt(1 - |z|)`, held at
+/// the first ring's value towards the pole.
+pub fn lower_hemisphere_node_density(nz: usize, np: usize, wo: Vec3) -> f64 {
+    let u = (1.0 - wo.z.abs() as f64).max(0.0).sqrt();
+    (nz * np) as f64 / (4.0 * std::f64::consts::PI * u.max(0.5 / nz as f64))
+}
+
 /// Nodes for the reflected albedo of a lobe that may be both peaked (the
 /// single-scattering shape) and broad: [`single_albedo_nodes`]' `n x n`
 /// (reflection only) and the upper half of [`lower_hemisphere_nodes`]'
 /// `nz x np` grid, each node's weight multiplied by its quadrature's share
-/// of the two node densities there ([`single_albedo_node_density`]; a
+/// of the two node densities there, which makes it `1 / (rho_1 + rho_2)`
+/// ([`single_albedo_node_density`], [`lower_hemisphere_node_density`]; a
 /// partition of unity, so the sum stays an integral). The normals alone
 /// leave most of the hemisphere nearly empty when the roughness is
 /// strongly anisotropic (their reflections crowd into a band); the grid
@@ -1126,18 +1136,18 @@ pub fn broad_reflection_nodes(
     (nz, np): (usize, usize),
     mut node: impl FnMut(Vec3, f64),
 ) {
-    let grid_density = |wo: Vec3| {
-        let u = (1.0 - wo.z.abs() as f64).max(0.0).sqrt();
-        (nz * np) as f64 / (4.0 * std::f64::consts::PI * u.max(0.5 / nz as f64))
-    };
     single_albedo_nodes(alpha_x, alpha_y, wi, None, n, |wo, w| {
-        let (r1, r2) = (1.0 / w, grid_density(wo));
-        node(wo, w * r1 / (r1 + r2));
+        node(
+            wo,
+            1.0 / (1.0 / w + lower_hemisphere_node_density(nz, np, wo)),
+        );
     });
     lower_hemisphere_nodes(nz, np, |down, w| {
         let wo = Vec3::new(down.x, down.y, -down.z);
-        let r1 = single_albedo_node_density(alpha_x, alpha_y, wi, wo, n);
-        node(wo, w * (1.0 / w) / (r1 + 1.0 / w));
+        node(
+            wo,
+            1.0 / (single_albedo_node_density(alpha_x, alpha_y, wi, wo, n) + 1.0 / w),
+        );
     });
 }
 
@@ -1155,11 +1165,9 @@ pub fn single_albedo_node_density(alpha_x: f32, alpha_y: f32, wi: Vec3, wo: Vec3
     if h.z <= 0.0 || ci <= 0.0 {
         return 0.0;
     }
-    let (sx, sy) = ((h.x / ax).powi(2), (h.y / ay).powi(2));
+    let tt = (h.x / ax).powi(2) + (h.y / ay).powi(2) + h.z * h.z;
     // u = tan^2 / (1 + tan^2) of the stretched slope, s = 1 - (1 - u)^(1/4).
-    let one_minus_u = h.z * h.z / (sx + sy + h.z * h.z);
-    let du_ds = 4.0 * one_minus_u.powf(0.75);
-    let tt = sx + sy + h.z * h.z;
+    let du_ds = 4.0 * (h.z * h.z / tt).powf(0.75);
     let density = h.z / (std::f64::consts::PI * ax * ay * tt * tt) / du_ds;
     (n * n) as f64 * density / (4.0 * ci)
 }

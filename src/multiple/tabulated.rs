@@ -1670,14 +1670,6 @@ mod tests {
         assert!(checked > 300_000, "{checked}");
     }
 
-    /// Eval's read of the conductor's joint table (`corr_at`: the SIMD
-    /// row conversion, the triangle corners, the mirrored storage of
-    /// `alpha_x > alpha_y`) gives, for a material on a roughness node and
-    /// a direction on a direction node, the stored pair of that node
-    /// ([`corr_values`] at [`corr_index`], read byte by byte): both NDFs,
-    /// pairs below, on and above the diagonal, every azimuth node and a
-    /// spread of cosine nodes; relative difference below 1e-4 (weights of
-    /// neighbouring nodes are 0 to f32 rounding).
     /// The dielectric correction's azimuth coordinate is within 0.004
     /// (0.36 degrees) of `phi / 90 degrees`, increasing, odd about the
     /// diagonal (`u(1 - c) = 1 - u(c)`: the axis exchange maps node `k`
@@ -1709,6 +1701,14 @@ mod tests {
         }
     }
 
+    /// Eval's read of the conductor's joint table (`corr_at`: the SIMD
+    /// row conversion, the triangle corners, the mirrored storage of
+    /// `alpha_x > alpha_y`) gives, for a material on a roughness node and
+    /// a direction on a direction node, the stored pair of that node
+    /// ([`corr_values`] at [`corr_index`], read byte by byte): both NDFs,
+    /// pairs below, on and above the diagonal, every azimuth node and a
+    /// spread of cosine nodes; relative difference below 1e-4 (weights of
+    /// neighbouring nodes are 0 to f32 rounding).
     #[test]
     fn joint_table_read_matches_the_stored_nodes() {
         let mut checked = 0;
