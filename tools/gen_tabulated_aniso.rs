@@ -247,18 +247,8 @@ fn main() {
                 "uncorrected {:+.4}",
                 glass_albedo(&u, &s, wi, ax, ay, eta) - 1.0
             );
-            let z = |a: Vec3, b: Vec3| -> f32 {
-                let _ = (a, b);
-                0.0
-            };
-            let e = msbsdf::multiple::compensation::glass_albedo(
-                |a, b| s.eval(a, b, &mut Rng::new(0, 0)).x,
-                z,
-                wi,
-                ax,
-                ay,
-                eta,
-            );
+            // SINGLE against itself: the rest is 0, the albedo is E_ss.
+            let e = glass_albedo(&s, &s, wi, ax, ay, eta);
             println!("single {e:.4}");
         }
         return;
@@ -1108,6 +1098,22 @@ fn dielectric_random(args: &[String]) {
 /// Reflected plus transmitted albedo of TABULATED glass `t` (SINGLE `s`)
 /// from `wi` by the quadrature of `tests/tabulated_dielectric.rs`
 /// (`compensation::glass_albedo`).
+/// Roughness values of the furnace sweeps (pairs `alpha_x < alpha_y`).
+const SWEEP_ALPHAS: [f32; 6] = [0.05, 0.11, 0.3, 0.6, 1.0, 1.9];
+
+/// Incident directions of the furnace sweeps: 0, 30, 60, 75, 85 and 89
+/// degrees times 9 azimuths from 0 to 90 degrees.
+fn sweep_dirs() -> impl Iterator<Item = Vec3> {
+    [0.0f32, 30.0, 60.0, 75.0, 85.0, 89.0]
+        .into_iter()
+        .flat_map(|th| {
+            (0..9).map(move |k| {
+                let (th, ph) = (th.to_radians(), (k as f32 * 11.25).to_radians());
+                Vec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos())
+            })
+        })
+}
+
 /// Prints the spread of furnace errors `albedo - 1`: their count, the
 /// worst, 99th and 90th percentiles and median of their magnitudes, and
 /// how many exceed 0.5%.
@@ -1135,7 +1141,7 @@ fn print_spread(errors: impl Iterator<Item = f64>) {
 /// NDFs, roughness pairs `alpha_x < alpha_y` of {0.05, 0.11, 0.3, 0.6, 1,
 /// 1.9}, `wi` at 0, 30, 60, 75, 85 and 89 degrees, 9 azimuths from 0 to 90.
 fn conductor_sweep() {
-    let alphas = [0.05f32, 0.11, 0.3, 0.6, 1.0, 1.9];
+    let alphas = SWEEP_ALPHAS;
     let white = Facet::Conductor {
         eta: Vec3::ZERO,
         k: Vec3::ONE,
@@ -1146,16 +1152,12 @@ fn conductor_sweep() {
             for &ay in &alphas[i + 1..] {
                 let tab = Tabulated::new(Ndf::new(kind, ax, ay), white);
                 let mut rng = Rng::new(0, 0);
-                for th in [0.0f32, 30.0, 60.0, 75.0, 85.0, 89.0] {
-                    for k in 0..9 {
-                        let (th, ph) = (th.to_radians(), (k as f32 * 11.25).to_radians());
-                        let wi = Vec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos());
-                        let mut q = 0.0;
-                        broad_reflection_nodes(ax, ay, wi, 400, (266, 533), |wo, w| {
-                            q += tab.eval(wi, wo, &mut rng).x as f64 * w;
-                        });
-                        res.push((n, ax, ay, wi, q - 1.0));
-                    }
+                for wi in sweep_dirs() {
+                    let mut q = 0.0;
+                    broad_reflection_nodes(ax, ay, wi, 400, (266, 533), |wo, w| {
+                        q += tab.eval(wi, wo, &mut rng).x as f64 * w;
+                    });
+                    res.push((n, ax, ay, wi, q - 1.0));
                 }
             }
         }
@@ -1181,7 +1183,7 @@ fn conductor_sweep() {
 /// the worst cases.
 fn dielectric_sweep() {
     use msbsdf::multiple::tabulated_dielectric::TabulatedDielectric;
-    let alphas = [0.05f32, 0.11, 0.3, 0.6, 1.0, 1.9];
+    let alphas = SWEEP_ALPHAS;
     let mut materials = Vec::new();
     for n in 0..2 {
         for (i, &ax) in alphas.iter().enumerate() {
@@ -1200,14 +1202,9 @@ fn dielectric_sweep() {
         let facet = Facet::Dielectric { eta };
         let t = TabulatedDielectric::new(ndf, facet);
         let s = Single::new(ndf, facet, G2Form::HeightCorrelated);
-        let mut rows = Vec::new();
-        for th in [0.0f32, 30.0, 60.0, 75.0, 85.0, 89.0] {
-            for k in 0..9 {
-                let (th, ph) = (th.to_radians(), (k as f32 * 11.25).to_radians());
-                let wi = Vec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos());
-                rows.push((wi, glass_albedo(&t, &s, wi, ax, ay, eta) - 1.0));
-            }
-        }
+        let rows = sweep_dirs()
+            .map(|wi| (wi, glass_albedo(&t, &s, wi, ax, ay, eta) - 1.0))
+            .collect();
         (rows, Stats::default())
     });
     let mut res: Vec<(usize, Vec3, f64)> = results
