@@ -243,7 +243,7 @@ pub const CORR_VALUES: usize = 2;
 /// [`CORR_LEN`].
 pub const CORR_FILE_BYTES: usize = HEADER_BYTES + 2 * CORR_VALUES * CORR_LEN;
 /// First bytes of the correction table file.
-pub const CORR_MAGIC: &[u8; 28] = b"MSBSDF-TABULATED-ANISO-F-v4\n";
+pub const CORR_MAGIC: &[u8; 28] = b"MSBSDF-TABULATED-ANISO-F-v5\n";
 /// Largest stored factor of the dielectric's correction (the encoding's
 /// range; [`corr_encode`]).
 pub const CORR_MAX: f32 = 8.0;
@@ -344,8 +344,32 @@ pub(crate) const CORR_MIRROR: u32 = 1 << 31;
 
 /// The three roughness corners of a material in the correction table: the
 /// byte offset in the file of each corner's block (with [`CORR_MIRROR`]
-/// when it is stored as its transpose) and its weight.
-type CorrCorners = [(u32, f32); 3];
+/// when it is stored as its transpose), its weight and its azimuth
+/// stretch ([`corr_stretch`] of the corner's nodes in the material's
+/// axes).
+type CorrCorners = [(u32, f32, f32); 3];
+
+/// The azimuth stretch of the correction's block at roughness nodes
+/// `(jx, jy)`: `sqrt(alpha_y / alpha_x)`, which on the grid
+/// [`corr_grid_alpha`] (`alpha` proportional to `j^2`) is `jy / jx`; 1 when
+/// an axis is at node 0 (its block holds 1 everywhere). The block's
+/// azimuth nodes are uniform in the diamond angle of `(x, rho y)`
+/// ([`corr_dir`]), so a strongly anisotropic block has them crowded
+/// towards its smoother axis, where its albedo changes fastest with the
+/// azimuth: at Beckmann (0.11, 1.87), 85 degrees, `E_ss` goes from 0.32
+/// along x to 0.60 at 22 degrees (the plain diamond angle's 9 nodes left
+/// the furnace 6.6% off at 4.5 degrees; GGX (0.056, 1.87) 17%). The
+/// exchange of the axes turns `rho` into `1 / rho` and the coordinate `c`
+/// into `1 - c`, so a transposed block is read with the corner's own
+/// `jy / jx` and its nodes mirrored, as before.
+#[inline(always)]
+pub fn corr_stretch(jx: usize, jy: usize) -> f32 {
+    if jx == 0 || jy == 0 {
+        1.0
+    } else {
+        jy as f32 / jx as f32
+    }
+}
 
 /// The corners of `(alpha_x, alpha_y)` for NDF index `ndf`: linear on the
 /// triangle of the grid square that holds the material, the square cut
@@ -360,10 +384,15 @@ fn corr_corners(ndf: usize, ax: f32, ay: f32) -> CorrCorners {
     let (jx, _, fx) = split(coord(ax), CORR_A);
     let (jy, _, fy) = split(coord(ay), CORR_A);
     triangle(fx, fy).map(|((dx, dy), w)| {
-        let (lo, hi, m) = stored_pair(jx + dx, jy + dy);
+        let (cx, cy) = (jx + dx, jy + dy);
+        let (lo, hi, m) = stored_pair(cx, cy);
         let pair = CORR_PAIR_BASE[lo.min(CORR_A - 1)] as usize + hi;
         let block = (ndf * CORR_PAIRS + pair) * CORR_BLOCK;
-        ((HEADER_BYTES + 2 * CORR_VALUES * block) as u32 | m, w)
+        (
+            (HEADER_BYTES + 2 * CORR_VALUES * block) as u32 | m,
+            w,
+            corr_stretch(cx, cy),
+        )
     })
 }
 
@@ -392,23 +421,27 @@ pub(crate) fn stored_pair(a: usize, b: usize) -> (usize, usize, u32) {
 }
 
 /// The conductor's two corrected factors ([`corr_values`]) at a
-/// direction's nodes ([`corr_dir`]): per roughness corner the two
-/// cosine nodes of each of the two azimuth rows as one 8-byte read of
-/// `[u, v, u, v]`, squared (the encoding) and weighted in SIMD lanes; the
-/// encoding's constant factor once at the end. `[1, 1]` outside the file.
+/// direction `w` (`w.z >= 0`): per roughness corner its nodes
+/// ([`corr_dir`] at the corner's stretch), the two cosine nodes of each
+/// of the two azimuth rows as one 8-byte read of `[u, v, u, v]`, squared
+/// (the encoding) and weighted in SIMD lanes; the encoding's constant
+/// factor once at the end. `[1, 1]` outside the file.
 #[inline]
-fn corr_at(corners: &CorrCorners, d: &AnisoDir) -> [f32; 2] {
-    // Per direction, once for the three corners: the byte offset of its
-    // lower azimuth row in a block, plain and mirrored (node `CORR_PHI - 2
-    // - k0`, weight `1 - fk`), and the lane weights of the two rows.
-    let row = |k: usize| 2 * CORR_VALUES * (k * AN_MU + d.i0);
-    let (plain, mirrored) = (row(d.k0), row(CORR_PHI - 2 - d.k0));
-    let lanes = Vec4::new(1.0 - d.fi, 1.0 - d.fi, d.fi, d.fi);
-    let (w_lo, w_hi) = (lanes * (1.0 - d.fk), lanes * d.fk);
+fn corr_at(corners: &CorrCorners, w: Vec3) -> [f32; 2] {
+    // The cosine node once for the three corners, the azimuth node per
+    // corner (each block has its own stretch).
+    let (i0, fi) = split_root(compensation::aniso_mu_root(w.z.abs()), AN_MU);
+    let lanes = Vec4::new(1.0 - fi, 1.0 - fi, fi, fi);
+    let (x, y) = (w.x.abs(), w.y.abs());
     let mut acc = Vec4::ZERO;
-    for &(b, w) in corners {
+    for &(b, wt, rho) in corners {
+        let (k0, fk) = split_root(diamond_xy(x, rho * y), CORR_PHI);
+        let (w_lo, w_hi) = (lanes * (1.0 - fk), lanes * fk);
         let mirror = b & CORR_MIRROR != 0;
-        let at = (b & !CORR_MIRROR) as usize + if mirror { mirrored } else { plain };
+        // The lower azimuth row in the block: mirrored, node `CORR_PHI -
+        // 2 - k0` with the weights exchanged.
+        let k = if mirror { CORR_PHI - 2 - k0 } else { k0 };
+        let at = (b & !CORR_MIRROR) as usize + 2 * CORR_VALUES * (k * AN_MU + i0);
         let Some(r) = RAW_CORR
             .get(at..)
             .and_then(|r| r.first_chunk::<{ 2 * CORR_VALUES * (AN_MU + 2) }>())
@@ -420,7 +453,7 @@ fn corr_at(corners: &CorrCorners, d: &AnisoDir) -> [f32; 2] {
         let (lo, hi) = (u16x4(r.first_chunk::<8>()), u16x4(r.last_chunk::<8>()));
         // Mirrored, the lower row read is the upper one of the direction.
         let (a, c) = if mirror { (w_hi, w_lo) } else { (w_lo, w_hi) };
-        acc += (lo * lo * a + hi * hi * c) * w;
+        acc += (lo * lo * a + hi * hi * c) * wt;
     }
     let s = acc * (CORR_PAIR_MAX / (65535.0 * 65535.0));
     [s.x + s.z, s.y + s.w]
@@ -488,22 +521,24 @@ pub(crate) fn u16x2x2(lo: &[u8; 4], hi: &[u8; 4]) -> Vec4 {
     }
 }
 
-/// The conductor correction's nodes of a direction `w` (`w.z >= 0`): its
-/// azimuth coordinate is the diamond angle `|y| / (|x| + |y|)` on
+/// The conductor correction's nodes of a direction `w` (`w.z >= 0`) in a
+/// block of azimuth stretch `rho` ([`corr_stretch`]): its azimuth
+/// coordinate is the diamond angle `rho |y| / (|x| + rho |y|)` on
 /// [`CORR_PHI`] uniform nodes from 0 (`phi` = 0) to 1 (`phi` = 90 degrees),
 /// without the `atan2` of the albedo table's uniform azimuth grid
 /// (`AnisoDir::new`; two of them were a tenth of the anisotropic eval).
-/// Its nodes are within 0.8-1.6x of uniform spacing in `phi` (slope
-/// `1 / (cos phi + sin phi)^2`); nodes uniform in `sin^2 phi`, sparse at
-/// the axes, left the suite's GGX (0.1, 0.6) gold at 0.033 against 0.023.
-/// The exchange of the axes, `phi -> pi/2 - phi`, maps the coordinate `c`
-/// to `1 - c`: node `k` to `CORR_PHI - 1 - k`, as on the uniform grid. At
-/// the normal (no azimuth) it reads 0.5; the lobe's nodes there agree
-/// for every azimuth up to the solve's residual (the conductor's
-/// roughness blend [`alpha_proj2`] has a limit at the normal).
+/// At `rho` = 1 its nodes are within 0.8-1.6x of uniform spacing in `phi`
+/// (slope `1 / (cos phi + sin phi)^2`); nodes uniform in `sin^2 phi`,
+/// sparse at the axes, left the suite's GGX (0.1, 0.6) gold at 0.033
+/// against 0.023. The exchange of the axes (`phi -> pi/2 - phi`, `rho ->
+/// 1 / rho`) maps the coordinate `c` to `1 - c`: node `k` to
+/// `CORR_PHI - 1 - k`, as on the uniform grid. At the normal (no azimuth)
+/// it reads 0.5; the lobe's nodes there agree for every azimuth up to the
+/// solve's residual (the conductor's roughness blend [`alpha_proj2`] has a
+/// limit at the normal).
 #[inline]
-pub(crate) fn corr_dir(w: Vec3) -> AnisoDir {
-    grid_dir(diamond(w), w, CORR_PHI)
+pub(crate) fn corr_dir(w: Vec3, rho: f32) -> AnisoDir {
+    grid_dir(diamond_xy(w.x.abs(), rho * w.y.abs()), w, CORR_PHI)
 }
 
 /// The diamond angle `|y| / (|x| + |y|)` of a direction (0.5 along the
@@ -511,7 +546,13 @@ pub(crate) fn corr_dir(w: Vec3) -> AnisoDir {
 /// axes.
 #[inline(always)]
 fn diamond(w: Vec3) -> f32 {
-    let (x, y) = (w.x.abs(), w.y.abs());
+    diamond_xy(w.x.abs(), w.y.abs())
+}
+
+/// The diamond angle `y / (x + y)` of non-negative `x`, `y` (0.5 when both
+/// are 0).
+#[inline(always)]
+fn diamond_xy(x: f32, y: f32) -> f32 {
     let s = x + y;
     if s > 0.0 { y / s } else { 0.5 }
 }
@@ -552,12 +593,15 @@ pub(crate) fn dcorr_dir(w: Vec3) -> AnisoDir {
 }
 
 /// The incident direction of node `r = k * AN_MU + i` of the conductor's
-/// correction (`corr_dir`: diamond angle `k / (CORR_PHI - 1)`, the albedo
-/// table's cosine node `i`).
-pub fn corr_node_dir(r: usize) -> Vec3 {
+/// correction in a block of azimuth stretch `rho` (`corr_dir`: stretched
+/// diamond angle `k / (CORR_PHI - 1)`, the albedo table's cosine node
+/// `i`).
+pub fn corr_node_dir(r: usize, rho: f32) -> Vec3 {
+    // rho y / (x + rho y) = c  <=>  y / (x + y) = c / (c + rho (1 - c)).
+    let c = (r / AN_MU) as f32 / (CORR_PHI - 1) as f32;
     diamond_node(
         compensation::aniso_grid_mu(r % AN_MU),
-        (r / AN_MU) as f32 / (CORR_PHI - 1) as f32,
+        c / (c + rho * (1.0 - c)),
     )
 }
 
@@ -578,11 +622,12 @@ fn diamond_node(mu: f32, c: f32) -> Vec3 {
     Vec3::new(st * (1.0 - c) / n, st * c / n, mu)
 }
 
-/// The conductor correction's azimuth-cosine nodes of a direction and
-/// their bilinear weights, as eval reads them (`corr_dir`; `k * AN_MU +
-/// i` in a roughness pair's block; generator).
-pub fn corr_dir_weights(w: Vec3) -> [(usize, f32); 4] {
-    dir_weights(&corr_dir(w))
+/// The conductor correction's azimuth-cosine nodes of a direction in a
+/// block of azimuth stretch `rho` and their bilinear weights, as eval
+/// reads them (`corr_dir`; `k * AN_MU + i` in a roughness pair's block;
+/// generator).
+pub fn corr_dir_weights(w: Vec3, rho: f32) -> [(usize, f32); 4] {
+    dir_weights(&corr_dir(w, rho))
 }
 
 /// The dielectric correction's azimuth-cosine nodes of a direction and
@@ -1421,10 +1466,7 @@ impl Tabulated {
         // The factors u = s sqrt(t), v = s sqrt(b) per direction, read
         // jointly from the correction table (s the furnace correction).
         let ([ui, vi], [uo, vo]) = match &a.exact {
-            None => (
-                corr_at(&a.corners, &corr_dir(wi)),
-                corr_at(&a.corners, &corr_dir(wo)),
-            ),
+            None => (corr_at(&a.corners, wi), corr_at(&a.corners, wo)),
             Some((e, e_peak)) => {
                 let [pi, po] = self.proj2(wi, wo);
                 let (ti, bi) = self.exact_factors(e, e_peak, wi, pi);
@@ -1718,7 +1760,8 @@ mod tests {
                 let corners = corr_corners(ndf, ax, ay);
                 for k in 0..CORR_PHI {
                     for i in [0, 3, 7, 12, AN_MU - 1] {
-                        let got = corr_at(&corners, &corr_dir(corr_node_dir(k * AN_MU + i)));
+                        let w = corr_node_dir(k * AN_MU + i, corr_stretch(jx, jy));
+                        let got = corr_at(&corners, w);
                         let want = corr_values(corr_index(ndf, jx, jy, k, i));
                         for c in 0..2 {
                             let tol = 1e-4 * want[c].abs().max(1e-3);
