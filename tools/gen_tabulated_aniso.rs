@@ -668,6 +668,8 @@ fn dielectric_system(
     let tab = TabulatedDielectric::new(ndf, facet).without_aniso_correction();
     let single = Single::new(ndf, facet, G2Form::HeightCorrelated);
     let mut rng = Rng::new(0, 0);
+    // The block's azimuth nodes are stretched by its own anisotropy.
+    let rho = corr_stretch(jx, jy);
     let rows = DCORR_BLOCK;
     let half = rows / 2;
     let mut target = vec![0.0f64; rows];
@@ -676,7 +678,7 @@ fn dielectric_system(
     for r in 0..rows {
         let side = r / half;
         let sign = if side == 0 { 1.0 } else { -1.0 };
-        let up = dcorr_node_dir(r % half);
+        let up = dcorr_node_dir(r % half, rho);
         let world = |v: Vec3| Vec3::new(v.x, v.y, v.z * sign);
         let wi = world(up);
         let eta_l = if side == 0 { eta } else { 1.0 / eta };
@@ -692,7 +694,7 @@ fn dielectric_system(
         let mut add = |wo: Vec3, w: f64, col_side: usize, rng: &mut Rng| {
             let l0 = (tab.eval(wi, wo, rng).x - single.eval(wi, wo, rng).x).max(0.0);
             if l0 > 0.0 {
-                for (node, b) in dcorr_dir_weights(wo) {
+                for (node, b) in dcorr_dir_weights(wo, rho) {
                     m[r][col_side * half + node] += l0 as f64 * w * b as f64;
                 }
             }
@@ -809,14 +811,15 @@ fn dielectric(args: &[String], quad: usize) {
     }
     let command: Vec<String> = args.iter().skip(1).cloned().collect();
     let header = format!(
-        "DIELECTRIC ANISO_CORRECTION v4 (MSBSDF_MODEL_TABULATED, dielectric facets): factors s \
+        "DIELECTRIC ANISO_CORRECTION v5 (MSBSDF_MODEL_TABULATED, dielectric facets): factors s \
          per [ndf: Beckmann, GGX][pair of the lobe table's roughness nodes 1 <= jx <= jy <= \
          {}][index node: {DCORR_ETA_N}: the lobe table's, uniform in ln E from {ETA_MIN} to \
          {ETA_MAX}, and the midpoint in ln E of the lowest interval as node 1][side: thin, \
          dense][phi: {AN_PHI}][mu: {AN_MU}] \
-         (azimuth: uniform nodes from 0 to 1 of u = c - 0.4637 c (1 - c) (1 - 2 c), c = |y| \
-         / (|x| + |y|) the diamond angle, tabulated::dcorr_phi, within 0.35 degrees of phi / 90 \
-         degrees; mu: ENERGY_COMPENSATED's anisotropic cosine grid) as \
+         (azimuth: uniform nodes from 0 to 1 of u = c - 0.4637 c (1 - c) (1 - 2 c), c = rho \
+         |y| / (|x| + rho |y|) the diamond angle stretched by the block's rho = jy / jx \
+         (tabulated::corr_stretch), tabulated::dcorr_phi, within 0.35 degrees of phi / 90 \
+         degrees at rho = 1; mu: ENERGY_COMPENSATED's anisotropic cosine grid) as \
          little-endian u16 v, \
          s = {CORR_MAX} (v / 65535)^2, after this {HEADER_BYTES}-byte header; (jx > jy, k) \
          reads (jy, jx, {} - k); an axis at node 0 reads 1. The lobe \

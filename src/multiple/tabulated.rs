@@ -349,10 +349,11 @@ pub(crate) const CORR_MIRROR: u32 = 1 << 31;
 /// axes).
 type CorrCorners = [(u32, f32, f32); 3];
 
-/// The azimuth stretch of the correction's block at roughness nodes
-/// `(jx, jy)`: `sqrt(alpha_y / alpha_x)`, which on the grid
-/// [`corr_grid_alpha`] (`alpha` proportional to `j^2`) is `jy / jx`; 1 when
-/// an axis is at node 0 (its block holds 1 everywhere). The block's
+/// The azimuth stretch of an anisotropic correction's block at roughness
+/// nodes `(jx, jy)`: `sqrt(alpha_y / alpha_x)`, which on both
+/// corrections' grids ([`corr_grid_alpha`] and the dielectric lobe's
+/// `tabulated_dielectric::grid_alpha`, `alpha` proportional to `j^2`) is
+/// `jy / jx`; 1 when an axis is at node 0 (such a block reads 1). The block's
 /// azimuth nodes are uniform in the diamond angle of `(x, rho y)`
 /// ([`corr_dir`]), so a strongly anisotropic block has them crowded
 /// towards its smoother axis, where its albedo changes fastest with the
@@ -541,16 +542,9 @@ pub(crate) fn corr_dir(w: Vec3, rho: f32) -> AnisoDir {
     grid_dir(diamond_xy(w.x.abs(), rho * w.y.abs()), w, CORR_PHI)
 }
 
-/// The diamond angle `|y| / (|x| + |y|)` of a direction (0.5 along the
-/// normal): in [0, 1], 0 along x, 1 along y; `1 - c` for the exchanged
-/// axes.
-#[inline(always)]
-fn diamond(w: Vec3) -> f32 {
-    diamond_xy(w.x.abs(), w.y.abs())
-}
-
 /// The diamond angle `y / (x + y)` of non-negative `x`, `y` (0.5 when both
-/// are 0).
+/// are 0, along the normal): in [0, 1], 0 along x, 1 along y; `1 - c` for
+/// the exchanged axes.
 #[inline(always)]
 fn diamond_xy(x: f32, y: f32) -> f32 {
     let s = x + y;
@@ -584,12 +578,13 @@ pub fn dcorr_phi(c: f32) -> f32 {
     c + DCORR_PHI_A * c * (1.0 - c) * (1.0 - 2.0 * c)
 }
 
-/// The dielectric anisotropic correction's nodes of a direction: `AN_PHI`
-/// uniform azimuth nodes of [`dcorr_phi`] and the albedo table's cosines
-/// (`tabulated_dielectric::DCORR_BLOCK`).
+/// The dielectric anisotropic correction's nodes of a direction in a
+/// block of azimuth stretch `rho` ([`corr_stretch`]): `AN_PHI` uniform
+/// azimuth nodes of [`dcorr_phi`] of the diamond angle of `(x, rho y)`
+/// and the albedo table's cosines (`tabulated_dielectric::DCORR_BLOCK`).
 #[inline(always)]
-pub(crate) fn dcorr_dir(w: Vec3) -> AnisoDir {
-    grid_dir(dcorr_phi(diamond(w)), w, AN_PHI)
+pub(crate) fn dcorr_dir(w: Vec3, rho: f32) -> AnisoDir {
+    grid_dir(dcorr_phi(diamond_xy(w.x.abs(), rho * w.y.abs())), w, AN_PHI)
 }
 
 /// The incident direction of node `r = k * AN_MU + i` of the conductor's
@@ -606,15 +601,20 @@ pub fn corr_node_dir(r: usize, rho: f32) -> Vec3 {
 }
 
 /// The incident direction of node `r = k * AN_MU + i` of the dielectric's
-/// anisotropic correction (`dcorr_dir`): the diamond angle whose
-/// [`dcorr_phi`] is `k / (AN_PHI - 1)` (by bisection).
-pub fn dcorr_node_dir(r: usize) -> Vec3 {
+/// anisotropic correction in a block of azimuth stretch `rho`
+/// (`dcorr_dir`): the stretched diamond angle whose [`dcorr_phi`] is `k /
+/// (AN_PHI - 1)` (by bisection).
+pub fn dcorr_node_dir(r: usize, rho: f32) -> Vec3 {
     let u = (r / AN_MU) as f64 / (AN_PHI - 1) as f64;
-    let c = crate::math::invert_increasing(|c| dcorr_phi(c as f32) as f64, u, 0.0, 1.0);
-    diamond_node(compensation::aniso_grid_mu(r % AN_MU), c as f32)
+    let c = crate::math::invert_increasing(|c| dcorr_phi(c as f32) as f64, u, 0.0, 1.0) as f32;
+    // rho y / (x + rho y) = c  <=>  y / (x + y) = c / (c + rho (1 - c)).
+    diamond_node(
+        compensation::aniso_grid_mu(r % AN_MU),
+        c / (c + rho * (1.0 - c)),
+    )
 }
 
-/// The direction of cosine `mu` and diamond angle `c` ([`diamond`]):
+/// The direction of cosine `mu` and diamond angle `c` ([`diamond_xy`]):
 /// `y / (x + y) = c` on the unit circle, `(1 - c, c)` normalised.
 fn diamond_node(mu: f32, c: f32) -> Vec3 {
     let st = (1.0 - mu * mu).max(0.0).sqrt();
@@ -630,10 +630,11 @@ pub fn corr_dir_weights(w: Vec3, rho: f32) -> [(usize, f32); 4] {
     dir_weights(&corr_dir(w, rho))
 }
 
-/// The dielectric correction's azimuth-cosine nodes of a direction and
-/// their bilinear weights, as eval reads them (`dcorr_dir`; generator).
-pub fn dcorr_dir_weights(w: Vec3) -> [(usize, f32); 4] {
-    dir_weights(&dcorr_dir(w))
+/// The dielectric correction's azimuth-cosine nodes of a direction in a
+/// block of azimuth stretch `rho` and their bilinear weights, as eval
+/// reads them (`dcorr_dir`; generator).
+pub fn dcorr_dir_weights(w: Vec3, rho: f32) -> [(usize, f32); 4] {
+    dir_weights(&dcorr_dir(w, rho))
 }
 
 /// The four nodes `k * AN_MU + i` of a direction's cell and their
@@ -1728,18 +1729,25 @@ mod tests {
             assert!(u > last, "c {c}: {u} after {last}");
             last = u;
         }
-        for r in 0..AN_PHI * AN_MU {
-            let (k, i) = (r / AN_MU, r % AN_MU);
-            let w = dcorr_node_dir(r);
-            assert!((w.length() - 1.0).abs() < 1e-5, "node {r}: {w}");
-            let d = dcorr_dir(w);
-            let (kk, ii) = (d.k0 as f32 + d.fk, d.i0 as f32 + d.fi);
-            // At the normal (i = AN_MU - 1) every azimuth is the same
-            // direction.
-            if i + 1 < AN_MU {
-                assert!((kk - k as f32).abs() < 1e-3, "node {r}: azimuth {kk}");
+        // Blocks of every kind of stretch (`corr_stretch`: plain, rough
+        // along y, transposed, strongly anisotropic).
+        for rho in [1.0, 3.0, 0.25, corr_stretch(1, 8)] {
+            for r in 0..AN_PHI * AN_MU {
+                let (k, i) = (r / AN_MU, r % AN_MU);
+                let w = dcorr_node_dir(r, rho);
+                assert!((w.length() - 1.0).abs() < 1e-5, "node {r}: {w}");
+                let d = dcorr_dir(w, rho);
+                let (kk, ii) = (d.k0 as f32 + d.fk, d.i0 as f32 + d.fi);
+                // At the normal (i = AN_MU - 1) every azimuth is the same
+                // direction.
+                if i + 1 < AN_MU {
+                    assert!(
+                        (kk - k as f32).abs() < 1e-3,
+                        "rho {rho} node {r}: azimuth {kk}"
+                    );
+                }
+                assert!((ii - i as f32).abs() < 1e-3, "node {r}: cosine {ii}");
             }
-            assert!((ii - i as f32).abs() < 1e-3, "node {r}: cosine {ii}");
         }
     }
 

@@ -127,7 +127,7 @@ use crate::frame::flip_z;
 use crate::multiple::compensation::AnisoDir;
 use crate::multiple::compensation_aniso_tables::{AN_MU, AN_PHI};
 use crate::multiple::tabulated::{
-    CORR_MAX, CORR_MIRROR, dcorr_dir, stored_pair, tabulated_ndf, triangle, u16x2x2,
+    CORR_MAX, CORR_MIRROR, corr_stretch, dcorr_dir, stored_pair, tabulated_ndf, triangle, u16x2x2,
 };
 use crate::multiple::tabulated::{
     DIELECTRIC_BLEND_S2, MAX_ALPHA, MU_N, alpha_proj2, cos_phi, cosine_sample, decode, ndf_index,
@@ -251,7 +251,7 @@ pub const DCORR_LEN: usize = NDF_N * DCORR_PAIRS * DCORR_ETA_N * DCORR_BLOCK;
 /// [`DCORR_LEN`] little-endian `u16` (`tabulated::corr_encode`).
 pub const DCORR_FILE_BYTES: usize = HEADER_BYTES + 2 * DCORR_LEN;
 /// First bytes of the correction file.
-pub const DCORR_MAGIC: &[u8; 37] = b"MSBSDF-TABULATED-DIELECTRIC-ANISO-v3\n";
+pub const DCORR_MAGIC: &[u8; 37] = b"MSBSDF-TABULATED-DIELECTRIC-ANISO-v4\n";
 
 /// Relative index of node `e` of the anisotropic correction.
 pub fn dcorr_grid_eta(e: usize) -> f32 {
@@ -325,11 +325,13 @@ pub fn dcorr_header() -> &'static str {
 /// [`dcorr_corners`], times two index nodes) as byte offsets in the file
 /// (with [`CORR_MIRROR`] when the pair is stored as its transpose) with
 /// their weights (unused corners: offset of the first block, weight 0),
-/// and the weight of the corners with an axis at roughness node 0 (which
-/// read 1).
+/// the azimuth stretch of each roughness corner (`tabulated::corr_stretch`;
+/// blocks `2 c` and `2 c + 1` are roughness corner `c`), and the weight of
+/// the corners with an axis at roughness node 0 (which read 1).
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct DCorr {
     corners: [(u32, f32); 6],
+    rho: [f32; 3],
     one: f32,
 }
 
@@ -346,10 +348,12 @@ fn dcorr_corners(ndf: usize, ax: f32, ay: f32, eta: (usize, usize, f32)) -> DCor
     let (e0, _, fe) = eta;
     let mut out = DCorr {
         corners: [(HEADER_BYTES as u32, 0.0); 6],
+        rho: [1.0; 3],
         one: 0.0,
     };
     for (c, ((dx, dy), w)) in triangle(fx, fy).into_iter().enumerate() {
         let (a, b) = (jx + dx, jy + dy);
+        out.rho[c] = corr_stretch(a, b);
         if a == 0 || b == 0 {
             out.one += w;
             continue;
@@ -364,27 +368,36 @@ fn dcorr_corners(ndf: usize, ax: f32, ay: f32, eta: (usize, usize, f32)) -> DCor
     out
 }
 
+/// A direction's nodes in the correction's blocks: per roughness corner
+/// of `c`, at the corner's azimuth stretch (`tabulated::dcorr_dir`).
+#[inline]
+fn dcorr_dirs(c: &DCorr, w: Vec3) -> [AnisoDir; 3] {
+    c.rho.map(|rho| dcorr_dir(w, rho))
+}
+
 /// The correction `s` of a direction on `side` (0 thin, 1 dense) at its
-/// azimuth and cosine nodes: bilinear in azimuth and cosine, per corner
+/// nodes `d` ([`dcorr_dirs`]): bilinear in azimuth and cosine, per corner
 /// the four nodes as two 4-byte reads (the cosine pairs of the two
 /// azimuth rows) converted in SIMD lanes, squared (the encoding,
 /// `tabulated::corr_decode`) and weighted; the row offsets and lane
-/// weights of the direction, plain and mirrored, once for the six
-/// corners. 1 outside the file.
+/// weights, plain and mirrored, once per roughness corner for its two
+/// index nodes. 1 outside the file.
 #[inline]
-fn dcorr_at(c: &DCorr, side: usize, d: &AnisoDir) -> f32 {
-    let row = |k: usize| 2 * (side * AN_PHI * AN_MU + k * AN_MU + d.i0);
-    let (plain, mirrored) = (row(d.k0), row(AN_PHI - 2 - d.k0));
-    let (fi, fk) = (d.fi, d.fk);
-    let cos = Vec4::new(1.0 - fi, fi, 1.0 - fi, fi);
-    // Lanes [a0, a1, b0, b1]: rows k and k + 1 of the read; mirrored, the
-    // row read first is the direction's upper one.
-    let w_plain = cos * Vec4::new(1.0 - fk, 1.0 - fk, fk, fk);
-    let w_mirror = cos * Vec4::new(fk, fk, 1.0 - fk, 1.0 - fk);
+fn dcorr_at(c: &DCorr, side: usize, d: &[AnisoDir; 3]) -> f32 {
     let mut acc = Vec4::ZERO;
-    for &(b, w) in &c.corners {
+    for (j, &(b, w)) in c.corners.iter().enumerate() {
+        let d = &d[j / 2];
         let mirror = b & CORR_MIRROR != 0;
-        let at = (b & !CORR_MIRROR) as usize + if mirror { mirrored } else { plain };
+        let (fi, fk) = (d.fi, d.fk);
+        let cos = Vec4::new(1.0 - fi, fi, 1.0 - fi, fi);
+        // Lanes [a0, a1, b0, b1]: rows k and k + 1 of the read; mirrored,
+        // the row read first is the direction's upper one.
+        let (k, lanes) = if mirror {
+            (AN_PHI - 2 - d.k0, Vec4::new(fk, fk, 1.0 - fk, 1.0 - fk))
+        } else {
+            (d.k0, Vec4::new(1.0 - fk, 1.0 - fk, fk, fk))
+        };
+        let at = (b & !CORR_MIRROR) as usize + 2 * (side * AN_PHI * AN_MU + k * AN_MU + d.i0);
         let Some(r) = RAW_DCORR
             .get(at..)
             .and_then(|r| r.first_chunk::<{ 2 * AN_MU + 4 }>())
@@ -397,7 +410,7 @@ fn dcorr_at(c: &DCorr, side: usize, d: &AnisoDir) -> f32 {
             (Some(lo), Some(hi)) => u16x2x2(lo, hi),
             _ => Vec4::ZERO,
         };
-        acc += v * v * (if mirror { w_mirror } else { w_plain }) * w;
+        acc += v * v * cos * lanes * w;
     }
     c.one + (acc.x + acc.y + acc.z + acc.w) * (CORR_MAX / (65535.0 * 65535.0))
 }
@@ -959,8 +972,8 @@ impl TabulatedDielectric {
         let sp = scale_tri(self.ndf_index, a, self.scale_eta);
         let corr = match &self.dcorr {
             Some(c) => {
-                dcorr_at(c, dense as usize, &dcorr_dir(wi))
-                    * dcorr_at(c, dense_o as usize, &dcorr_dir(wo))
+                dcorr_at(c, dense as usize, &dcorr_dirs(c, wi))
+                    * dcorr_at(c, dense_o as usize, &dcorr_dirs(c, wo))
             }
             None => 1.0,
         };
@@ -1168,7 +1181,7 @@ mod tests {
                                 } else {
                                     (i - 1, 1.0)
                                 };
-                                let d = AnisoDir { k0, fk, i0, fi };
+                                let d = [AnisoDir { k0, fk, i0, fi }; 3];
                                 let got = dcorr_at(&c, side, &d);
                                 let at = HEADER_BYTES + 2 * dcorr_index(ndf, jx, jy, e, side, k, i);
                                 let want = corr_decode(
