@@ -261,12 +261,16 @@ fn main() {
         dielectric_random(&args);
         return;
     }
+    if let Some(p) = args.iter().position(|a| a == "--at") {
+        conductor_at(&args[p + 1..]);
+        return;
+    }
     if args.iter().any(|a| a == "--sweep") {
-        conductor_sweep();
+        conductor_sweep(azimuths_arg(&args));
         return;
     }
     if args.iter().any(|a| a == "--dielectric-sweep") {
-        dielectric_sweep();
+        dielectric_sweep(azimuths_arg(&args));
         return;
     }
     if args.iter().any(|a| a == "--dielectric-eta-scan") {
@@ -1104,20 +1108,29 @@ fn dielectric_random(args: &[String]) {
     }
 }
 
-/// Reflected plus transmitted albedo of TABULATED glass `t` (SINGLE `s`)
-/// from `wi` by the quadrature of `tests/tabulated_dielectric.rs`
-/// (`compensation::glass_albedo`).
 /// Roughness values of the furnace sweeps (pairs `alpha_x < alpha_y`).
 const SWEEP_ALPHAS: [f32; 6] = [0.05, 0.11, 0.3, 0.6, 1.0, 1.9];
 
+/// The sweeps' azimuth count: `--azimuths N` (at least 2), 9 by default
+/// (11.25 degrees apart; features of the correction between its azimuth
+/// nodes can hide between them: 33 is 2.8 degrees apart).
+fn azimuths_arg(args: &[String]) -> usize {
+    args.iter()
+        .position(|a| a == "--azimuths")
+        .and_then(|p| args.get(p + 1)?.parse().ok())
+        .unwrap_or(9usize)
+        .max(2)
+}
+
 /// Incident directions of the furnace sweeps: 0, 30, 60, 75, 85 and 89
-/// degrees times 9 azimuths from 0 to 90 degrees.
-fn sweep_dirs() -> impl Iterator<Item = Vec3> {
+/// degrees times `azimuths` uniform azimuths from 0 to 90 degrees.
+fn sweep_dirs(azimuths: usize) -> impl Iterator<Item = Vec3> {
+    let step = 90.0 / (azimuths - 1) as f32;
     [0.0f32, 30.0, 60.0, 75.0, 85.0, 89.0]
         .into_iter()
-        .flat_map(|th| {
-            (0..9).map(move |k| {
-                let (th, ph) = (th.to_radians(), (k as f32 * 11.25).to_radians());
+        .flat_map(move |th| {
+            (0..azimuths).map(move |k| {
+                let (th, ph) = (th.to_radians(), (k as f32 * step).to_radians());
                 Vec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos())
             })
         })
@@ -1144,33 +1157,88 @@ fn print_spread(errors: impl Iterator<Item = f64>) {
     );
 }
 
-/// `--sweep`: the furnace of anisotropic TABULATED with F = 1 (eval over
-/// `compensation::broad_reflection_nodes`, 400 x 400 normals and a 266 x
-/// 533 grid) on the grid of [`dielectric_sweep`] without the index: both
-/// NDFs, roughness pairs `alpha_x < alpha_y` of {0.05, 0.11, 0.3, 0.6, 1,
-/// 1.9}, `wi` at 0, 30, 60, 75, 85 and 89 degrees, 9 azimuths from 0 to 90.
-fn conductor_sweep() {
+/// `--at NDF AX AY THETA PHI0 PHI1 STEP` (NDF 0 Beckmann, 1 GGX; angles
+/// in degrees): the white furnace of anisotropic TABULATED with F = 1 at
+/// `THETA` and azimuths from `PHI0` to `PHI1`, with the uncorrected lobe's
+/// and SINGLE's albedo beside it (the quadrature of [`conductor_sweep`]).
+fn conductor_at(args: &[String]) {
+    let v: Vec<f32> = args.iter().filter_map(|a| a.parse().ok()).collect();
+    let [n, ax, ay, theta, phi0, phi1, step] = v[..] else {
+        eprintln!("--at NDF AX AY THETA PHI0 PHI1 STEP");
+        std::process::exit(2);
+    };
+    let white = Facet::Conductor {
+        eta: Vec3::ZERO,
+        k: Vec3::ONE,
+    };
+    let ndf = Ndf::new(NDFS[(n as usize).min(1)], ax, ay);
+    let tab = Tabulated::new(ndf, white);
+    let bare = tab.without_aniso_correction();
+    let single = Single::new(ndf, white, G2Form::HeightCorrelated);
+    let th = theta.to_radians();
+    let mut phi = phi0;
+    while phi <= phi1 + 1e-3 {
+        let p = phi.to_radians();
+        let wi = Vec3::new(th.sin() * p.cos(), th.sin() * p.sin(), th.cos());
+        let mut rng = Rng::new(0, 0);
+        let [mut q, mut qb, mut qs] = [0.0f64; 3];
+        broad_reflection_nodes(ax, ay, wi, 400, (266, 533), |wo, w| {
+            q += tab.eval(wi, wo, &mut rng).x as f64 * w;
+            qb += bare.eval(wi, wo, &mut rng).x as f64 * w;
+            qs += single.eval(wi, wo, &mut rng).x as f64 * w;
+        });
+        println!(
+            "phi {phi:6.2}: {:+.4} (uncorrected {:+.4}, SINGLE {qs:.4})",
+            q - 1.0,
+            qb - 1.0
+        );
+        phi += step.max(0.01);
+    }
+}
+
+/// `--sweep [--azimuths N]`: the furnace of anisotropic TABULATED with F
+/// = 1 (eval over `compensation::broad_reflection_nodes`, 400 x 400
+/// normals and a 266 x 533 grid) on the grid of [`dielectric_sweep`]
+/// without the index: both NDFs, roughness pairs `alpha_x < alpha_y` of
+/// {0.05, 0.11, 0.3, 0.6, 1, 1.9}, `wi` at 0, 30, 60, 75, 85 and 89
+/// degrees, `N` azimuths from 0 to 90 (9 by default, [`azimuths_arg`]).
+fn conductor_sweep(azimuths: usize) {
     let alphas = SWEEP_ALPHAS;
     let white = Facet::Conductor {
         eta: Vec3::ZERO,
         k: Vec3::ONE,
     };
-    let mut res = Vec::new();
-    for (n, &kind) in NDFS.iter().enumerate() {
+    let mut materials = Vec::new();
+    for n in 0..NDFS.len() {
         for (i, &ax) in alphas.iter().enumerate() {
             for &ay in &alphas[i + 1..] {
-                let tab = Tabulated::new(Ndf::new(kind, ax, ay), white);
-                let mut rng = Rng::new(0, 0);
-                for wi in sweep_dirs() {
-                    let mut q = 0.0;
-                    broad_reflection_nodes(ax, ay, wi, 400, (266, 533), |wo, w| {
-                        q += tab.eval(wi, wo, &mut rng).x as f64 * w;
-                    });
-                    res.push((n, ax, ay, wi, q - 1.0));
-                }
+                materials.push((n, ax, ay));
             }
         }
     }
+    let t0 = std::time::Instant::now();
+    let results = run_jobs(&materials, 2, "materials", t0, |&(n, ax, ay)| {
+        let tab = Tabulated::new(Ndf::new(NDFS[n], ax, ay), white);
+        let mut rng = Rng::new(0, 0);
+        let rows = sweep_dirs(azimuths)
+            .map(|wi| {
+                let mut q = 0.0;
+                broad_reflection_nodes(ax, ay, wi, 400, (266, 533), |wo, w| {
+                    q += tab.eval(wi, wo, &mut rng).x as f64 * w;
+                });
+                (wi, q - 1.0)
+            })
+            .collect();
+        (rows, Stats::default())
+    });
+    let mut res: Vec<(usize, f32, f32, Vec3, f64)> = results
+        .into_iter()
+        .flatten()
+        .flat_map(|(idx, rows, _)| {
+            let (n, ax, ay) = materials[idx];
+            rows.into_iter().map(move |(wi, d)| (n, ax, ay, wi, d))
+        })
+        .collect();
     res.sort_by(|a, b| b.4.abs().total_cmp(&a.4.abs()));
     print_spread(res.iter().map(|r| r.4));
     for &(n, ax, ay, wi, d) in res.iter().take(12) {
@@ -1187,10 +1255,11 @@ fn conductor_sweep() {
 /// (no random numbers) that reaches the corners of the range: both NDFs,
 /// roughness pairs `alpha_x < alpha_y` of {0.05, 0.11, 0.3, 0.6, 1, 1.9},
 /// indices 1.05, 1.2, 1.5, 2 and 3 seen from both sides, `wi` at 0, 30,
-/// 60, 75, 85 and 89 degrees and 9 azimuths from 0 to 90 degrees. Prints
+/// 60, 75, 85 and 89 degrees and `--azimuths N` azimuths from 0 to 90
+/// degrees (9 by default, [`azimuths_arg`]). Prints
 /// the worst, 99th and 90th percentiles and median of `|albedo - 1|` and
 /// the worst cases.
-fn dielectric_sweep() {
+fn dielectric_sweep(azimuths: usize) {
     use msbsdf::multiple::tabulated_dielectric::TabulatedDielectric;
     let alphas = SWEEP_ALPHAS;
     let mut materials = Vec::new();
@@ -1211,7 +1280,7 @@ fn dielectric_sweep() {
         let facet = Facet::Dielectric { eta };
         let t = TabulatedDielectric::new(ndf, facet);
         let s = Single::new(ndf, facet, G2Form::HeightCorrelated);
-        let rows = sweep_dirs()
+        let rows = sweep_dirs(azimuths)
             .map(|wi| (wi, glass_albedo(&t, &s, wi, ax, ay, eta) - 1.0))
             .collect();
         (rows, Stats::default())
@@ -1234,6 +1303,9 @@ fn dielectric_sweep() {
     }
 }
 
+/// Reflected plus transmitted albedo of TABULATED glass `t` (SINGLE `s`)
+/// from `wi` by the quadrature of `tests/tabulated_dielectric.rs`
+/// (`compensation::glass_albedo`).
 fn glass_albedo<T: ScatterModel, S: ScatterModel>(
     t: &T,
     s: &S,
