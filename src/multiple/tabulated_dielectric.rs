@@ -124,10 +124,11 @@ use crate::bsdf::{LOBE_ALL, Sample, ScatterModel};
 use crate::desc::MaterialDesc;
 use crate::facet::Facet;
 use crate::frame::flip_z;
-use crate::multiple::compensation::AnisoDir;
+use crate::multiple::compensation::{AnisoDir, aniso_mu_root};
 use crate::multiple::compensation_aniso_tables::{AN_MU, AN_PHI};
 use crate::multiple::tabulated::{
-    CORR_MAX, CORR_MIRROR, corr_stretch, dcorr_dir, stored_pair, tabulated_ndf, triangle, u16x2x2,
+    CORR_MAX, CORR_MIRROR, corr_stretch, dcorr_phi4, diamond4, stored_pair, tabulated_ndf,
+    triangle, u16x2x2,
 };
 use crate::multiple::tabulated::{
     DIELECTRIC_BLEND_S2, MAX_ALPHA, MU_N, alpha_proj2, cos_phi, cosine_sample, decode, ndf_index,
@@ -331,7 +332,7 @@ pub fn dcorr_header() -> &'static str {
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct DCorr {
     corners: [(u32, f32); 6],
-    rho: [f32; 3],
+    rho: Vec4,
     one: f32,
 }
 
@@ -348,7 +349,7 @@ fn dcorr_corners(ndf: usize, ax: f32, ay: f32, eta: (usize, usize, f32)) -> DCor
     let (e0, _, fe) = eta;
     let mut out = DCorr {
         corners: [(HEADER_BYTES as u32, 0.0); 6],
-        rho: [1.0; 3],
+        rho: Vec4::ONE,
         one: 0.0,
     };
     for (c, ((dx, dy), w)) in triangle(fx, fy).into_iter().enumerate() {
@@ -369,10 +370,17 @@ fn dcorr_corners(ndf: usize, ax: f32, ay: f32, eta: (usize, usize, f32)) -> DCor
 }
 
 /// A direction's nodes in the correction's blocks: per roughness corner
-/// of `c`, at the corner's azimuth stretch (`tabulated::dcorr_dir`).
+/// of `c`, at the corner's azimuth stretch (`tabulated::dcorr_dir`'s
+/// nodes: the cosine node once, the three azimuth coordinates in SIMD
+/// lanes).
 #[inline]
 fn dcorr_dirs(c: &DCorr, w: Vec3) -> [AnisoDir; 3] {
-    c.rho.map(|rho| dcorr_dir(w, rho))
+    let (i0, fi) = split_root(aniso_mu_root(w.z.abs()), AN_MU);
+    let u = dcorr_phi4(diamond4(w, c.rho));
+    [0, 1, 2].map(|j| {
+        let (k0, fk) = split_root(u[j], AN_PHI);
+        AnisoDir { k0, fk, i0, fi }
+    })
 }
 
 /// The correction `s` of a direction on `side` (0 thin, 1 dense) at its
@@ -1156,8 +1164,10 @@ mod tests {
     /// roughness and index nodes (corner weight 1), both sides, every
     /// azimuth node and a few cosine nodes, pairs stored as given and as
     /// transposes, the value decoded byte by byte from the file
-    /// (`tabulated::corr_decode`), within 1e-5 relative. Fails when the
-    /// mirrored lane weights are swapped.
+    /// (`tabulated::corr_decode`), within 1e-5 relative; and within 1e-4
+    /// from the node's direction (`dcorr_node_dir` at the block's stretch,
+    /// through `dcorr_dirs`). Fails when the mirrored lane weights are
+    /// swapped.
     #[test]
     fn correction_read_matches_the_stored_nodes() {
         use crate::multiple::tabulated::corr_decode;
@@ -1192,6 +1202,23 @@ mod tests {
                                     (got - want).abs() <= 1e-5 * want.abs().max(1e-3),
                                     "ndf {ndf} ({jx}, {jy}) e {e} side {side} k {k} i {i}: {got} vs {want}"
                                 );
+                                // The node's direction through eval's
+                                // coordinates (`dcorr_dirs`, the block's
+                                // stretch; at the normal every azimuth
+                                // node is the same direction).
+                                if i + 1 < AN_MU {
+                                    let rho = corr_stretch(jx, jy);
+                                    let w = crate::multiple::tabulated::dcorr_node_dir(
+                                        k * AN_MU + i,
+                                        rho,
+                                    );
+                                    let got = dcorr_at(&c, side, &dcorr_dirs(&c, w));
+                                    assert!(
+                                        (got - want).abs() <= 1e-4 * want.abs().max(1e-3),
+                                        "ndf {ndf} ({jx}, {jy}) e {e} side {side} k {k} i {i} \
+                                         from its direction: {got} vs {want}"
+                                    );
+                                }
                                 checked += 1;
                             }
                         }
