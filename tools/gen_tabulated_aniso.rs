@@ -52,7 +52,7 @@ use msbsdf::multiple::compensation_aniso_tables::{AN_A, AN_MU, AN_PHI, CONDUCTOR
 use msbsdf::multiple::tabulated::{
     CORR_A, CORR_BLOCK, CORR_LEN, CORR_MAGIC, CORR_MAX, CORR_PAIR_MAX, CORR_PHI, CORR_VALUES,
     HEADER_BYTES, Tabulated, corr_decode, corr_dir_weights, corr_encode, corr_grid_alpha,
-    corr_index, corr_node_dir, corr_stretch, dcorr_dir_weights, dcorr_node_dir,
+    corr_index, corr_node_dir, corr_stretch, dcorr_dir_weights, dcorr_node_dir, dcorr_stretch,
 };
 use msbsdf::ndf::{Ndf, NdfKind};
 use msbsdf::rng::Rng;
@@ -673,7 +673,7 @@ fn dielectric_system(
     let single = Single::new(ndf, facet, G2Form::HeightCorrelated);
     let mut rng = Rng::new(0, 0);
     // The block's azimuth nodes are stretched by its own anisotropy.
-    let rho = corr_stretch(jx, jy);
+    let rho = dcorr_stretch(jx, jy);
     let rows = DCORR_BLOCK;
     let half = rows / 2;
     let mut target = vec![0.0f64; rows];
@@ -815,14 +815,14 @@ fn dielectric(args: &[String], quad: usize) {
     }
     let command: Vec<String> = args.iter().skip(1).cloned().collect();
     let header = format!(
-        "DIELECTRIC ANISO_CORRECTION v5 (MSBSDF_MODEL_TABULATED, dielectric facets): factors s \
+        "DIELECTRIC ANISO_CORRECTION v6 (MSBSDF_MODEL_TABULATED, dielectric facets): factors s \
          per [ndf: Beckmann, GGX][pair of the lobe table's roughness nodes 1 <= jx <= jy <= \
          {}][index node: {DCORR_ETA_N}: the lobe table's, uniform in ln E from {ETA_MIN} to \
          {ETA_MAX}, and the midpoint in ln E of the lowest interval as node 1][side: thin, \
          dense][phi: {AN_PHI}][mu: {AN_MU}] \
          (azimuth: uniform nodes from 0 to 1 of u = c - 0.4637 c (1 - c) (1 - 2 c), c = rho \
-         |y| / (|x| + rho |y|) the diamond angle stretched by the block's rho = jy / jx \
-         (tabulated::corr_stretch), tabulated::dcorr_phi, within 0.35 degrees of phi / 90 \
+         |y| / (|x| + rho |y|) the diamond angle stretched by the block's rho = sqrt(jy / jx) \
+         (tabulated::dcorr_stretch), tabulated::dcorr_phi, within 0.35 degrees of phi / 90 \
          degrees at rho = 1; mu: ENERGY_COMPENSATED's anisotropic cosine grid) as \
          little-endian u16 v, \
          s = {CORR_MAX} (v / 65535)^2, after this {HEADER_BYTES}-byte header; (jx > jy, k) \

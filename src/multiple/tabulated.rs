@@ -629,6 +629,18 @@ pub fn corr_node_dir(r: usize, rho: f32) -> Vec3 {
     )
 }
 
+/// The azimuth stretch of the dielectric correction's block at roughness
+/// nodes `(jx, jy)`: `(alpha_y / alpha_x)^(1/4)`, the square root of
+/// [`corr_stretch`]. The glass correction has 7 azimuth nodes, and the
+/// conductor's full stretch left the rough axis's side too sparse there:
+/// on the glass sweep (`gen_tabulated_aniso -- --dielectric-sweep`) it
+/// took the worst case from 0.97 to 0.36 but the 99th percentile from
+/// 0.060 to 0.099 and the 90th from 0.0134 to 0.0162.
+#[inline(always)]
+pub fn dcorr_stretch(jx: usize, jy: usize) -> f32 {
+    corr_stretch(jx, jy).sqrt()
+}
+
 /// The incident direction of node `r = k * AN_MU + i` of the dielectric's
 /// anisotropic correction in a block of azimuth stretch `rho`
 /// (`dcorr_dir`): the stretched diamond angle whose [`dcorr_phi`] is `k /

@@ -127,7 +127,7 @@ use crate::frame::flip_z;
 use crate::multiple::compensation::{AnisoDir, aniso_mu_root};
 use crate::multiple::compensation_aniso_tables::{AN_MU, AN_PHI};
 use crate::multiple::tabulated::{
-    CORR_MAX, CORR_MIRROR, corr_stretch, dcorr_phi4, diamond4, stored_pair, tabulated_ndf,
+    CORR_MAX, CORR_MIRROR, dcorr_phi4, dcorr_stretch, diamond4, stored_pair, tabulated_ndf,
     triangle, u16x2x2,
 };
 use crate::multiple::tabulated::{
@@ -252,7 +252,7 @@ pub const DCORR_LEN: usize = NDF_N * DCORR_PAIRS * DCORR_ETA_N * DCORR_BLOCK;
 /// [`DCORR_LEN`] little-endian `u16` (`tabulated::corr_encode`).
 pub const DCORR_FILE_BYTES: usize = HEADER_BYTES + 2 * DCORR_LEN;
 /// First bytes of the correction file.
-pub const DCORR_MAGIC: &[u8; 37] = b"MSBSDF-TABULATED-DIELECTRIC-ANISO-v4\n";
+pub const DCORR_MAGIC: &[u8; 37] = b"MSBSDF-TABULATED-DIELECTRIC-ANISO-v5\n";
 
 /// Relative index of node `e` of the anisotropic correction.
 pub fn dcorr_grid_eta(e: usize) -> f32 {
@@ -326,7 +326,7 @@ pub fn dcorr_header() -> &'static str {
 /// [`dcorr_corners`], times two index nodes) as byte offsets in the file
 /// (with [`CORR_MIRROR`] when the pair is stored as its transpose) with
 /// their weights (unused corners: offset of the first block, weight 0),
-/// the azimuth stretch of each roughness corner (`tabulated::corr_stretch`;
+/// the azimuth stretch of each roughness corner (`tabulated::dcorr_stretch`;
 /// blocks `2 c` and `2 c + 1` are roughness corner `c`), and the weight of
 /// the corners with an axis at roughness node 0 (which read 1).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -354,7 +354,7 @@ fn dcorr_corners(ndf: usize, ax: f32, ay: f32, eta: (usize, usize, f32)) -> DCor
     };
     for (c, ((dx, dy), w)) in triangle(fx, fy).into_iter().enumerate() {
         let (a, b) = (jx + dx, jy + dy);
-        out.rho[c] = corr_stretch(a, b);
+        out.rho[c] = dcorr_stretch(a, b);
         if a == 0 || b == 0 {
             out.one += w;
             continue;
@@ -1207,7 +1207,7 @@ mod tests {
                                 // stretch; at the normal every azimuth
                                 // node is the same direction).
                                 if i + 1 < AN_MU {
-                                    let rho = corr_stretch(jx, jy);
+                                    let rho = dcorr_stretch(jx, jy);
                                     let w = crate::multiple::tabulated::dcorr_node_dir(
                                         k * AN_MU + i,
                                         rho,
