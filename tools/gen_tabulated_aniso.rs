@@ -1241,6 +1241,17 @@ fn conductor_sweep(azimuths: usize) {
         .collect();
     res.sort_by(|a, b| b.4.abs().total_cmp(&a.4.abs()));
     print_spread(res.iter().map(|r| r.4));
+    // Per material: the worst direction and how many exceed 0.5%.
+    for &(n, ax, ay) in &materials {
+        let of = res.iter().filter(|r| (r.0, r.1, r.2) == (n, ax, ay));
+        let (worst, over) = of.fold((0.0f64, 0), |(w, o), r| {
+            (w.max(r.4.abs()), o + (r.4.abs() > 0.005) as usize)
+        });
+        println!(
+            "{:?} ({ax:.3},{ay:.3}): worst {worst:.4}, over 0.5%: {over}",
+            NDFS[n]
+        );
+    }
     for &(n, ax, ay, wi, d) in res.iter().take(12) {
         println!(
             "{:?} ({ax:.3},{ay:.3}) theta {:.0} phi {:.1}: {d:+.4}",
