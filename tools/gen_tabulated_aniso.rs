@@ -347,9 +347,9 @@ fn main() {
     }
     let command: Vec<String> = args.iter().skip(1).cloned().collect();
     let header = format!(
-        "ANISO_CORRECTION v6 (MSBSDF_MODEL_TABULATED): per [ndf: Beckmann, GGX][roughness \
+        "ANISO_CORRECTION v7 (MSBSDF_MODEL_TABULATED): per [ndf: Beckmann, GGX][roughness \
          pair (jx <= jy) of {CORR_A} x {CORR_A}: alpha = 2 (j / {})^2][azimuth: {CORR_PHI} \
-         nodes of the stretched diamond angle rho |y| / (|x| + rho |y|), rho = jy / jx (tabulated::corr_stretch), from 0 to 1 (tabulated::corr_dir)][mu: \
+         nodes of the stretched diamond angle rho |y| / (|x| + rho |y|), rho = sqrt(jy / jx) (tabulated::corr_stretch), from 0 to 1 (tabulated::corr_dir)][mu: \
          {AN_MU}] (ENERGY_COMPENSATED's anisotropic cosine grid) the two factors \
          u = s sqrt(t), v = s sqrt(b) of the lobe's table and peaked parts \
          (Tabulated::aniso_parts, aniso_factors) as little-endian u16 pairs x, factor = \

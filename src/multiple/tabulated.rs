@@ -243,7 +243,7 @@ pub const CORR_VALUES: usize = 2;
 /// [`CORR_LEN`].
 pub const CORR_FILE_BYTES: usize = HEADER_BYTES + 2 * CORR_VALUES * CORR_LEN;
 /// First bytes of the correction table file.
-pub const CORR_MAGIC: &[u8; 28] = b"MSBSDF-TABULATED-ANISO-F-v5\n";
+pub const CORR_MAGIC: &[u8; 28] = b"MSBSDF-TABULATED-ANISO-F-v6\n";
 /// Largest stored factor of the dielectric's correction (the encoding's
 /// range; [`corr_encode`]).
 pub const CORR_MAX: f32 = 8.0;
@@ -368,7 +368,7 @@ pub fn corr_stretch(jx: usize, jy: usize) -> f32 {
     if jx == 0 || jy == 0 {
         1.0
     } else {
-        jy as f32 / jx as f32
+        (jy as f32 / jx as f32).sqrt()
     }
 }
 
@@ -638,7 +638,7 @@ pub fn corr_node_dir(r: usize, rho: f32) -> Vec3 {
 /// 0.060 to 0.099 and the 90th from 0.0134 to 0.0162.
 #[inline(always)]
 pub fn dcorr_stretch(jx: usize, jy: usize) -> f32 {
-    corr_stretch(jx, jy).sqrt()
+    corr_stretch(jx, jy)
 }
 
 /// The incident direction of node `r = k * AN_MU + i` of the dielectric's
