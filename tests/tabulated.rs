@@ -128,6 +128,46 @@ fn white_furnace_anisotropic() {
     assert!(worst < ANISO_FURNACE, "{report}");
 }
 
+/// The furnace at the corners of the roughness range, where the
+/// correction's azimuth interpolation is hardest: both NDFs, (0.05, 1.9)
+/// and (0.11, 1.9), 60, 75, 85 and 89 degrees, azimuths near the smooth
+/// axis (2.8, 5.6 and 11.25 degrees), at 45 and near the rough axis (70.3
+/// degrees); eval over `compensation::broad_reflection_nodes` (the lobe is
+/// broad, the normals' reflections crowd into a band at this anisotropy).
+/// Measured worst 0.1917 (Beckmann (0.05, 1.9) at 89 degrees, azimuth
+/// 2.8: between the first two azimuth nodes of the diamond angle, 0 and
+/// 8.1 degrees). The 0.5% is not met there: this bounds what is
+/// (0.2). Azimuth nodes stretched per block by `(alpha_y / alpha_x)^(1/2)`
+/// or `^(1/4)` took it to 0.039 or 0.056 (`docs/tabulated.md`) but moved
+/// the suite's anisotropic GGX gold past AUTO's default tolerance.
+#[test]
+fn anisotropic_furnace_at_the_range_corners() {
+    use msbsdf::multiple::compensation::broad_reflection_nodes;
+    let mut report = String::new();
+    let mut worst: f64 = 0.0;
+    for ndf in NDFS {
+        for (ax, ay) in [(0.05, 1.9), (0.11, 1.9)] {
+            let m = mirror(ndf, ax, ay);
+            for theta in [60.0, 75.0, 85.0, 89.0] {
+                for phi in [2.8125f32, 5.625, 11.25, 45.0, 70.3125] {
+                    let d = dir_deg(theta);
+                    let (s, c) = phi.to_radians().sin_cos();
+                    let wi = Vec3::new(d.x * c, d.x * s, d.z);
+                    let mut rng = Rng::new(0, 0);
+                    let mut q = 0.0;
+                    broad_reflection_nodes(ax, ay, wi, 400, (266, 533), |wo, w| {
+                        q += m.eval(wi, wo, &mut rng)[0] as f64 * w;
+                    });
+                    report += &format!("{ndf:?} ({ax},{ay}) {theta} {phi}: {q:.4}\n");
+                    worst = worst.max((q - 1.0).abs());
+                }
+            }
+        }
+    }
+    println!("{report}worst |albedo - 1| = {worst:.4}");
+    assert!(worst < 0.2, "{report}");
+}
+
 /// Sample directions against the pdf: chi-square per configuration with a
 /// Sidak-corrected 1% level; `chi2_sample_vs_pdf` also checks that
 /// sample's pdf equals pdf() and its weight eval / pdf.
@@ -454,9 +494,7 @@ fn stability_sweep() {
 #[test]
 fn anisotropic_furnace_at_correction_nodes() {
     use msbsdf::multiple::compensation_aniso_tables::AN_MU;
-    use msbsdf::multiple::tabulated::{
-        CORR_A, CORR_PHI, corr_grid_alpha, corr_node_dir, corr_stretch,
-    };
+    use msbsdf::multiple::tabulated::{CORR_A, CORR_PHI, corr_grid_alpha, corr_node_dir};
     let mut pick = Rng::new(2718, 2);
     let mut report = String::new();
     let mut worst: f64 = 0.0;
@@ -472,7 +510,7 @@ fn anisotropic_furnace_at_correction_nodes() {
         n += 1;
         let k = (pick.next_u32() % CORR_PHI as u32) as usize;
         let i = (pick.next_u32() % AN_MU as u32) as usize;
-        let wi = corr_node_dir(k * AN_MU + i, corr_stretch(jx, jy));
+        let wi = corr_node_dir(k * AN_MU + i);
         let (mu, phi) = (wi.z, wi.y.atan2(wi.x));
         let m = mirror(NDFS[nd], ax, ay);
         let q = albedo_quadrature(&m, wi, ax, ay, 0);

@@ -52,7 +52,7 @@ use msbsdf::multiple::compensation_aniso_tables::{AN_A, AN_MU, AN_PHI, CONDUCTOR
 use msbsdf::multiple::tabulated::{
     CORR_A, CORR_BLOCK, CORR_LEN, CORR_MAGIC, CORR_MAX, CORR_PAIR_MAX, CORR_PHI, CORR_VALUES,
     HEADER_BYTES, Tabulated, corr_decode, corr_dir_weights, corr_encode, corr_grid_alpha,
-    corr_index, corr_node_dir, corr_stretch, dcorr_dir_weights, dcorr_node_dir, dcorr_stretch,
+    corr_index, corr_node_dir, dcorr_dir_weights, dcorr_node_dir, dcorr_stretch,
 };
 use msbsdf::ndf::{Ndf, NdfKind};
 use msbsdf::rng::Rng;
@@ -156,14 +156,10 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
     let tab = Tabulated::new(ndf, white).without_aniso_correction();
     let single = Single::new(ndf, white, G2Form::HeightCorrelated);
     let mut rng = Rng::new(0, 0);
-    // The block's azimuth nodes are stretched by its own anisotropy.
-    let rho = corr_stretch(jx, jy);
     // The uncorrected factors sqrt(t), sqrt(b) at every node.
     let fac: Vec<(f64, f64)> = (0..CORR_BLOCK)
         .map(|r| {
-            let (t, b) = tab
-                .aniso_factors(corr_node_dir(r, rho))
-                .expect("anisotropic");
+            let (t, b) = tab.aniso_factors(corr_node_dir(r)).expect("anisotropic");
             (t as f64, b as f64)
         })
         .collect();
@@ -172,7 +168,7 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
     let mut mt = vec![[0.0f64; CORR_BLOCK]; CORR_BLOCK];
     let mut mp = vec![[0.0f64; CORR_BLOCK]; CORR_BLOCK];
     for r in 0..CORR_BLOCK {
-        let wi = corr_node_dir(r, rho);
+        let wi = corr_node_dir(r);
         target[r] =
             1.0 - single_albedo(|x, y| single.eval(x, y, &mut rng).x, ax, ay, wi, None, quad);
         // The lobe is broad: the normals' nodes alone leave most of the
@@ -182,7 +178,7 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
             let Some((t, p)) = tab.aniso_parts(wi, wo) else {
                 return;
             };
-            for (node, b) in corr_dir_weights(wo, rho) {
+            for (node, b) in corr_dir_weights(wo) {
                 mt[r][node] += t as f64 * w * b as f64;
                 mp[r][node] += p as f64 * w * b as f64;
             }
@@ -347,9 +343,9 @@ fn main() {
     }
     let command: Vec<String> = args.iter().skip(1).cloned().collect();
     let header = format!(
-        "ANISO_CORRECTION v7 (MSBSDF_MODEL_TABULATED): per [ndf: Beckmann, GGX][roughness \
+        "ANISO_CORRECTION v5 (MSBSDF_MODEL_TABULATED): per [ndf: Beckmann, GGX][roughness \
          pair (jx <= jy) of {CORR_A} x {CORR_A}: alpha = 2 (j / {})^2][azimuth: {CORR_PHI} \
-         nodes of the stretched diamond angle rho |y| / (|x| + rho |y|), rho = sqrt(jy / jx) (tabulated::corr_stretch), from 0 to 1 (tabulated::corr_dir)][mu: \
+         nodes of the diamond angle |y| / (|x| + |y|) from 0 to 1 (tabulated::corr_dir)][mu: \
          {AN_MU}] (ENERGY_COMPENSATED's anisotropic cosine grid) the two factors \
          u = s sqrt(t), v = s sqrt(b) of the lobe's table and peaked parts \
          (Tabulated::aniso_parts, aniso_factors) as little-endian u16 pairs x, factor = \
@@ -463,7 +459,7 @@ fn check(quad: usize) {
         nodes += 1;
         let k = (pick.next_u32() % CORR_PHI as u32) as usize;
         let i = (pick.next_u32() % AN_MU as u32) as usize;
-        let w = corr_node_dir(k * AN_MU + i, corr_stretch(jx, jy));
+        let w = corr_node_dir(k * AN_MU + i);
         cases.push((n, ax, ay, w.z.acos(), w.y.atan2(w.x)));
     }
     // Random materials and directions (between nodes in general).
@@ -509,9 +505,7 @@ fn check(quad: usize) {
         // own roughness): the floor of any finer roughness grid.
         let e_dir = {
             let mut v = 0.0;
-            // (The stretch of the material's own anisotropy.)
-            let rho = (ay / ax).sqrt();
-            for (r, wt) in corr_dir_weights(wi, rho) {
+            for (r, wt) in corr_dir_weights(wi) {
                 if wt == 0.0 {
                     continue;
                 }
@@ -521,7 +515,7 @@ fn check(quad: usize) {
                         |x, y| single.eval(x, y, &mut rr).x,
                         ax,
                         ay,
-                        corr_node_dir(r, rho),
+                        corr_node_dir(r),
                         None,
                         quad,
                     );

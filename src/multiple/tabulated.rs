@@ -243,7 +243,7 @@ pub const CORR_VALUES: usize = 2;
 /// [`CORR_LEN`].
 pub const CORR_FILE_BYTES: usize = HEADER_BYTES + 2 * CORR_VALUES * CORR_LEN;
 /// First bytes of the correction table file.
-pub const CORR_MAGIC: &[u8; 28] = b"MSBSDF-TABULATED-ANISO-F-v6\n";
+pub const CORR_MAGIC: &[u8; 28] = b"MSBSDF-TABULATED-ANISO-F-v4\n";
 /// Largest stored factor of the dielectric's correction (the encoding's
 /// range; [`corr_encode`]).
 pub const CORR_MAX: f32 = 8.0;
@@ -344,33 +344,8 @@ pub(crate) const CORR_MIRROR: u32 = 1 << 31;
 
 /// The three roughness corners of a material in the correction table: the
 /// byte offset in the file of each corner's block (with [`CORR_MIRROR`]
-/// when it is stored as its transpose) and its weight, and the corners'
-/// azimuth stretches ([`corr_stretch`] of the corner's nodes in the
-/// material's axes) as the first three lanes of a `Vec4` (the fourth 1).
-type CorrCorners = ([(u32, f32); 3], Vec4);
-
-/// The azimuth stretch of an anisotropic correction's block at roughness
-/// nodes `(jx, jy)`: `sqrt(alpha_y / alpha_x)`, which on both
-/// corrections' grids ([`corr_grid_alpha`] and the dielectric lobe's
-/// `tabulated_dielectric::grid_alpha`, `alpha` proportional to `j^2`) is
-/// `jy / jx`; 1 when an axis is at node 0 (such a block reads 1). The block's
-/// azimuth nodes are uniform in the diamond angle of `(x, rho y)`
-/// ([`corr_dir`]), so a strongly anisotropic block has them crowded
-/// towards its smoother axis, where its albedo changes fastest with the
-/// azimuth: at Beckmann (0.11, 1.87), 85 degrees, `E_ss` goes from 0.32
-/// along x to 0.60 at 22 degrees (the plain diamond angle's 9 nodes left
-/// the furnace 6.6% off at 4.5 degrees; GGX (0.056, 1.87) 17%). The
-/// exchange of the axes turns `rho` into `1 / rho` and the coordinate `c`
-/// into `1 - c`, so a transposed block is read with the corner's own
-/// `jy / jx` and its nodes mirrored, as before.
-#[inline(always)]
-pub fn corr_stretch(jx: usize, jy: usize) -> f32 {
-    if jx == 0 || jy == 0 {
-        1.0
-    } else {
-        (jy as f32 / jx as f32).sqrt()
-    }
-}
+/// when it is stored as its transpose) and its weight.
+type CorrCorners = [(u32, f32); 3];
 
 /// The corners of `(alpha_x, alpha_y)` for NDF index `ndf`: linear on the
 /// triangle of the grid square that holds the material, the square cut
@@ -384,20 +359,12 @@ fn corr_corners(ndf: usize, ax: f32, ay: f32) -> CorrCorners {
     let coord = |a: f32| (a / MAX_ALPHA).clamp(0.0, 1.0).sqrt() * (CORR_A - 1) as f32;
     let (jx, _, fx) = split(coord(ax), CORR_A);
     let (jy, _, fy) = split(coord(ay), CORR_A);
-    let corners = triangle(fx, fy);
-    let rho = |c: usize| {
-        let ((dx, dy), _) = corners[c];
-        corr_stretch(jx + dx, jy + dy)
-    };
-    (
-        corners.map(|((dx, dy), w)| {
-            let (lo, hi, m) = stored_pair(jx + dx, jy + dy);
-            let pair = CORR_PAIR_BASE[lo.min(CORR_A - 1)] as usize + hi;
-            let block = (ndf * CORR_PAIRS + pair) * CORR_BLOCK;
-            ((HEADER_BYTES + 2 * CORR_VALUES * block) as u32 | m, w)
-        }),
-        Vec4::new(rho(0), rho(1), rho(2), 1.0),
-    )
+    triangle(fx, fy).map(|((dx, dy), w)| {
+        let (lo, hi, m) = stored_pair(jx + dx, jy + dy);
+        let pair = CORR_PAIR_BASE[lo.min(CORR_A - 1)] as usize + hi;
+        let block = (ndf * CORR_PAIRS + pair) * CORR_BLOCK;
+        ((HEADER_BYTES + 2 * CORR_VALUES * block) as u32 | m, w)
+    })
 }
 
 /// The triangle of the unit square holding `(fx, fy)` (Kuhn: the diagonal
@@ -425,27 +392,23 @@ pub(crate) fn stored_pair(a: usize, b: usize) -> (usize, usize, u32) {
 }
 
 /// The conductor's two corrected factors ([`corr_values`]) at a
-/// direction `w` (`w.z >= 0`): per roughness corner its nodes
-/// ([`corr_dir`] at the corner's stretch), the two cosine nodes of each
-/// of the two azimuth rows as one 8-byte read of `[u, v, u, v]`, squared
-/// (the encoding) and weighted in SIMD lanes; the encoding's constant
-/// factor once at the end. `[1, 1]` outside the file.
+/// direction's nodes ([`corr_dir`]): per roughness corner the two
+/// cosine nodes of each of the two azimuth rows as one 8-byte read of
+/// `[u, v, u, v]`, squared (the encoding) and weighted in SIMD lanes; the
+/// encoding's constant factor once at the end. `[1, 1]` outside the file.
 #[inline]
-fn corr_at((corners, rho): &CorrCorners, w: Vec3) -> [f32; 2] {
-    // The cosine node once for the three corners; the azimuth coordinate
-    // per corner (each block has its own stretch), the three in one SIMD
-    // division.
-    let (i0, fi) = split_root(compensation::aniso_mu_root(w.z.abs()), AN_MU);
-    let c = diamond4(w, *rho);
+fn corr_at(corners: &CorrCorners, d: &AnisoDir) -> [f32; 2] {
+    // Per direction, once for the three corners: the byte offset of its
+    // lower azimuth row in a block, plain and mirrored (node `CORR_PHI - 2
+    // - k0`, weight `1 - fk`), and the lane weights of the two rows.
+    let row = |k: usize| 2 * CORR_VALUES * (k * AN_MU + d.i0);
+    let (plain, mirrored) = (row(d.k0), row(CORR_PHI - 2 - d.k0));
+    let lanes = Vec4::new(1.0 - d.fi, 1.0 - d.fi, d.fi, d.fi);
+    let (w_lo, w_hi) = (lanes * (1.0 - d.fk), lanes * d.fk);
     let mut acc = Vec4::ZERO;
-    for (j, &(b, wt)) in corners.iter().enumerate() {
-        // (`floor` in the lanes instead measured 4 instructions more.)
-        let (k0, fk) = split_root(c[j], CORR_PHI);
+    for &(b, w) in corners {
         let mirror = b & CORR_MIRROR != 0;
-        // The lower azimuth row in the block: mirrored, node `CORR_PHI -
-        // 2 - k0` with the weights exchanged.
-        let k = if mirror { CORR_PHI - 2 - k0 } else { k0 };
-        let at = (b & !CORR_MIRROR) as usize + 2 * CORR_VALUES * (k * AN_MU + i0);
+        let at = (b & !CORR_MIRROR) as usize + if mirror { mirrored } else { plain };
         let Some(r) = RAW_CORR
             .get(at..)
             .and_then(|r| r.first_chunk::<{ 2 * CORR_VALUES * (AN_MU + 2) }>())
@@ -456,16 +419,10 @@ fn corr_at((corners, rho): &CorrCorners, w: Vec3) -> [f32; 2] {
         const _: () = assert!(2 * CORR_VALUES * AN_MU + 8 == 2 * CORR_VALUES * (AN_MU + 2));
         let (lo, hi) = (u16x4(r.first_chunk::<8>()), u16x4(r.last_chunk::<8>()));
         // Mirrored, the lower row read is the upper one of the direction.
-        let (a, b) = if mirror {
-            (fk, 1.0 - fk)
-        } else {
-            (1.0 - fk, fk)
-        };
-        acc += lo * lo * (a * wt) + hi * hi * (b * wt);
+        let (a, c) = if mirror { (w_hi, w_lo) } else { (w_lo, w_hi) };
+        acc += (lo * lo * a + hi * hi * c) * w;
     }
-    // The cosine weights of the lanes once for the three corners.
-    let lanes = Vec4::new(1.0 - fi, 1.0 - fi, fi, fi);
-    let s = acc * lanes * (CORR_PAIR_MAX / (65535.0 * 65535.0));
+    let s = acc * (CORR_PAIR_MAX / (65535.0 * 65535.0));
     [s.x + s.z, s.y + s.w]
 }
 
@@ -531,24 +488,38 @@ pub(crate) fn u16x2x2(lo: &[u8; 4], hi: &[u8; 4]) -> Vec4 {
     }
 }
 
-/// The conductor correction's nodes of a direction `w` (`w.z >= 0`) in a
-/// block of azimuth stretch `rho` ([`corr_stretch`]): its azimuth
-/// coordinate is the diamond angle `rho |y| / (|x| + rho |y|)` on
+/// The conductor correction's nodes of a direction `w` (`w.z >= 0`): its
+/// azimuth coordinate is the diamond angle `|y| / (|x| + |y|)` on
 /// [`CORR_PHI`] uniform nodes from 0 (`phi` = 0) to 1 (`phi` = 90 degrees),
 /// without the `atan2` of the albedo table's uniform azimuth grid
 /// (`AnisoDir::new`; two of them were a tenth of the anisotropic eval).
-/// At `rho` = 1 its nodes are within 0.8-1.6x of uniform spacing in `phi`
-/// (slope `1 / (cos phi + sin phi)^2`); nodes uniform in `sin^2 phi`,
-/// sparse at the axes, left the suite's GGX (0.1, 0.6) gold at 0.033
-/// against 0.023. The exchange of the axes (`phi -> pi/2 - phi`, `rho ->
-/// 1 / rho`) maps the coordinate `c` to `1 - c`: node `k` to
-/// `CORR_PHI - 1 - k`, as on the uniform grid. At the normal (no azimuth)
-/// it reads 0.5; the lobe's nodes there agree for every azimuth up to the
-/// solve's residual (the conductor's roughness blend [`alpha_proj2`] has a
-/// limit at the normal).
+/// Its nodes are within 0.8-1.6x of uniform spacing in `phi` (slope
+/// `1 / (cos phi + sin phi)^2`); nodes uniform in `sin^2 phi`, sparse at
+/// the axes, left the suite's GGX (0.1, 0.6) gold at 0.033 against 0.023.
+/// The exchange of the axes, `phi -> pi/2 - phi`, maps the coordinate `c`
+/// to `1 - c`: node `k` to `CORR_PHI - 1 - k`, as on the uniform grid. At
+/// the normal (no azimuth) it reads 0.5; the lobe's nodes there agree
+/// for every azimuth up to the solve's residual (the conductor's
+/// roughness blend [`alpha_proj2`] has a limit at the normal).
 #[inline]
-pub(crate) fn corr_dir(w: Vec3, rho: f32) -> AnisoDir {
-    grid_dir(diamond_xy(w.x.abs(), rho * w.y.abs()), w, CORR_PHI)
+pub(crate) fn corr_dir(w: Vec3) -> AnisoDir {
+    grid_dir(diamond(w), w, CORR_PHI)
+}
+
+/// The diamond angle `|y| / (|x| + |y|)` of a direction (0.5 along the
+/// normal): in [0, 1], 0 along x, 1 along y; `1 - c` for the exchanged
+/// axes.
+#[inline(always)]
+fn diamond(w: Vec3) -> f32 {
+    diamond_xy(w.x.abs(), w.y.abs())
+}
+
+/// The diamond angle `y / (x + y)` of non-negative `x`, `y` (0.5 when both
+/// are 0).
+#[inline(always)]
+fn diamond_xy(x: f32, y: f32) -> f32 {
+    let s = x + y;
+    if s > 0.0 { y / s } else { 0.5 }
 }
 
 /// The diamond angles of `w` stretched by the lanes of `rho`
@@ -563,15 +534,6 @@ pub(crate) fn diamond4(w: Vec3, rho: Vec4) -> Vec4 {
     } else {
         Vec4::splat(0.5)
     }
-}
-
-/// The diamond angle `y / (x + y)` of non-negative `x`, `y` (0.5 when both
-/// are 0, along the normal): in [0, 1], 0 along x, 1 along y; `1 - c` for
-/// the exchanged axes.
-#[inline(always)]
-fn diamond_xy(x: f32, y: f32) -> f32 {
-    let s = x + y;
-    if s > 0.0 { y / s } else { 0.5 }
 }
 
 /// A direction's nodes on a grid of `n_phi` uniform values of the azimuth
@@ -607,8 +569,36 @@ pub(crate) fn dcorr_phi4(c: Vec4) -> Vec4 {
     c + DCORR_PHI_A * c * (1.0 - c) * (1.0 - 2.0 * c)
 }
 
+/// The azimuth stretch of the dielectric correction's block at roughness
+/// nodes `(jx, jy)`: `(alpha_y / alpha_x)^(1/4)`, which on the lobe's
+/// roughness grid (`tabulated_dielectric::grid_alpha`, `alpha`
+/// proportional to `j^2`) is `sqrt(jy / jx)`; 1 when an axis is at node 0
+/// (such a block reads 1). The block's azimuth nodes are uniform in
+/// [`dcorr_phi`] of the diamond angle of `(x, rho y)` ([`dcorr_dir`]), so
+/// a strongly anisotropic block has them crowded towards its smoother
+/// axis, where its albedo changes fastest with the azimuth. On the glass
+/// sweep (`gen_tabulated_aniso -- --dielectric-sweep`: worst, 99th and
+/// 90th percentile, median of `|albedo - 1|`) the plain nodes gave 0.97 /
+/// 0.060 / 0.0134 / 0.0016, the full stretch `(alpha_y / alpha_x)^(1/2)`
+/// 0.36 / 0.099 / 0.0162 / 0.0018 (the rough axis's side too sparse with 7
+/// nodes), this one 0.25 / 0.063 / 0.0131 / 0.0016. The exchange of the
+/// axes turns `rho` into `1 / rho` and the coordinate `c` into `1 - c`, so
+/// a transposed block is read with the corner's own `sqrt(jy / jx)` and
+/// its nodes mirrored. (The conductor's correction keeps the plain
+/// diamond angle: its stretched nodes took the corners of the range from
+/// 19% to 5.6% but the suite's anisotropic GGX gold from 0.0257 to 0.0291,
+/// past AUTO's default tolerance, `docs/tabulated.md`.)
+#[inline(always)]
+pub fn dcorr_stretch(jx: usize, jy: usize) -> f32 {
+    if jx == 0 || jy == 0 {
+        1.0
+    } else {
+        (jy as f32 / jx as f32).sqrt()
+    }
+}
+
 /// The dielectric anisotropic correction's nodes of a direction in a
-/// block of azimuth stretch `rho` ([`corr_stretch`]): `AN_PHI` uniform
+/// block of azimuth stretch `rho` ([`dcorr_stretch`]): `AN_PHI` uniform
 /// azimuth nodes of [`dcorr_phi`] of the diamond angle of `(x, rho y)`
 /// and the albedo table's cosines (`tabulated_dielectric::DCORR_BLOCK`).
 #[inline(always)]
@@ -617,28 +607,13 @@ pub(crate) fn dcorr_dir(w: Vec3, rho: f32) -> AnisoDir {
 }
 
 /// The incident direction of node `r = k * AN_MU + i` of the conductor's
-/// correction in a block of azimuth stretch `rho` (`corr_dir`: stretched
-/// diamond angle `k / (CORR_PHI - 1)`, the albedo table's cosine node
-/// `i`).
-pub fn corr_node_dir(r: usize, rho: f32) -> Vec3 {
-    // rho y / (x + rho y) = c  <=>  y / (x + y) = c / (c + rho (1 - c)).
-    let c = (r / AN_MU) as f32 / (CORR_PHI - 1) as f32;
+/// correction (`corr_dir`: diamond angle `k / (CORR_PHI - 1)`, the albedo
+/// table's cosine node `i`).
+pub fn corr_node_dir(r: usize) -> Vec3 {
     diamond_node(
         compensation::aniso_grid_mu(r % AN_MU),
-        c / (c + rho * (1.0 - c)),
+        (r / AN_MU) as f32 / (CORR_PHI - 1) as f32,
     )
-}
-
-/// The azimuth stretch of the dielectric correction's block at roughness
-/// nodes `(jx, jy)`: `(alpha_y / alpha_x)^(1/4)`, the square root of
-/// [`corr_stretch`]. The glass correction has 7 azimuth nodes, and the
-/// conductor's full stretch left the rough axis's side too sparse there:
-/// on the glass sweep (`gen_tabulated_aniso -- --dielectric-sweep`) it
-/// took the worst case from 0.97 to 0.36 but the 99th percentile from
-/// 0.060 to 0.099 and the 90th from 0.0134 to 0.0162.
-#[inline(always)]
-pub fn dcorr_stretch(jx: usize, jy: usize) -> f32 {
-    corr_stretch(jx, jy)
 }
 
 /// The incident direction of node `r = k * AN_MU + i` of the dielectric's
@@ -655,7 +630,7 @@ pub fn dcorr_node_dir(r: usize, rho: f32) -> Vec3 {
     )
 }
 
-/// The direction of cosine `mu` and diamond angle `c` ([`diamond_xy`]):
+/// The direction of cosine `mu` and diamond angle `c` ([`diamond`]):
 /// `y / (x + y) = c` on the unit circle, `(1 - c, c)` normalised.
 fn diamond_node(mu: f32, c: f32) -> Vec3 {
     let st = (1.0 - mu * mu).max(0.0).sqrt();
@@ -663,12 +638,11 @@ fn diamond_node(mu: f32, c: f32) -> Vec3 {
     Vec3::new(st * (1.0 - c) / n, st * c / n, mu)
 }
 
-/// The conductor correction's azimuth-cosine nodes of a direction in a
-/// block of azimuth stretch `rho` and their bilinear weights, as eval
-/// reads them (`corr_dir`; `k * AN_MU + i` in a roughness pair's block;
-/// generator).
-pub fn corr_dir_weights(w: Vec3, rho: f32) -> [(usize, f32); 4] {
-    dir_weights(&corr_dir(w, rho))
+/// The conductor correction's azimuth-cosine nodes of a direction and
+/// their bilinear weights, as eval reads them (`corr_dir`; `k * AN_MU +
+/// i` in a roughness pair's block; generator).
+pub fn corr_dir_weights(w: Vec3) -> [(usize, f32); 4] {
+    dir_weights(&corr_dir(w))
 }
 
 /// The dielectric correction's azimuth-cosine nodes of a direction in a
@@ -1508,7 +1482,10 @@ impl Tabulated {
         // The factors u = s sqrt(t), v = s sqrt(b) per direction, read
         // jointly from the correction table (s the furnace correction).
         let ([ui, vi], [uo, vo]) = match &a.exact {
-            None => (corr_at(&a.corners, wi), corr_at(&a.corners, wo)),
+            None => (
+                corr_at(&a.corners, &corr_dir(wi)),
+                corr_at(&a.corners, &corr_dir(wo)),
+            ),
             Some((e, e_peak)) => {
                 let [pi, po] = self.proj2(wi, wo);
                 let (ti, bi) = self.exact_factors(e, e_peak, wi, pi);
@@ -1770,9 +1747,9 @@ mod tests {
             assert!(u > last, "c {c}: {u} after {last}");
             last = u;
         }
-        // Blocks of every kind of stretch (`corr_stretch`: plain, rough
+        // Blocks of every kind of stretch (`dcorr_stretch`: plain, rough
         // along y, transposed, strongly anisotropic).
-        for rho in [1.0, 3.0, 0.25, corr_stretch(1, 8)] {
+        for rho in [1.0, 3.0, 0.25, dcorr_stretch(1, 8)] {
             for r in 0..AN_PHI * AN_MU {
                 let (k, i) = (r / AN_MU, r % AN_MU);
                 let w = dcorr_node_dir(r, rho);
@@ -1809,8 +1786,7 @@ mod tests {
                 let corners = corr_corners(ndf, ax, ay);
                 for k in 0..CORR_PHI {
                     for i in [0, 3, 7, 12, AN_MU - 1] {
-                        let w = corr_node_dir(k * AN_MU + i, corr_stretch(jx, jy));
-                        let got = corr_at(&corners, w);
+                        let got = corr_at(&corners, &corr_dir(corr_node_dir(k * AN_MU + i)));
                         let want = corr_values(corr_index(ndf, jx, jy, k, i));
                         for c in 0..2 {
                             let tol = 1e-4 * want[c].abs().max(1e-3);

@@ -387,17 +387,16 @@ fn dcorr_dirs(c: &DCorr, w: Vec3) -> [AnisoDir; 3] {
 /// nodes `d` ([`dcorr_dirs`]): bilinear in azimuth and cosine, per corner
 /// the four nodes as two 4-byte reads (the cosine pairs of the two
 /// azimuth rows) converted in SIMD lanes, squared (the encoding,
-/// `tabulated::corr_decode`) and weighted; the row offsets and lane
-/// weights, plain and mirrored, once per roughness corner for its two
-/// index nodes. 1 outside the file.
+/// `tabulated::corr_decode`) and weighted (the azimuth weights per
+/// corner, the cosine weights, the same for all, once). 1 outside the
+/// file.
 #[inline]
 fn dcorr_at(c: &DCorr, side: usize, d: &[AnisoDir; 3]) -> f32 {
     let mut acc = Vec4::ZERO;
     for (j, &(b, w)) in c.corners.iter().enumerate() {
         let d = &d[j / 2];
         let mirror = b & CORR_MIRROR != 0;
-        let (fi, fk) = (d.fi, d.fk);
-        let cos = Vec4::new(1.0 - fi, fi, 1.0 - fi, fi);
+        let fk = d.fk;
         // Lanes [a0, a1, b0, b1]: rows k and k + 1 of the read; mirrored,
         // the row read first is the direction's upper one.
         let (k, lanes) = if mirror {
@@ -418,8 +417,11 @@ fn dcorr_at(c: &DCorr, side: usize, d: &[AnisoDir; 3]) -> f32 {
             (Some(lo), Some(hi)) => u16x2x2(lo, hi),
             _ => Vec4::ZERO,
         };
-        acc += v * v * cos * lanes * w;
+        acc += v * v * lanes * w;
     }
+    // The cosine weights, shared by the corners' nodes, once.
+    let fi = d[0].fi;
+    let acc = acc * Vec4::new(1.0 - fi, fi, 1.0 - fi, fi);
     c.one + (acc.x + acc.y + acc.z + acc.w) * (CORR_MAX / (65535.0 * 65535.0))
 }
 
