@@ -574,7 +574,7 @@ pub(crate) fn dcorr_phi4(c: Vec4) -> Vec4 {
 /// roughness grid (`tabulated_dielectric::grid_alpha`, `alpha`
 /// proportional to `j^2`) is `sqrt(jy / jx)`; 1 when an axis is at node 0
 /// (such a block reads 1). The block's azimuth nodes are uniform in
-/// [`dcorr_phi`] of the diamond angle of `(x, rho y)` ([`dcorr_dir`]), so
+/// [`dcorr_phi`] of the diamond angle of `(x, rho y)` (`dcorr_dir`), so
 /// a strongly anisotropic block has them crowded towards its smoother
 /// axis, where its albedo changes fastest with the azimuth. On the glass
 /// sweep (`gen_tabulated_aniso -- --dielectric-sweep`: worst, 99th and

@@ -97,7 +97,9 @@
 //! --dielectric`): per NDF, pair of the lobe table's roughness nodes,
 //! index node of its own ([`DCORR_ETA_N`]: the lobe table's index nodes
 //! and the midpoint of the lowest interval) and side, on 7 azimuths
-//! (uniform in `tabulated::dcorr_phi` of the diamond angle: no `atan2`)
+//! (uniform in `tabulated::dcorr_phi` of the diamond angle, stretched per
+//! block towards its smoother axis by `tabulated::dcorr_stretch`: no
+//! `atan2`)
 //! and ENERGY_COMPENSATED's anisotropic cosine grid, the factors
 //! that give the lobe the albedo `1 - E_ss(w)` (SINGLE's reflected plus
 //! transmitted albedo by quadrature) at every node from both sides; linear
@@ -237,9 +239,10 @@ pub const fn scale_index(ndf: usize, a: usize, e: usize, side: usize, i: usize) 
 pub const DCORR_PAIRS: usize = (ALPHA_N - 1) * ALPHA_N / 2;
 /// Values per roughness pair and index node: `[side][phi][mu]` on `AN_PHI`
 /// azimuths uniform in `tabulated::dcorr_phi` (within 0.35 degrees of
-/// uniform in `phi`, from the diamond angle `|y| / (|x| + |y|)` without an
-/// `atan2`) and ENERGY_COMPENSATED's anisotropic cosine grid (side 0 thin,
-/// 1 dense).
+/// uniform in `phi` at `rho` = 1, from the diamond angle `rho |y| / (|x| +
+/// rho |y|)` without an `atan2`, `rho` the block's
+/// `tabulated::dcorr_stretch`) and ENERGY_COMPENSATED's anisotropic cosine
+/// grid (side 0 thin, 1 dense).
 pub const DCORR_BLOCK: usize = 2 * AN_PHI * AN_MU;
 /// Relative index nodes of the anisotropic furnace correction: the lobe
 /// table's [`ETA_N`] (where the lobe's linear interpolation in `ln E` has
