@@ -52,7 +52,7 @@ use msbsdf::multiple::compensation_aniso_tables::{AN_A, AN_MU, AN_PHI, CONDUCTOR
 use msbsdf::multiple::tabulated::{
     CORR_A, CORR_BLOCK, CORR_LEN, CORR_MAGIC, CORR_MAX, CORR_PAIR_MAX, CORR_PHI, CORR_VALUES,
     HEADER_BYTES, Tabulated, corr_decode, corr_dir_weights, corr_encode, corr_grid_alpha,
-    corr_index, corr_node_dir, dcorr_dir_weights, dcorr_node_dir, dcorr_stretch,
+    corr_index, corr_node_dir, dcorr_dir_weights, dcorr_node_dir,
 };
 use msbsdf::ndf::{Ndf, NdfKind};
 use msbsdf::rng::Rng;
@@ -667,7 +667,7 @@ fn dielectric_system(
     let single = Single::new(ndf, facet, G2Form::HeightCorrelated);
     let mut rng = Rng::new(0, 0);
     // The block's azimuth nodes are stretched by its own anisotropy.
-    let rho = dcorr_stretch(jx, jy);
+    let rho = msbsdf::multiple::tabulated_dielectric::dcorr_stretch(jx, jy);
     let rows = DCORR_BLOCK;
     let half = rows / 2;
     let mut target = vec![0.0f64; rows];

@@ -569,38 +569,24 @@ pub(crate) fn dcorr_phi4(c: Vec4) -> Vec4 {
     c + DCORR_PHI_A * c * (1.0 - c) * (1.0 - 2.0 * c)
 }
 
-/// The azimuth stretch of the dielectric correction's block at roughness
-/// nodes `(jx, jy)`: `(alpha_y / alpha_x)^(1/4)`, which on the lobe's
-/// roughness grid (`tabulated_dielectric::grid_alpha`, `alpha`
-/// proportional to `j^2`) is `sqrt(jy / jx)`; 1 when an axis is at node 0
-/// (such a block reads 1). The block's azimuth nodes are uniform in
-/// [`dcorr_phi`] of the diamond angle of `(x, rho y)` (`dcorr_dir`), so
-/// a strongly anisotropic block has them crowded towards its smoother
-/// axis, where its albedo changes fastest with the azimuth. On the glass
-/// sweep (`gen_tabulated_aniso -- --dielectric-sweep`: worst, 99th and
-/// 90th percentile, median of `|albedo - 1|`) the plain nodes gave 0.97 /
-/// 0.060 / 0.0134 / 0.0016, the full stretch `(alpha_y / alpha_x)^(1/2)`
-/// 0.36 / 0.099 / 0.0162 / 0.0018 (the rough axis's side too sparse with 7
-/// nodes), this one 0.25 / 0.063 / 0.0131 / 0.0016. The exchange of the
-/// axes turns `rho` into `1 / rho` and the coordinate `c` into `1 - c`, so
-/// a transposed block is read with the corner's own `sqrt(jy / jx)` and
-/// its nodes mirrored. (The conductor's correction keeps the plain
-/// diamond angle: its stretched nodes took the corners of the range from
-/// 19% to 5.6% but the suite's anisotropic GGX gold from 0.0257 to 0.0291,
-/// past AUTO's default tolerance, `docs/tabulated.md`.)
-#[inline(always)]
-pub fn dcorr_stretch(jx: usize, jy: usize) -> f32 {
-    if jx == 0 || jy == 0 {
-        1.0
-    } else {
-        (jy as f32 / jx as f32).sqrt()
-    }
-}
-
 /// The dielectric anisotropic correction's nodes of a direction in a
-/// block of azimuth stretch `rho` ([`dcorr_stretch`]): `AN_PHI` uniform
-/// azimuth nodes of [`dcorr_phi`] of the diamond angle of `(x, rho y)`
-/// and the albedo table's cosines (`tabulated_dielectric::DCORR_BLOCK`).
+/// block of azimuth stretch `rho` (`tabulated_dielectric::dcorr_stretch`):
+/// `AN_PHI` uniform azimuth nodes of [`dcorr_phi`] of the diamond angle of
+/// `(x, rho y)` and the albedo table's cosines
+/// (`tabulated_dielectric::DCORR_BLOCK`). A strongly anisotropic block has
+/// them crowded towards its smoother axis, where its albedo changes
+/// fastest with the azimuth. On the glass sweep (`gen_tabulated_aniso --
+/// --dielectric-sweep`: worst, 99th and 90th percentile, median of
+/// `|albedo - 1|`) the plain nodes gave 0.97 / 0.060 / 0.0134 / 0.0016,
+/// `rho = (alpha_y / alpha_x)^(1/2)` 0.36 / 0.099 / 0.0162 / 0.0018 (the
+/// rough axis's side too sparse with 7 nodes), the quarter power used
+/// 0.25 / 0.063 / 0.0131 / 0.0016. The exchange of the axes turns `rho`
+/// into `1 / rho` and the coordinate `c` into `1 - c`, so a transposed
+/// block is read with the corner's own stretch and its nodes mirrored.
+/// (The conductor's correction keeps the plain diamond angle: stretched
+/// nodes took the corners of its range from 19% to 4-6% but the suite's
+/// anisotropic GGX gold past AUTO's default tolerance,
+/// `docs/tabulated.md`.)
 #[inline(always)]
 pub(crate) fn dcorr_dir(w: Vec3, rho: f32) -> AnisoDir {
     grid_dir(dcorr_phi(diamond_xy(w.x.abs(), rho * w.y.abs())), w, AN_PHI)
@@ -1749,7 +1735,12 @@ mod tests {
         }
         // Blocks of every kind of stretch (`dcorr_stretch`: plain, rough
         // along y, transposed, strongly anisotropic).
-        for rho in [1.0, 3.0, 0.25, dcorr_stretch(1, 8)] {
+        for rho in [
+            1.0,
+            3.0,
+            0.25,
+            crate::multiple::tabulated_dielectric::dcorr_stretch(1, 8),
+        ] {
             for r in 0..AN_PHI * AN_MU {
                 let (k, i) = (r / AN_MU, r % AN_MU);
                 let w = dcorr_node_dir(r, rho);

@@ -129,8 +129,7 @@ use crate::frame::flip_z;
 use crate::multiple::compensation::{AnisoDir, aniso_mu_root};
 use crate::multiple::compensation_aniso_tables::{AN_MU, AN_PHI};
 use crate::multiple::tabulated::{
-    CORR_MAX, CORR_MIRROR, dcorr_phi4, dcorr_stretch, diamond4, stored_pair, tabulated_ndf,
-    triangle, u16x2x2,
+    CORR_MAX, CORR_MIRROR, dcorr_phi4, diamond4, stored_pair, tabulated_ndf, triangle, u16x2x2,
 };
 use crate::multiple::tabulated::{
     DIELECTRIC_BLEND_S2, MAX_ALPHA, MU_N, alpha_proj2, cos_phi, cosine_sample, decode, ndf_index,
@@ -329,14 +328,75 @@ pub fn dcorr_header() -> &'static str {
 /// [`dcorr_corners`], times two index nodes) as byte offsets in the file
 /// (with [`CORR_MIRROR`] when the pair is stored as its transpose) with
 /// their weights (unused corners: offset of the first block, weight 0),
-/// the azimuth stretch of each roughness corner (`tabulated::dcorr_stretch`;
-/// blocks `2 c` and `2 c + 1` are roughness corner `c`), and the weight of
-/// the corners with an axis at roughness node 0 (which read 1).
+/// the roughness square's first corner `jx * ALPHA_N + jy` and the step
+/// `dx * ALPHA_N + dy` to the triangle's middle corner (blocks `2 c` and
+/// `2 c + 1` are roughness corner `c`; their azimuth stretches are read
+/// by eval, [`DCorr::stretches`]), and the weight of the corners with an
+/// axis at roughness node 0 (which read 1).
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct DCorr {
     corners: [(u32, f32); 6],
-    rho: Vec4,
+    square: u8,
+    mid: u8,
     one: f32,
+}
+
+impl DCorr {
+    /// The azimuth stretches ([`dcorr_stretch`]) of the three roughness
+    /// corners and 1: read per eval rather than held (computing them at
+    /// init took AUTO's anisotropic glass init from 1,386 to 1,415
+    /// instructions, past twice SINGLE glass's 707).
+    #[inline(always)]
+    fn stretches(&self) -> Vec4 {
+        let s = |i: usize| DCORR_STRETCH.get(i).copied().unwrap_or(1.0);
+        let b = self.square as usize;
+        Vec4::new(s(b), s(b + self.mid as usize), s(b + ALPHA_N + 1), 1.0)
+    }
+}
+
+/// `sqrt(j)` of the roughness nodes `j` ([`grid_alpha`] is proportional to
+/// `j^2`).
+const SQRT_J: [f32; ALPHA_N] = [
+    0.0,
+    1.0,
+    std::f32::consts::SQRT_2,
+    1.732_050_8,
+    2.0,
+    2.236_068,
+    2.449_489_8,
+    2.645_751_2,
+    2.828_427,
+];
+
+/// [`dcorr_stretch`] of every pair of roughness nodes `[jx][jy]`,
+/// `SQRT_J[jy] / SQRT_J[jx]` divided at compile time; 1 where a node is 0.
+const DCORR_STRETCH: [f32; ALPHA_N * ALPHA_N] = {
+    let mut t = [1.0f32; ALPHA_N * ALPHA_N];
+    let mut a = 1;
+    while a < ALPHA_N {
+        let mut b = 1;
+        while b < ALPHA_N {
+            t[a * ALPHA_N + b] = SQRT_J[b] / SQRT_J[a];
+            b += 1;
+        }
+        a += 1;
+    }
+    t
+};
+
+/// The azimuth stretch of the dielectric correction's block at roughness
+/// nodes `(jx, jy)`: `(alpha_y / alpha_x)^(1/4)`, which on the lobe's
+/// roughness grid ([`grid_alpha`], `alpha` proportional to `j^2`) is
+/// `sqrt(jy / jx)` (here `sqrt(jy) / sqrt(jx)`, within an ulp of it; the
+/// table of version 6 was generated with `sqrt(jy / jx)`); 1 when an axis
+/// is at node 0 (such a block reads 1). See `tabulated::dcorr_dir`.
+#[inline(always)]
+pub fn dcorr_stretch(jx: usize, jy: usize) -> f32 {
+    if jx < ALPHA_N && jy < ALPHA_N {
+        DCORR_STRETCH.get(jx * ALPHA_N + jy).copied().unwrap_or(1.0)
+    } else {
+        1.0
+    }
 }
 
 /// The corners of `(alpha_x, alpha_y)` and the split `eta` of the index on
@@ -352,12 +412,13 @@ fn dcorr_corners(ndf: usize, ax: f32, ay: f32, eta: (usize, usize, f32)) -> DCor
     let (e0, _, fe) = eta;
     let mut out = DCorr {
         corners: [(HEADER_BYTES as u32, 0.0); 6],
-        rho: Vec4::ONE,
+        // Both below ALPHA_N (split's nodes are at most ALPHA_N - 2).
+        square: (jx * ALPHA_N + jy) as u8,
+        mid: if fx >= fy { ALPHA_N as u8 } else { 1 },
         one: 0.0,
     };
     for (c, ((dx, dy), w)) in triangle(fx, fy).into_iter().enumerate() {
         let (a, b) = (jx + dx, jy + dy);
-        out.rho[c] = dcorr_stretch(a, b);
         if a == 0 || b == 0 {
             out.one += w;
             continue;
@@ -372,14 +433,14 @@ fn dcorr_corners(ndf: usize, ax: f32, ay: f32, eta: (usize, usize, f32)) -> DCor
     out
 }
 
-/// A direction's nodes in the correction's blocks: per roughness corner
-/// of `c`, at the corner's azimuth stretch (`tabulated::dcorr_dir`'s
-/// nodes: the cosine node once, the three azimuth coordinates in SIMD
-/// lanes).
+/// A direction's nodes in the correction's blocks: per roughness corner,
+/// at the corner's azimuth stretch (the lanes of `rho`,
+/// [`DCorr::stretches`]; `tabulated::dcorr_dir`'s nodes: the cosine node
+/// once, the three azimuth coordinates in SIMD lanes).
 #[inline]
-fn dcorr_dirs(c: &DCorr, w: Vec3) -> [AnisoDir; 3] {
+fn dcorr_dirs(rho: Vec4, w: Vec3) -> [AnisoDir; 3] {
     let (i0, fi) = split_root(aniso_mu_root(w.z.abs()), AN_MU);
-    let u = dcorr_phi4(diamond4(w, c.rho));
+    let u = dcorr_phi4(diamond4(w, rho));
     [0, 1, 2].map(|j| {
         let (k0, fk) = split_root(u[j], AN_PHI);
         AnisoDir { k0, fk, i0, fi }
@@ -985,8 +1046,9 @@ impl TabulatedDielectric {
         let sp = scale_tri(self.ndf_index, a, self.scale_eta);
         let corr = match &self.dcorr {
             Some(c) => {
-                dcorr_at(c, dense as usize, &dcorr_dirs(c, wi))
-                    * dcorr_at(c, dense_o as usize, &dcorr_dirs(c, wo))
+                let rho = c.stretches();
+                dcorr_at(c, dense as usize, &dcorr_dirs(rho, wi))
+                    * dcorr_at(c, dense_o as usize, &dcorr_dirs(rho, wo))
             }
             None => 1.0,
         };
@@ -1164,6 +1226,32 @@ mod tests {
         assert_eq!(checked, 8 * 65536);
     }
 
+    /// The roughness nodes' square roots are f32's `sqrt` of each, and
+    /// the stretches eval reads for a material's three roughness corners
+    /// (`DCorr::stretches`) are `dcorr_stretch` of `triangle`'s corners,
+    /// in its order, below and above the diagonal.
+    #[test]
+    fn stretches_follow_the_triangle() {
+        for (j, &s) in SQRT_J.iter().enumerate() {
+            assert_eq!(s, (j as f32).sqrt(), "node {j}");
+        }
+        for ax in [0.0, 0.01, 0.05, 0.3, 1.0, 1.9, 2.0] {
+            for ay in [0.0, 0.02, 0.11, 0.6, 1.2, 2.0] {
+                let c = dcorr_corners(0, ax, ay, (0, 1, 0.0)).stretches();
+                let (jx, _, fx) = split(alpha_coord(ax), ALPHA_N);
+                let (jy, _, fy) = split(alpha_coord(ay), ALPHA_N);
+                for (k, ((dx, dy), _)) in triangle(fx, fy).into_iter().enumerate() {
+                    let want = dcorr_stretch(jx + dx, jy + dy);
+                    assert_eq!(c[k], want, "({ax}, {ay}) corner {k}");
+                    if jx + dx > 0 && jy + dy > 0 {
+                        let exact = ((jy + dy) as f32 / (jx + dx) as f32).sqrt();
+                        assert!((want - exact).abs() <= 2e-7 * exact, "({ax}, {ay}) {k}");
+                    }
+                }
+            }
+        }
+    }
+
     /// Eval's read of the anisotropic correction (`dcorr_at`: SIMD lanes,
     /// byte offsets, mirrored corners) gives the stored node values: at
     /// roughness and index nodes (corner weight 1), both sides, every
@@ -1217,7 +1305,7 @@ mod tests {
                                         k * AN_MU + i,
                                         rho,
                                     );
-                                    let got = dcorr_at(&c, side, &dcorr_dirs(&c, w));
+                                    let got = dcorr_at(&c, side, &dcorr_dirs(c.stretches(), w));
                                     assert!(
                                         (got - want).abs() <= 1e-4 * want.abs().max(1e-3),
                                         "ndf {ndf} ({jx}, {jy}) e {e} side {side} k {k} i {i} \
