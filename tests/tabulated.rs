@@ -113,10 +113,8 @@ fn white_furnace_anisotropic() {
             // Near the normal too, where the projected roughness of the
             // azimuth has no limit (`tabulated::alpha_proj2`'s blend).
             for theta in [0.0, 5.0, 15.0, 45.0, 80.0, 89.0] {
-                for phi in [0.0f32, 45.0, 90.0] {
-                    let d = dir_deg(theta);
-                    let (s, c) = phi.to_radians().sin_cos();
-                    let wi = Vec3::new(d.x * c, d.x * s, d.z);
+                for phi in [0.0, 45.0, 90.0] {
+                    let wi = dir_deg_az(theta, phi);
                     let q = albedo_quadrature(&m, wi, ax, ay, 0);
                     report += &format!("{ndf:?} ({ax},{ay}) {theta} {phi}: {q:.4}\n");
                     worst = worst.max((q - 1.0).abs());
@@ -149,10 +147,8 @@ fn anisotropic_furnace_at_the_range_corners() {
         for (ax, ay) in [(0.05, 1.9), (0.11, 1.9)] {
             let m = mirror(ndf, ax, ay);
             for theta in [60.0, 75.0, 85.0, 89.0] {
-                for phi in [2.8125f32, 5.625, 11.25, 45.0, 70.3125] {
-                    let d = dir_deg(theta);
-                    let (s, c) = phi.to_radians().sin_cos();
-                    let wi = Vec3::new(d.x * c, d.x * s, d.z);
+                for phi in [2.8125, 5.625, 11.25, 45.0, 70.3125] {
+                    let wi = dir_deg_az(theta, phi);
                     let mut rng = Rng::new(0, 0);
                     let mut q = 0.0;
                     broad_reflection_nodes(ax, ay, wi, 400, (266, 533), |wo, w| {

@@ -1151,10 +1151,22 @@ fn print_spread(errors: impl Iterator<Item = f64>) {
     );
 }
 
+/// The albedo (first channel) of a reflecting model from `wi` by the
+/// furnace sweeps' quadrature: `compensation::broad_reflection_nodes`,
+/// 400 x 400 normals and a 266 x 533 direction grid.
+fn conductor_albedo<T: ScatterModel>(m: &T, ax: f32, ay: f32, wi: Vec3) -> f64 {
+    let mut rng = Rng::new(0, 0);
+    let mut q = 0.0;
+    broad_reflection_nodes(ax, ay, wi, 400, (266, 533), |wo, w| {
+        q += m.eval(wi, wo, &mut rng).x as f64 * w;
+    });
+    q
+}
+
 /// `--at NDF AX AY THETA PHI0 PHI1 STEP` (NDF 0 Beckmann, 1 GGX; angles
 /// in degrees): the white furnace of anisotropic TABULATED with F = 1 at
 /// `THETA` and azimuths from `PHI0` to `PHI1`, with the uncorrected lobe's
-/// and SINGLE's albedo beside it (the quadrature of [`conductor_sweep`]).
+/// and SINGLE's albedo beside it ([`conductor_albedo`]).
 fn conductor_at(args: &[String]) {
     let v: Vec<f32> = args.iter().filter_map(|a| a.parse().ok()).collect();
     let [n, ax, ay, theta, phi0, phi1, step] = v[..] else {
@@ -1174,13 +1186,9 @@ fn conductor_at(args: &[String]) {
     while phi <= phi1 + 1e-3 {
         let p = phi.to_radians();
         let wi = Vec3::new(th.sin() * p.cos(), th.sin() * p.sin(), th.cos());
-        let mut rng = Rng::new(0, 0);
-        let [mut q, mut qb, mut qs] = [0.0f64; 3];
-        broad_reflection_nodes(ax, ay, wi, 400, (266, 533), |wo, w| {
-            q += tab.eval(wi, wo, &mut rng).x as f64 * w;
-            qb += bare.eval(wi, wo, &mut rng).x as f64 * w;
-            qs += single.eval(wi, wo, &mut rng).x as f64 * w;
-        });
+        let q = conductor_albedo(&tab, ax, ay, wi);
+        let qb = conductor_albedo(&bare, ax, ay, wi);
+        let qs = conductor_albedo(&single, ax, ay, wi);
         println!(
             "phi {phi:6.2}: {:+.4} (uncorrected {:+.4}, SINGLE {qs:.4})",
             q - 1.0,
@@ -1213,15 +1221,8 @@ fn conductor_sweep(azimuths: usize) {
     let t0 = std::time::Instant::now();
     let results = run_jobs(&materials, 2, "materials", t0, |&(n, ax, ay)| {
         let tab = Tabulated::new(Ndf::new(NDFS[n], ax, ay), white);
-        let mut rng = Rng::new(0, 0);
         let rows = sweep_dirs(azimuths)
-            .map(|wi| {
-                let mut q = 0.0;
-                broad_reflection_nodes(ax, ay, wi, 400, (266, 533), |wo, w| {
-                    q += tab.eval(wi, wo, &mut rng).x as f64 * w;
-                });
-                (wi, q - 1.0)
-            })
+            .map(|wi| (wi, conductor_albedo(&tab, ax, ay, wi) - 1.0))
             .collect();
         (rows, Stats::default())
     });

@@ -98,7 +98,7 @@
 //! index node of its own ([`DCORR_ETA_N`]: the lobe table's index nodes
 //! and the midpoint of the lowest interval) and side, on 7 azimuths
 //! (uniform in `tabulated::dcorr_phi` of the diamond angle, stretched per
-//! block towards its smoother axis by `tabulated::dcorr_stretch`: no
+//! block towards its smoother axis by [`dcorr_stretch`]: no
 //! `atan2`)
 //! and ENERGY_COMPENSATED's anisotropic cosine grid, the factors
 //! that give the lobe the albedo `1 - E_ss(w)` (SINGLE's reflected plus
@@ -240,7 +240,7 @@ pub const DCORR_PAIRS: usize = (ALPHA_N - 1) * ALPHA_N / 2;
 /// azimuths uniform in `tabulated::dcorr_phi` (within 0.35 degrees of
 /// uniform in `phi` at `rho` = 1, from the diamond angle `rho |y| / (|x| +
 /// rho |y|)` without an `atan2`, `rho` the block's
-/// `tabulated::dcorr_stretch`) and ENERGY_COMPENSATED's anisotropic cosine
+/// [`dcorr_stretch`]) and ENERGY_COMPENSATED's anisotropic cosine
 /// grid (side 0 thin, 1 dense).
 pub const DCORR_BLOCK: usize = 2 * AN_PHI * AN_MU;
 /// Relative index nodes of the anisotropic furnace correction: the lobe
@@ -414,10 +414,13 @@ fn dcorr_corners(ndf: usize, ax: f32, ay: f32, eta: (usize, usize, f32)) -> DCor
         corners: [(HEADER_BYTES as u32, 0.0); 6],
         // Both below ALPHA_N (split's nodes are at most ALPHA_N - 2).
         square: (jx * ALPHA_N + jy) as u8,
-        mid: if fx >= fy { ALPHA_N as u8 } else { 1 },
+        mid: 0,
         one: 0.0,
     };
-    for (c, ((dx, dy), w)) in triangle(fx, fy).into_iter().enumerate() {
+    let corners = triangle(fx, fy);
+    let ((mx, my), _) = corners[1];
+    out.mid = (mx * ALPHA_N + my) as u8;
+    for (c, ((dx, dy), w)) in corners.into_iter().enumerate() {
         let (a, b) = (jx + dx, jy + dy);
         if a == 0 || b == 0 {
             out.one += w;

@@ -18,6 +18,14 @@ pub fn dir_deg(theta_deg: f64) -> Vec3 {
     Vec3::new(t.sin() as f32, 0.0, t.cos() as f32)
 }
 
+/// Unit direction at polar angle `theta_deg` and azimuth `phi_deg` (from
+/// x towards y).
+pub fn dir_deg_az(theta_deg: f64, phi_deg: f64) -> Vec3 {
+    let d = dir_deg(theta_deg);
+    let (s, c) = (phi_deg as f32).to_radians().sin_cos();
+    Vec3::new(d.x * c, d.x * s, d.z)
+}
+
 /// Maps the unit square onto microfacet normals with the anisotropic GGX
 /// distribution of normals (density `D_ggx(h) h.z` per solid angle). Returns
 /// the normal and that density. Used to turn integrals over normals into
