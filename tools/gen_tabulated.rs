@@ -655,6 +655,10 @@ fn main() {
         dielectric::scale_main(&args);
         return;
     }
+    if let Some(p) = args.iter().position(|a| a == "--dielectric-pack") {
+        dielectric::pack_main(&args, &args[p + 1..]);
+        return;
+    }
     if args.iter().any(|a| a == "--dielectric-check") {
         dielectric::check(&args);
         return;
@@ -1031,8 +1035,9 @@ mod dielectric {
     use msbsdf::multiple::heitz::Heitz;
     use msbsdf::multiple::tabulated::{MU_N, hat_moment, project_exit};
     use msbsdf::multiple::tabulated_dielectric::{
-        ALBEDO_LEN, ALPHA_N, ETA_N, FILE_BYTES, HEADER_BYTES, K, LOBE_LEN, MAGIC, NDF_N, PEAK,
-        R_CELL, R_DENSE, R_TERMS, R_THIN, T_THIN, albedo_index, grid_alpha, grid_eta, lobe_index,
+        ALBEDO_LEN, ALPHA_N, ETA_N, FILE_BYTES, HEADER_BYTES, K, LOBE_LEN, MAGIC, NDF_N, NODES,
+        PEAK, R_CELL, R_DENSE, R_TERMS, R_THIN, T_THIN, albedo_index, grid_alpha, grid_eta,
+        lobe_index, node,
     };
     use msbsdf::ndf::Ndf;
     use msbsdf::single::{G2Form, Single};
@@ -1522,7 +1527,7 @@ mod dielectric {
         let h: Vec<f64> = (0..MU_N).map(hat_moment).collect();
         let gkk = |j: usize, k: usize| h[j] * if k == 0 { 2.0 * PI } else { PI };
         let w: Vec<f64> = h.iter().map(|x| 2.0 * PI * x).collect();
-        let mut lobe = vec![0.0f64; LOBE_LEN];
+        let mut lobe = vec![0.0f64; FULL_LOBE_LEN];
         let mut albedo = vec![0.0f64; ALBEDO_LEN];
         let (mut sym_num, mut sym_den) = (0.0f64, 0.0f64);
         let (mut t_num, mut t_den) = (0.0f64, 0.0f64);
@@ -1532,7 +1537,7 @@ mod dielectric {
             for a in 1..ALPHA_N {
                 for e in 0..ETA_N {
                     let e2 = (grid_eta(e) as f64).powi(2);
-                    let li = |l: usize, i: usize, j: usize| lobe_index(n, a, e, l, i, j);
+                    let li = |l: usize, i: usize, j: usize| full_index(n, a, e, l, i, j);
                     for i in 0..MU_N {
                         let (thin, dense) = (find(n, a, e, 0, i), find(n, a, e, 1, i));
                         total_walks += thin.walks + dense.walks;
@@ -1678,7 +1683,7 @@ mod dielectric {
             }
         }
         let header = format!(
-            "MSBSDF-TABULATED-DIELECTRIC-v2\n\
+            "MSBSDF-TABULATED-DIELECTRIC-v3\n\
              MSBSDF_MODEL_TABULATED dielectric table (layout: src/multiple/tabulated_dielectric.rs)\n\
              command: cargo run --release --example gen_tabulated -- {}\n\
              commit: {}\n\
@@ -1704,13 +1709,108 @@ mod dielectric {
             ALPHA_N - 1,
             t0.elapsed().as_secs_f64(),
         );
+        let lobe: Vec<f32> = lobe.iter().map(|v| *v as f32).collect();
+        write_table(
+            &out,
+            &format!("{header}{PACKED}\n"),
+            MAGIC,
+            HEADER_BYTES,
+            FILE_BYTES,
+            pack(&lobe)
+                .into_iter()
+                .chain(albedo.iter().map(|v| *v as f32)),
+        );
+    }
+
+    /// Floats of a node in the generator's lobe layout: every `(mu_i,
+    /// mu_o)` cell of each of the three lobes (the file's version 2). The
+    /// file stores a reflection lobe's `i <= j` half only (`lobe_index`):
+    /// the symmetrisation above makes the other half its transpose.
+    const FULL_NODE_LEN: usize = MU_N * MU_N * (2 * R_CELL + K);
+    /// Floats of the lobe block in the generator's layout.
+    const FULL_LOBE_LEN: usize = NODES * FULL_NODE_LEN;
+    /// How version 3 stores the lobes (a header line).
+    const PACKED: &str = "layout: reflection lobes stored for mu_i node <= mu_o node only \
+        (row by row; (j, i) reads (i, j), which the symmetrisation makes equal to the bit), \
+        transmission lobe for every pair (tabulated_dielectric::lobe_index)";
+
+    /// Index of a lobe cell in the generator's full layout.
+    fn full_index(n: usize, a: usize, e: usize, l: usize, i: usize, j: usize) -> usize {
+        let width = if l == T_THIN { K } else { R_CELL };
+        node(n, a, e) * FULL_NODE_LEN + l * MU_N * MU_N * R_CELL + (i * MU_N + j) * width
+    }
+
+    /// The stored lobe block (`lobe_index`) of a lobe block in the full
+    /// layout; panics unless every reflection cell equals its transpose
+    /// to the bit (the half left out would differ).
+    fn pack(full: &[f32]) -> Vec<f32> {
+        assert_eq!(full.len(), FULL_LOBE_LEN);
+        let mut out = vec![f32::NAN; LOBE_LEN];
+        for n in 0..NDF_N {
+            for a in 1..ALPHA_N {
+                for e in 0..ETA_N {
+                    for l in [R_THIN, R_DENSE, T_THIN] {
+                        let width = if l == T_THIN { K } else { R_CELL };
+                        for i in 0..MU_N {
+                            for j in 0..MU_N {
+                                let (src, dst) =
+                                    (full_index(n, a, e, l, i, j), lobe_index(n, a, e, l, i, j));
+                                for k in 0..width {
+                                    let v = full[src + k];
+                                    if l != T_THIN {
+                                        let t = full[full_index(n, a, e, l, j, i) + k];
+                                        assert_eq!(v.to_bits(), t.to_bits(), "lobe {l} ({i}, {j})");
+                                    }
+                                    out[dst + k] = v;
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        assert!(
+            out.iter().all(|v| !v.is_nan()),
+            "a stored cell left unwritten"
+        );
+        out
+    }
+
+    /// `--dielectric-pack PATH`: rewrites a version-2 table (every cell of
+    /// the reflection lobes stored) as version 3 (`pack`) into `--out`,
+    /// its header kept with a line saying how it was converted. Every
+    /// stored value is version 2's, bit for bit.
+    pub fn pack_main(args: &[String], rest: &[String]) {
+        let out: String = arg(args, "--out", "data/tabulated_dielectric.bin".to_string());
+        let Some(path) = rest.first() else {
+            eprintln!("--dielectric-pack PATH (a version-2 table file)");
+            std::process::exit(2);
+        };
+        let raw = std::fs::read(path).expect("read the version-2 table");
+        let v2_magic = b"MSBSDF-TABULATED-DIELECTRIC-v2\n";
+        assert!(raw.starts_with(v2_magic), "not a version-2 table");
+        assert_eq!(raw.len(), HEADER_BYTES + 4 * (FULL_LOBE_LEN + ALBEDO_LEN));
+        let values: Vec<f32> = raw[HEADER_BYTES..]
+            .chunks_exact(4)
+            .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .collect();
+        let (full, albedo) = values.split_at(FULL_LOBE_LEN);
+        let old = String::from_utf8_lossy(&raw[v2_magic.len()..HEADER_BYTES]);
+        let header = format!(
+            "MSBSDF-TABULATED-DIELECTRIC-v3\n{}\
+             converted from version 2 (the lines above) by: cargo run --release --example \
+             gen_tabulated -- {} (commit {})\n{PACKED}\n",
+            old.trim_end_matches('\0'),
+            args[1..].join(" "),
+            git_commit(),
+        );
         write_table(
             &out,
             &header,
             MAGIC,
             HEADER_BYTES,
             FILE_BYTES,
-            lobe.iter().chain(albedo.iter()).map(|v| *v as f32),
+            pack(full).into_iter().chain(albedo.iter().copied()),
         );
     }
 

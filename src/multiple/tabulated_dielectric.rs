@@ -22,9 +22,10 @@
 //! series in the azimuth difference `phi` of `wi` and `wo` (their `x, y`
 //! components; the refracted lobe sits at `phi = pi`):
 //!
-//! - [`R_THIN`]: reflection on the thin side, symmetric in `(mu_i, mu_o)`;
+//! - [`R_THIN`]: reflection on the thin side, symmetric in `(mu_i, mu_o)`
+//!   (stored for `mu_i <= mu_o` only, [`R_PAIRS`]);
 //! - [`R_DENSE`]: reflection on the dense side (total internal reflection
-//!   included), symmetric;
+//!   included), symmetric (stored the same way);
 //! - [`T_THIN`]: transmission from the thin side into the dense one, `mu_i`
 //!   on the thin side. Transmission from the dense side is not stored: it
 //!   follows from the generalised reciprocity of the flux-conserving BSDF
@@ -163,9 +164,16 @@ pub const R_CELL: usize = 5;
 pub const R_TERMS: usize = 4;
 /// Offset in a reflection cell of the weight `B` of the peaked part.
 pub const PEAK: usize = 4;
+/// Stored cosine pairs of a reflection lobe: `mu_i <= mu_o` (node `i <=
+/// j`), `MU_N (MU_N + 1) / 2`. The reflection lobes are symmetric in the
+/// two cosines (reciprocity; the generator averages each with its
+/// transpose, to the bit), so the other half is not stored
+/// ([`lobe_index`]): 34% of the lobe block.
+pub const R_PAIRS: usize = MU_N * (MU_N + 1) / 2;
 /// Floats per stored `(ndf, alpha, eta)` node: the two reflection lobes,
-/// then the transmission lobe, each `[mu_i][mu_o][cell]`.
-pub const NODE_LEN: usize = MU_N * MU_N * (2 * R_CELL + K);
+/// each `[(mu_i, mu_o) with i <= j, row by row][cell]`, then the
+/// transmission lobe `[mu_i][mu_o][cell]`.
+pub const NODE_LEN: usize = 2 * R_PAIRS * R_CELL + MU_N * MU_N * K;
 /// Floats of the albedos of a stored node: `[side][mu_i][lobe]` (side 0
 /// thin, 1 dense; lobe 0 reflection, 1 transmission).
 pub const NODE_ALBEDO_LEN: usize = 2 * MU_N * 2;
@@ -180,7 +188,7 @@ pub const T_THIN: usize = 2;
 /// Bytes of the text header at the start of the table file.
 pub const HEADER_BYTES: usize = 4096;
 /// First bytes of the table file.
-pub const MAGIC: &[u8; 31] = b"MSBSDF-TABULATED-DIELECTRIC-v2\n";
+pub const MAGIC: &[u8; 31] = b"MSBSDF-TABULATED-DIELECTRIC-v3\n";
 
 /// Stored `(ndf, alpha, eta)` nodes (roughness nodes 1 to `ALPHA_N - 1`).
 pub const NODES: usize = NDF_N * (ALPHA_N - 1) * ETA_N;
@@ -522,16 +530,33 @@ pub const fn node(ndf: usize, a: usize, e: usize) -> usize {
     (ndf * (ALPHA_N - 1) + a - 1) * ETA_N + e
 }
 
-/// Index of the first float of a lobe cell (roughness node `a >= 1`).
+/// Index of the first float of the lobe cell of cosine nodes `(i, j)`
+/// (roughness node `a >= 1`); a reflection lobe's `(i, j)` and `(j, i)`
+/// are the same stored cell ([`R_PAIRS`]).
 #[inline]
 pub const fn lobe_index(ndf: usize, a: usize, e: usize, lobe: usize, i: usize, j: usize) -> usize {
-    node(ndf, a, e) * NODE_LEN + lobe_offset(lobe) + (i * MU_N + j) * lobe_width(lobe)
+    let cell = if lobe == T_THIN {
+        i * MU_N + j
+    } else if i <= j {
+        r_pair(i, j)
+    } else {
+        r_pair(j, i)
+    };
+    node(ndf, a, e) * NODE_LEN + lobe_offset(lobe) + cell * lobe_width(lobe)
+}
+
+/// Stored cell of a reflection lobe's cosine nodes `i <= j`: row `i`
+/// (cells `j = i .. MU_N`) starts after the rows before it, which hold
+/// `MU_N - i'` cells each.
+#[inline(always)]
+const fn r_pair(i: usize, j: usize) -> usize {
+    i * MU_N - i * i.saturating_sub(1) / 2 + (j - i)
 }
 
 /// Offset of `lobe` in a node.
 #[inline]
 const fn lobe_offset(lobe: usize) -> usize {
-    lobe * MU_N * MU_N * R_CELL
+    lobe * R_PAIRS * R_CELL
 }
 
 /// Floats per cell of `lobe`.
@@ -794,33 +819,63 @@ fn round_u16x8(s: &[f32; 8], o: &mut [u16; 8]) {
 #[inline(always)]
 fn lobe_cell(t: &Tri, lobe: usize, (i0, fi): (usize, f32), (j0, fj): (usize, f32)) -> (Vec4, f32) {
     if lobe == T_THIN {
-        lobe_cells::<K, { 4 * ((MU_N + 1) * K + R_CELL) }>(t, lobe, (i0, fi), (j0, fj))
+        // The full grid: from the lower corner (i0, j0), the triangle's
+        // middle corner (i0 + 1, j0) or (i0, j0 + 1) and the upper corner
+        // (i0 + 1, j0 + 1).
+        let mid = if fi >= fj { MU_N } else { 1 };
+        let first = lobe_offset(T_THIN) + (i0 * MU_N + j0) * K;
+        lobe_cells::<K, { MU_N + 1 }, { 4 * ((MU_N + 1) * K + R_CELL) }>(
+            t,
+            first,
+            mid,
+            MU_N + 1,
+            fi,
+            fj,
+        )
     } else {
-        lobe_cells::<R_CELL, { 4 * (MU_N + 2) * R_CELL }>(t, lobe, (i0, fi), (j0, fj))
+        // Stored for i <= j only: a square below the diagonal is read as
+        // its transpose (the same corners, weights and sums: the triangle
+        // rule is symmetric in the two cosines). From (i0, j0), row i0 + 1
+        // starts MU_N - i0 cells later one column on, so (i0 + 1, j0 + 1)
+        // is MU_N - i0 cells on and (i0 + 1, j0) one less; on the diagonal
+        // that corner is (i0, i0 + 1), the next cell.
+        let ((i0, fi), (j0, fj)) = if i0 > j0 {
+            ((j0, fj), (i0, fi))
+        } else {
+            ((i0, fi), (j0, fj))
+        };
+        let row = MU_N - i0;
+        let mid = if fi >= fj && i0 < j0 { row - 1 } else { 1 };
+        let first = lobe_offset(lobe) + r_pair(i0, j0) * R_CELL;
+        lobe_cells::<R_CELL, MU_N, { 4 * (MU_N + 1) * R_CELL }>(t, first, mid, row, fi, fj)
     }
 }
 
-/// [`lobe_cell`] for cells of `W` floats: per vertex of the lobe triangle
-/// `t`, the three cells of the cosine triangle lie in the `SPAN` bytes
-/// from the lower corner, read with one bounds check (`4 ((MU_N + 1) W +
-/// R_CELL)`, checked at compile time: each cell is read as `R_CELL` floats;
-/// a transmission cell's fifth, from the next cell or the albedo block
-/// that follows the lobes, is not used).
+/// [`lobe_cell`] for cells of `W` floats, the cosine triangle's corners
+/// `mid` and `up` cells on from the node's float `first` (`mid < up <=
+/// UP`): per vertex of the lobe triangle `t`, the three cells lie in the
+/// `SPAN` bytes from the lower corner, read with one bounds check (`4 (UP
+/// W + R_CELL)`, checked at compile time: each cell is read as `R_CELL`
+/// floats; a transmission cell's fifth, from the next cell or the albedo
+/// block that follows the lobes, is not used).
 #[inline(always)]
-fn lobe_cells<const W: usize, const SPAN: usize>(
+fn lobe_cells<const W: usize, const UP: usize, const SPAN: usize>(
     t: &Tri,
-    lobe: usize,
-    (i0, fi): (usize, f32),
-    (j0, fj): (usize, f32),
+    first: usize,
+    mid: usize,
+    up: usize,
+    fi: f32,
+    fj: f32,
 ) -> (Vec4, f32) {
-    const { assert!(SPAN == 4 * ((MU_N + 1) * W + R_CELL) && (W == K || W == R_CELL)) };
-    let at = HEADER_BYTES + 4 * (lobe_offset(lobe) + (i0 * MU_N + j0) * W);
+    const { assert!(SPAN == 4 * (UP * W + R_CELL) && (W == K || W == R_CELL)) };
+    debug_assert!(mid < up && up <= UP);
+    let at = HEADER_BYTES + 4 * first;
     // The cosine triangle (see `triangle`): corners (0, 0), (1, 1) and
-    // (1, 0) or (0, 1), as float offsets from the lower corner.
-    let (mid, [w0, wm, w1]) = if fi >= fj {
-        (MU_N * W, [1.0 - fi, fi - fj, fj])
+    // (1, 0) or (0, 1).
+    let [w0, wm, w1] = if fi >= fj {
+        [1.0 - fi, fi - fj, fj]
     } else {
-        (W, [1.0 - fj, fj - fi, fi])
+        [1.0 - fj, fj - fi, fi]
     };
     let cell = |c: &[u8; SPAN], o: usize| -> (Vec4, f32) {
         match c.get(4 * o..).and_then(|s| s.first_chunk::<20>()) {
@@ -844,7 +899,7 @@ fn lobe_cells<const W: usize, const SPAN: usize>(
         else {
             continue;
         };
-        let ((v0, b0), (vm, bm), (v1, b1)) = (cell(c, 0), cell(c, mid), cell(c, (MU_N + 1) * W));
+        let ((v0, b0), (vm, bm), (v1, b1)) = (cell(c, 0), cell(c, mid * W), cell(c, up * W));
         v += (v0 * w0 + vm * wm + v1 * w1) * w;
         b += (b0 * w0 + bm * wm + b1 * w1) * w;
     }
