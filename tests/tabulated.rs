@@ -132,12 +132,14 @@ fn white_furnace_anisotropic() {
 /// axis (2.8, 5.6 and 11.25 degrees), at 45 and near the rough axis (70.3
 /// degrees); eval over `compensation::broad_reflection_nodes` (the lobe is
 /// broad, the normals' reflections crowd into a band at this anisotropy).
-/// Measured worst 0.1917 (Beckmann (0.05, 1.9) at 89 degrees, azimuth
-/// 2.8: between the first two azimuth nodes of the diamond angle, 0 and
-/// 8.1 degrees). The 0.5% is not met there: this bounds what is
-/// (0.2). Azimuth nodes stretched per block by `(alpha_y / alpha_x)^(1/2)`
-/// or `^(1/4)` took it to 0.039 or 0.056 (`docs/tabulated.md`) but moved
-/// the suite's anisotropic GGX gold past AUTO's default tolerance.
+/// Measured worst 0.0560 (GGX (0.05, 1.9) at 89 degrees, azimuth 5.6:
+/// between azimuth nodes 1 and 2 of the diamond angle, 3.8 and 8.1
+/// degrees). The 0.5% is not met there: this bounds what is
+/// (0.06). With 9 azimuth nodes (until session 13) it was 0.1917
+/// (Beckmann (0.05, 1.9), 89 degrees, azimuth 2.8); azimuth nodes
+/// stretched per block by `(alpha_y / alpha_x)^(1/2)` or `^(1/4)` took it
+/// to 0.039 or 0.056 (`docs/tabulated.md`), 17 nodes of the plain diamond
+/// angle to 0.056.
 #[test]
 fn anisotropic_furnace_at_the_range_corners() {
     use msbsdf::multiple::compensation::broad_reflection_nodes;
@@ -161,7 +163,7 @@ fn anisotropic_furnace_at_the_range_corners() {
         }
     }
     println!("{report}worst |albedo - 1| = {worst:.4}");
-    assert!(worst < 0.2, "{report}");
+    assert!(worst < 0.06, "{report}");
 }
 
 /// Sample directions against the pdf: chi-square per configuration with a
@@ -358,8 +360,15 @@ fn suite_error_against_reference_values() {
     // (session 9): they follow the per-direction factors more closely,
     // which took the random white furnace from 0.60% to 0.43% (the issue's
     // 0.5%) and GGX gold from 0.0233 to 0.0257; the class target above is
-    // unchanged (0.0116 -> 0.0119).
-    assert!(worst_aniso_ggx < 0.027, "{report}");
+    // unchanged (0.0116 -> 0.0119). It was 0.027 until the correction's
+    // 17 azimuth nodes (session 13): the factors follow the furnace target
+    // `1 - E_ss` per direction more closely still (the corner sweep's
+    // worst 19% -> 5.6%), and the lobe, whose shape they do not make more
+    // like the walk's, moved at the suite's pairs: GGX gold 0.0257 ->
+    // 0.0285, copper 0.0212 -> 0.0236, aluminium 0.0218 -> 0.0240;
+    // Beckmann 0.014-0.018 -> 0.013-0.017; class 0.0119 -> 0.0121. AUTO's
+    // default tolerance 0.03 still takes TABULATED for these materials.
+    assert!(worst_aniso_ggx < 0.029, "{report}");
     assert!(worst_aniso < 0.03, "{report}");
 }
 

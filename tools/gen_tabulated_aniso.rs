@@ -4,7 +4,7 @@
 //! `(alpha_x, alpha_y)` on the grid `tabulated::corr_grid_alpha` (31 nodes
 //! per axis: ENERGY_COMPENSATED's 16 and the midpoints between them) and
 //! direction node (`tabulated::corr_node_dir`: the albedo table's 16
-//! cosines, `tabulated::CORR_PHI` = 9 diamond-angle azimuths), the two factors `u = s sqrt(t)`,
+//! cosines, `tabulated::CORR_PHI` = 17 diamond-angle azimuths), the two factors `u = s sqrt(t)`,
 //! `v = s sqrt(b)` of the lobe `T u(wi) u(wo) + P v(wi) v(wo)`
 //! (`Tabulated::aniso_parts`; `t`, `b` from `Tabulated::aniso_factors`),
 //! with `s` such that the lobe has the multiply scattered albedo
@@ -343,7 +343,7 @@ fn main() {
     }
     let command: Vec<String> = args.iter().skip(1).cloned().collect();
     let header = format!(
-        "ANISO_CORRECTION v5 (MSBSDF_MODEL_TABULATED): per [ndf: Beckmann, GGX][roughness \
+        "ANISO_CORRECTION v7 (MSBSDF_MODEL_TABULATED): per [ndf: Beckmann, GGX][roughness \
          pair (jx <= jy) of {CORR_A} x {CORR_A}: alpha = 2 (j / {})^2][azimuth: {CORR_PHI} \
          nodes of the diamond angle |y| / (|x| + |y|) from 0 to 1 (tabulated::corr_dir)][mu: \
          {AN_MU}] (ENERGY_COMPENSATED's anisotropic cosine grid) the two factors \

@@ -115,7 +115,7 @@
 //! per-direction factors `u = s sqrt(t)` and `v = s sqrt(b)`, which eval
 //! reads jointly from `data/tabulated_aniso.bin` ([`corr_values`]): per
 //! NDF, roughness pair on a 31 x 31 grid ([`corr_grid_alpha`]) and node of
-//! a direction grid (`corr_dir`: the albedo table's 16 cosines and 9
+//! a direction grid (`corr_dir`: the albedo table's 16 cosines and 17
 //! nodes of the diamond angle `|y| / (|x| + |y|)`, no `atan2`), linear on
 //! triangles in roughness (the lobe has a kink at isotropy) and bilinear
 //! in direction. `s` gives the lobe with `u` and `v` interpolated so the
@@ -128,8 +128,9 @@
 //! by [`crate::ndf::beckmann::lambda_rational`]; GGX 1242 with SINGLE's
 //! term and the peaked lobe from one set of slope terms,
 //! [`crate::ndf::ggx::d_lambda_scaled`]). Measured worst furnace
-//! error 0.06% at the nodes, 0.42% on the test's directions, 0.43% on 32
-//! random materials and directions (`docs/tabulated.md`).
+//! error 0.01% at the nodes, 0.42% on the test's directions, 5.6% at the
+//! range's most anisotropic corners (roughness (0.05, 1.9), 89 degrees,
+//! near the smooth axis; `docs/tabulated.md`).
 //!
 //! ## Sampling
 //!
@@ -224,10 +225,12 @@ pub const CORR_A: usize = 31;
 /// pi/2 - phi)`.
 pub const CORR_PAIRS: usize = CORR_A * (CORR_A + 1) / 2;
 /// Azimuth nodes of the conductor's correction (uniform in the diamond
-/// angle, `corr_dir`): 9, against the albedo table's 7 (`AN_PHI`), which
-/// left `E_ss` interpolated between the nodes at 78.7 and 90 degrees 0.68%
-/// off at Beckmann (1.818, 0.482), 87.5 degrees.
-pub const CORR_PHI: usize = 9;
+/// angle, `corr_dir`): 17. The albedo table's 7 (`AN_PHI`) left `E_ss`
+/// interpolated between the nodes at 78.7 and 90 degrees 0.68% off at
+/// Beckmann (1.818, 0.482), 87.5 degrees; 9 (sessions 9-12) left the
+/// furnace 19% off near the smooth axis of the range's most anisotropic
+/// corner (Beckmann (0.05, 1.9), 89 degrees, azimuth 2.8; 5.4% with 17).
+pub const CORR_PHI: usize = 17;
 /// Values per roughness pair: the diamond-angle azimuth and
 /// ENERGY_COMPENSATED's cosine grid
 /// (`[phi: CORR_PHI][mu: AN_MU]`).
@@ -243,7 +246,7 @@ pub const CORR_VALUES: usize = 2;
 /// [`CORR_LEN`].
 pub const CORR_FILE_BYTES: usize = HEADER_BYTES + 2 * CORR_VALUES * CORR_LEN;
 /// First bytes of the correction table file.
-pub const CORR_MAGIC: &[u8; 28] = b"MSBSDF-TABULATED-ANISO-F-v4\n";
+pub const CORR_MAGIC: &[u8; 28] = b"MSBSDF-TABULATED-ANISO-F-v7\n";
 /// Largest stored factor of the dielectric's correction (the encoding's
 /// range; [`corr_encode`]).
 pub const CORR_MAX: f32 = 8.0;
@@ -583,10 +586,10 @@ pub(crate) fn dcorr_phi4(c: Vec4) -> Vec4 {
 /// 0.25 / 0.063 / 0.0131 / 0.0016. The exchange of the axes turns `rho`
 /// into `1 / rho` and the coordinate `c` into `1 - c`, so a transposed
 /// block is read with the corner's own stretch and its nodes mirrored.
-/// (The conductor's correction keeps the plain diamond angle: stretched
-/// nodes took the corners of its range from 19% to 4-6% but the suite's
-/// anisotropic GGX gold past AUTO's default tolerance,
-/// `docs/tabulated.md`.)
+/// (The conductor's correction keeps the plain diamond angle on 17 nodes:
+/// with 9, stretched nodes took the corners of its range from 19% to 4-6%
+/// but moved the suite's anisotropic GGX gold more than 17 plain nodes
+/// do, which reach 5.6%, `docs/tabulated.md`.)
 #[inline(always)]
 pub(crate) fn dcorr_dir(w: Vec3, rho: f32) -> AnisoDir {
     grid_dir(dcorr_phi(diamond_xy(w.x.abs(), rho * w.y.abs())), w, AN_PHI)
