@@ -97,7 +97,7 @@
 //! (`data/tabulated_aniso_dielectric.bin`, `gen_tabulated_aniso --
 //! --dielectric`): per NDF, pair of the lobe table's roughness nodes,
 //! index node of its own ([`DCORR_ETA_N`]: the lobe table's index nodes
-//! and the midpoint of the lowest interval) and side, on 7 azimuths
+//! and the midpoints of its intervals) and side, on 7 azimuths
 //! (uniform in `tabulated::dcorr_phi` of the diamond angle, stretched per
 //! block towards its smoother axis by [`dcorr_stretch`]: no
 //! `atan2`)
@@ -107,9 +107,10 @@
 //! on triangles in roughness, linear in `ln E`, bilinear in azimuth and
 //! cosine. A product `s(wi) s(wo)` keeps both reciprocity rules. The
 //! furnace is not within 0.5% everywhere: 0.31% at roughness and index
-//! nodes, up to 2.0% on `tests/tabulated_dielectric.rs`'s directions
-//! (Beckmann (0.3, 1) glass 1.5 from inside at 60 degrees, between index
-//! nodes), up to 3.1% at 200 random anisotropic materials, indices and
+//! nodes, up to 1.95% on `tests/tabulated_dielectric.rs`'s directions
+//! (Beckmann (0.3, 1) glass 1.5 from outside at 85 degrees, between
+//! roughness nodes), 4% between the two lowest index nodes (1.05 and
+//! 1.166), up to 3.0% at 200 random anisotropic materials, indices and
 //! directions to 89 degrees (`gen_tabulated_aniso -- --dielectric-random`;
 //! 90% of them within 1.0%).
 //!
@@ -253,23 +254,28 @@ pub const DCORR_PAIRS: usize = (ALPHA_N - 1) * ALPHA_N / 2;
 pub const DCORR_BLOCK: usize = 2 * AN_PHI * AN_MU;
 /// Relative index nodes of the anisotropic furnace correction: the lobe
 /// table's [`ETA_N`] (where the lobe's linear interpolation in `ln E` has
-/// its kinks) and the midpoint in `ln E` of the lowest interval (1.05 to
-/// 1.295, where the factors move most with the index), node 1.
-pub const DCORR_ETA_N: usize = ETA_N + 1;
+/// its kinks, the even nodes) and the midpoints in `ln E` of its
+/// intervals (the odd nodes): 11, uniform in `ln E`. The factors move
+/// with the index steeply enough that linear interpolation over the lobe
+/// table's 6 left 2.2% of albedo between nodes at 1.5 (7 nodes, with the
+/// midpoint of the lowest interval, until session 13).
+pub const DCORR_ETA_N: usize = 2 * ETA_N - 1;
 /// Values of the correction table `[ndf][pair][eta][side][phi][mu]`.
 pub const DCORR_LEN: usize = NDF_N * DCORR_PAIRS * DCORR_ETA_N * DCORR_BLOCK;
 /// Size of the correction file: a text header of [`HEADER_BYTES`] and
 /// [`DCORR_LEN`] little-endian `u16` (`tabulated::corr_encode`).
 pub const DCORR_FILE_BYTES: usize = HEADER_BYTES + 2 * DCORR_LEN;
 /// First bytes of the correction file.
-pub const DCORR_MAGIC: &[u8; 37] = b"MSBSDF-TABULATED-DIELECTRIC-ANISO-v5\n";
+pub const DCORR_MAGIC: &[u8; 37] = b"MSBSDF-TABULATED-DIELECTRIC-ANISO-v6\n";
 
-/// Relative index of node `e` of the anisotropic correction.
+/// Relative index of node `e` of the anisotropic correction: the lobe
+/// table's node `e / 2` when `e` is even, the midpoint in `ln E` of its
+/// nodes `e / 2` and `e / 2 + 1` when odd.
 pub fn dcorr_grid_eta(e: usize) -> f32 {
-    match e {
-        0 => grid_eta(0),
-        1 => (grid_eta(0) * grid_eta(1)).sqrt(),
-        _ => grid_eta(e - 1),
+    if e.is_multiple_of(2) {
+        grid_eta(e / 2)
+    } else {
+        (grid_eta(e / 2) * grid_eta(e / 2 + 1)).sqrt()
     }
 }
 
@@ -277,7 +283,7 @@ pub fn dcorr_grid_eta(e: usize) -> f32 {
 /// table's index coordinate `c` ([`eta_coord`]), linear in `ln E`.
 #[inline]
 fn dcorr_eta_coord(c: f32) -> f32 {
-    if c < 1.0 { 2.0 * c } else { c + 1.0 }
+    2.0 * c
 }
 
 /// Index of the stored pair of lobe roughness nodes `1 <= jx <= jy`.
