@@ -96,8 +96,9 @@
 //! then scaled by `s(wi) s(wo)` from a correction table
 //! (`data/tabulated_aniso_dielectric.bin`, `gen_tabulated_aniso --
 //! --dielectric`): per NDF, pair of the lobe table's roughness nodes,
-//! index node of its own ([`DCORR_ETA_N`]: the lobe table's index nodes
-//! and the midpoints of its intervals) and side, on 7 azimuths
+//! index node of its own ([`DCORR_ETA_N`]: the lobe table's index nodes,
+//! the midpoints of its intervals and the first quarter point, 1.107)
+//! and side, on 7 azimuths
 //! (uniform in `tabulated::dcorr_phi` of the diamond angle, stretched per
 //! block towards its smoother axis by [`dcorr_stretch`]: no
 //! `atan2`)
@@ -109,8 +110,8 @@
 //! furnace is not within 0.5% everywhere: 0.31% at roughness and index
 //! nodes, up to 1.95% on `tests/tabulated_dielectric.rs`'s directions
 //! (Beckmann (0.3, 1) glass 1.5 from outside at 85 degrees, between
-//! roughness nodes), 4% between the two lowest index nodes (1.05 and
-//! 1.166), up to 3.0% at 200 random anisotropic materials, indices and
+//! roughness nodes), 3.2% between the two lowest index nodes (1.05 and
+//! 1.107), up to 3.0% at 200 random anisotropic materials, indices and
 //! directions to 89 degrees (`gen_tabulated_aniso -- --dielectric-random`;
 //! 90% of them within 1.0%).
 //!
@@ -254,36 +255,43 @@ pub const DCORR_PAIRS: usize = (ALPHA_N - 1) * ALPHA_N / 2;
 pub const DCORR_BLOCK: usize = 2 * AN_PHI * AN_MU;
 /// Relative index nodes of the anisotropic furnace correction: the lobe
 /// table's [`ETA_N`] (where the lobe's linear interpolation in `ln E` has
-/// its kinks, the even nodes) and the midpoints in `ln E` of its
-/// intervals (the odd nodes): 11, uniform in `ln E`. The factors move
-/// with the index steeply enough that linear interpolation over the lobe
-/// table's 6 left 2.2% of albedo between nodes at 1.5 (7 nodes, with the
-/// midpoint of the lowest interval, until session 13).
-pub const DCORR_ETA_N: usize = 2 * ETA_N - 1;
+/// its kinks) and the midpoints in `ln E` of its intervals, and the first
+/// quarter point of the lowest interval (1.05 to 1.295), 1.107: 12 nodes,
+/// uniform in `ln E` above 1.166 and twice as dense below
+/// ([`dcorr_grid_eta`]). The factors move with the index steeply enough
+/// that linear interpolation over the lobe table's 6 left 2.2% of albedo
+/// between nodes at 1.5 (7 nodes, with the midpoint of the lowest
+/// interval, until session 13), and fastest near 1 (4% halfway between
+/// 1.05 and 1.166 with 11 uniform nodes).
+pub const DCORR_ETA_N: usize = 2 * ETA_N;
 /// Values of the correction table `[ndf][pair][eta][side][phi][mu]`.
 pub const DCORR_LEN: usize = NDF_N * DCORR_PAIRS * DCORR_ETA_N * DCORR_BLOCK;
 /// Size of the correction file: a text header of [`HEADER_BYTES`] and
 /// [`DCORR_LEN`] little-endian `u16` (`tabulated::corr_encode`).
 pub const DCORR_FILE_BYTES: usize = HEADER_BYTES + 2 * DCORR_LEN;
 /// First bytes of the correction file.
-pub const DCORR_MAGIC: &[u8; 37] = b"MSBSDF-TABULATED-DIELECTRIC-ANISO-v6\n";
+pub const DCORR_MAGIC: &[u8; 37] = b"MSBSDF-TABULATED-DIELECTRIC-ANISO-v7\n";
 
-/// Relative index of node `e` of the anisotropic correction: the lobe
-/// table's node `e / 2` when `e` is even, the midpoint in `ln E` of its
-/// nodes `e / 2` and `e / 2 + 1` when odd.
+/// Relative index of node `e` of the anisotropic correction: at the lobe
+/// table's index coordinate `e / 4` for `e <= 2` (nodes 1.05, 1.107,
+/// 1.166), `(e - 1) / 2` above (the lobe table's node or the midpoint of
+/// its interval), in `ln E` ([`dcorr_eta_coord`] inverted).
 pub fn dcorr_grid_eta(e: usize) -> f32 {
-    if e.is_multiple_of(2) {
-        grid_eta(e / 2)
+    let c = if e <= 2 {
+        e as f32 / 4.0
     } else {
-        (grid_eta(e / 2) * grid_eta(e / 2 + 1)).sqrt()
-    }
+        (e - 1) as f32 / 2.0
+    };
+    let t = c / (ETA_N - 1) as f32;
+    (ETA_MIN.ln() + t * (ETA_MAX.ln() - ETA_MIN.ln())).exp()
 }
 
 /// Continuous node coordinate on the correction's index grid of the lobe
-/// table's index coordinate `c` ([`eta_coord`]), linear in `ln E`.
+/// table's index coordinate `c` ([`eta_coord`]), linear in `ln E` on each
+/// side of node 2 (the lobe table's coordinate 0.5).
 #[inline]
 fn dcorr_eta_coord(c: f32) -> f32 {
-    2.0 * c
+    if c < 0.5 { 4.0 * c } else { 2.0 * c + 1.0 }
 }
 
 /// Index of the stored pair of lobe roughness nodes `1 <= jx <= jy`.
