@@ -275,7 +275,7 @@ pub const DCORR_MAGIC: &[u8; 37] = b"MSBSDF-TABULATED-DIELECTRIC-ANISO-v7\n";
 /// Relative index of node `e` of the anisotropic correction: at the lobe
 /// table's index coordinate `e / 4` for `e <= 2` (nodes 1.05, 1.107,
 /// 1.166), `(e - 1) / 2` above (the lobe table's node or the midpoint of
-/// its interval), in `ln E` ([`dcorr_eta_coord`] inverted).
+/// its interval), in `ln E` (`dcorr_eta_coord` inverted).
 pub fn dcorr_grid_eta(e: usize) -> f32 {
     let c = if e <= 2 {
         e as f32 / 4.0
