@@ -277,13 +277,11 @@ pub const DCORR_MAGIC: &[u8; 37] = b"MSBSDF-TABULATED-DIELECTRIC-ANISO-v7\n";
 /// 1.166), `(e - 1) / 2` above (the lobe table's node or the midpoint of
 /// its interval), in `ln E` (`dcorr_eta_coord` inverted).
 pub fn dcorr_grid_eta(e: usize) -> f32 {
-    let c = if e <= 2 {
+    eta_at_coord(if e <= 2 {
         e as f32 / 4.0
     } else {
         (e - 1) as f32 / 2.0
-    };
-    let t = c / (ETA_N - 1) as f32;
-    (ETA_MIN.ln() + t * (ETA_MAX.ln() - ETA_MIN.ln())).exp()
+    })
 }
 
 /// Continuous node coordinate on the correction's index grid of the lobe
@@ -528,7 +526,14 @@ pub fn alpha_coord(alpha: f32) -> f32 {
 
 /// Relative index of node `e`.
 pub fn grid_eta(e: usize) -> f32 {
-    let t = e as f32 / (ETA_N - 1) as f32;
+    eta_at_coord(e as f32)
+}
+
+/// The relative index at the continuous node coordinate `c` of the lobe
+/// table's grid, uniform in `ln E` ([`eta_coord`] inverted): the lobe
+/// table's and the anisotropic correction's nodes.
+fn eta_at_coord(c: f32) -> f32 {
+    let t = c / (ETA_N - 1) as f32;
     (ETA_MIN.ln() + t * (ETA_MAX.ln() - ETA_MIN.ln())).exp()
 }
 
