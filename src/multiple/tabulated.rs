@@ -756,6 +756,24 @@ pub(crate) fn split_root(r: f32, n: usize) -> (usize, f32) {
     (i, x - i as f32)
 }
 
+/// [`split_root`] of four coordinates in SIMD lanes (each in `[0, 1]`):
+/// the lower nodes and the upper nodes' weights. The clamp to node `n - 2`
+/// is taken on the rounded coordinate before the rounding, in the lanes
+/// (a NaN lane gives node `n - 2`: the minimum returns its second operand
+/// for a NaN first one), the integer minimum after it keeps the nodes in
+/// range whatever the lanes hold.
+#[inline(always)]
+pub(crate) fn split_root4(r: Vec4, n: usize) -> ([usize; 4], Vec4) {
+    const MAGIC: f32 = 12_582_912.0;
+    let x = r * (n - 1) as f32;
+    let t = (x - 0.5).min(Vec4::splat((n - 2) as f32)) + MAGIC;
+    let f = x - (t - MAGIC);
+    let k = t
+        .to_array()
+        .map(|v| (v.to_bits().wrapping_sub(MAGIC.to_bits()) as usize).min(n - 2));
+    (k, f)
+}
+
 /// Index of the first float of a lobe cell.
 #[inline]
 pub const fn lobe_index(ndf: usize, a: usize, i: usize, j: usize) -> usize {

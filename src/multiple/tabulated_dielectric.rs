@@ -136,7 +136,7 @@ use crate::multiple::tabulated::{
 };
 use crate::multiple::tabulated::{
     DIELECTRIC_BLEND_S2, MAX_ALPHA, MU_N, alpha_proj2, cos_phi, cosine_sample, decode, ndf_index,
-    split, split_root, text_header,
+    split, split_root, split_root4, text_header,
 };
 use crate::ndf::Ndf;
 use crate::rng::Rng;
@@ -343,19 +343,21 @@ pub fn dcorr_header() -> &'static str {
     text_header(RAW_DCORR)
 }
 
-/// An anisotropic material's corners in the correction table: up to six
-/// blocks (three roughness corners of a triangle, see
-/// [`dcorr_corners`], times two index nodes) as byte offsets in the file
-/// (with [`CORR_MIRROR`] when the pair is stored as its transpose) with
-/// their weights (unused corners: offset of the first block, weight 0),
-/// the roughness square's first corner `jx * ALPHA_N + jy` and the step
-/// `dx * ALPHA_N + dy` to the triangle's middle corner (blocks `2 c` and
-/// `2 c + 1` are roughness corner `c`; their azimuth stretches are read
-/// by eval, [`DCorr::stretches`]), and the weight of the corners with an
-/// axis at roughness node 0 (which read 1).
+/// An anisotropic material's corners in the correction table: the three
+/// roughness corners of a triangle (see [`dcorr_corners`]) as the byte
+/// offset in the file of the corner's block at the lower index node (with
+/// [`CORR_MIRROR`] when the pair is stored as its transpose; the upper
+/// index node's block follows it, [`DCORR_BLOCK`] values on) with their
+/// weights (unused corners: offset of the first block, weight 0), the
+/// upper index node's weight `fe`, the roughness square's first corner
+/// `jx * ALPHA_N + jy` and the step `dx * ALPHA_N + dy` to the triangle's
+/// middle corner (their azimuth stretches are read by eval,
+/// [`DCorr::stretches`]), and the weight of the corners with an axis at
+/// roughness node 0 (which read 1).
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct DCorr {
-    corners: [(u32, f32); 6],
+    corners: [(u32, f32); 3],
+    fe: f32,
     square: u8,
     mid: u8,
     one: f32,
@@ -431,7 +433,8 @@ fn dcorr_corners(ndf: usize, ax: f32, ay: f32, eta: (usize, usize, f32)) -> DCor
     let (jy, _, fy) = split(alpha_coord(ay), ALPHA_N);
     let (e0, _, fe) = eta;
     let mut out = DCorr {
-        corners: [(HEADER_BYTES as u32, 0.0); 6],
+        corners: [(HEADER_BYTES as u32, 0.0); 3],
+        fe,
         // Both below ALPHA_N (split's nodes are at most ALPHA_N - 2).
         square: (jx * ALPHA_N + jy) as u8,
         mid: 0,
@@ -447,11 +450,8 @@ fn dcorr_corners(ndf: usize, ax: f32, ay: f32, eta: (usize, usize, f32)) -> DCor
             continue;
         }
         let (lo, hi, m) = stored_pair(a, b);
-        for (de, we) in [(0, 1.0 - fe), (1, fe)] {
-            let block =
-                ((ndf * DCORR_PAIRS + dcorr_pair(lo, hi)) * DCORR_ETA_N + e0 + de) * DCORR_BLOCK;
-            out.corners[2 * c + de] = ((HEADER_BYTES + 2 * block) as u32 | m, w * we);
-        }
+        let block = ((ndf * DCORR_PAIRS + dcorr_pair(lo, hi)) * DCORR_ETA_N + e0) * DCORR_BLOCK;
+        out.corners[c] = ((HEADER_BYTES + 2 * block) as u32 | m, w);
     }
     out
 }
@@ -463,52 +463,62 @@ fn dcorr_corners(ndf: usize, ax: f32, ay: f32, eta: (usize, usize, f32)) -> DCor
 #[inline]
 fn dcorr_dirs(rho: Vec4, w: Vec3) -> [AnisoDir; 3] {
     let (i0, fi) = split_root(aniso_mu_root(w.z.abs()), AN_MU);
-    let u = dcorr_phi4(diamond4(w, rho));
-    [0, 1, 2].map(|j| {
-        let (k0, fk) = split_root(u[j], AN_PHI);
-        AnisoDir { k0, fk, i0, fi }
+    let (k, fk) = split_root4(dcorr_phi4(diamond4(w, rho)), AN_PHI);
+    [0, 1, 2].map(|j| AnisoDir {
+        k0: k[j],
+        fk: fk[j],
+        i0,
+        fi,
     })
 }
 
 /// The correction `s` of a direction on `side` (0 thin, 1 dense) at its
-/// nodes `d` ([`dcorr_dirs`]): bilinear in azimuth and cosine, per corner
-/// the four nodes as two 4-byte reads (the cosine pairs of the two
+/// nodes `d` ([`dcorr_dirs`]): bilinear in azimuth and cosine and linear
+/// in the index, per roughness corner the four nodes of each of the two
+/// index nodes' blocks as two 4-byte reads (the cosine pairs of the two
 /// azimuth rows) converted in SIMD lanes, squared (the encoding,
 /// `tabulated::corr_decode`) and weighted (the azimuth weights per
-/// corner, the cosine weights, the same for all, once). 1 outside the
-/// file.
+/// corner; the cosine and index weights, the same for all, once). 1
+/// outside the file.
 #[inline]
 fn dcorr_at(c: &DCorr, side: usize, d: &[AnisoDir; 3]) -> f32 {
-    let mut acc = Vec4::ZERO;
-    for (j, &(b, w)) in c.corners.iter().enumerate() {
-        let d = &d[j / 2];
-        let mirror = b & CORR_MIRROR != 0;
-        let fk = d.fk;
-        // Lanes [a0, a1, b0, b1]: rows k and k + 1 of the read; mirrored,
-        // the row read first is the direction's upper one.
-        let (k, lanes) = if mirror {
-            (AN_PHI - 2 - d.k0, Vec4::new(fk, fk, 1.0 - fk, 1.0 - fk))
-        } else {
-            (d.k0, Vec4::new(1.0 - fk, 1.0 - fk, fk, fk))
-        };
+    // The two index nodes' sums.
+    let (mut acc0, mut acc1) = (Vec4::ZERO, Vec4::ZERO);
+    for (&(b, w), d) in c.corners.iter().zip(d) {
+        // Lanes [a0, a1, b0, b1]: rows k and k + 1 of the read, weights
+        // 1 - g and g. Mirrored (m = 1) the row read first is the
+        // direction's upper one: row AN_PHI - 2 - k0, g = 1 - fk; else
+        // row k0, g = fk (without branches).
+        let m = (b >> 31) as usize;
+        let k = (m * (AN_PHI - 2)).abs_diff(d.k0);
+        let g = (m as f32 - d.fk).abs();
+        let lanes = Vec4::new(1.0 - g, 1.0 - g, g, g);
         let at = (b & !CORR_MIRROR) as usize + 2 * (side * AN_PHI * AN_MU + k * AN_MU + d.i0);
+        // The lower index node's block at `at`, the upper one's
+        // `DCORR_BLOCK` values on.
         let Some(r) = RAW_DCORR
             .get(at..)
-            .and_then(|r| r.first_chunk::<{ 2 * AN_MU + 4 }>())
+            .and_then(|r| r.first_chunk::<{ 2 * DCORR_BLOCK + 2 * AN_MU + 4 }>())
         else {
             return 1.0;
         };
-        // The two cosine nodes of row k (the chunk's first 4 bytes) and
-        // of row k + 1 (its last 4).
-        let v = match (r.first_chunk::<4>(), r.last_chunk::<4>()) {
+        // The two cosine nodes of row k (a block's first 4 bytes) and of
+        // row k + 1 (4 bytes at 2 AN_MU).
+        let read = |o: usize| match (
+            r.get(o..).and_then(|x| x.first_chunk::<4>()),
+            r.get(o + 2 * AN_MU..).and_then(|x| x.first_chunk::<4>()),
+        ) {
             (Some(lo), Some(hi)) => u16x2x2(lo, hi),
             _ => Vec4::ZERO,
         };
-        acc += v * v * lanes * w;
+        let (v0, v1) = (read(0), read(2 * DCORR_BLOCK));
+        let lw = lanes * w;
+        acc0 += v0 * v0 * lw;
+        acc1 += v1 * v1 * lw;
     }
-    // The cosine weights, shared by the corners' nodes, once.
+    // The index and cosine weights, shared by the corners' nodes, once.
     let fi = d[0].fi;
-    let acc = acc * Vec4::new(1.0 - fi, fi, 1.0 - fi, fi);
+    let acc = (acc0 * (1.0 - c.fe) + acc1 * c.fe) * Vec4::new(1.0 - fi, fi, 1.0 - fi, fi);
     c.one + (acc.x + acc.y + acc.z + acc.w) * (CORR_MAX / (65535.0 * 65535.0))
 }
 
@@ -521,7 +531,15 @@ pub fn grid_alpha(a: usize) -> f32 {
 /// Continuous node coordinate of a roughness.
 #[inline]
 pub fn alpha_coord(alpha: f32) -> f32 {
-    (alpha / MAX_ALPHA).clamp(0.0, 1.0).sqrt() * (ALPHA_N - 1) as f32
+    alpha_root(alpha) * (ALPHA_N - 1) as f32
+}
+
+/// A roughness's coordinate in `[0, 1]` on the grids uniform in
+/// `sqrt(alpha)` (the lobe's and the scales'): `sqrt(alpha / MAX_ALPHA)`,
+/// clamped.
+#[inline(always)]
+fn alpha_root(alpha: f32) -> f32 {
+    (alpha / MAX_ALPHA).clamp(0.0, 1.0).sqrt()
 }
 
 /// Relative index of node `e`.
@@ -725,34 +743,42 @@ fn lobe_tri(ndf: usize, alpha: (usize, usize, f32), eta: (usize, usize, f32)) ->
     })
 }
 
-/// The scale table's triangle of a roughness and continuous index
-/// coordinate: indices of `(side 0, mu 0)` of each vertex.
+/// The scale table's triangle of a roughness ([`alpha_root`]) and an
+/// index coordinate in `[0, 1]` (`TabulatedDielectric::scale_eta`):
+/// indices of `(side 0, mu 0)` of each vertex.
 #[inline]
-fn scale_tri(ndf: usize, alpha: f32, eta_c: f32) -> Tri {
-    let (a0, _, fa) = split(
-        (alpha / MAX_ALPHA).clamp(0.0, 1.0).sqrt() * (SCALE_ALPHA_N - 1) as f32,
-        SCALE_ALPHA_N,
-    );
-    let (e0, _, fe) = split(eta_c, SCALE_ETA_N);
+fn scale_tri(ndf: usize, alpha_root: f32, eta_r: f32) -> Tri {
+    let (a0, fa) = split_root(alpha_root, SCALE_ALPHA_N);
+    let (e0, fe) = split_root(eta_r, SCALE_ETA_N);
     triangle(fa, fe).map(|((da, de), w)| (scale_index(ndf, a0 + da, e0 + de, 0, 0) as u32, w))
 }
 
-/// The furnace scale `s(side, mu)` at the scale triangle `t` (linear in
-/// `sqrt(mu)`).
+/// The product `s(side_i, mu_i) s(side_o, mu_o)` of the furnace scales of
+/// a pair's directions at the scale triangle `t` (each linear in
+/// `sqrt(mu)`), from the sides and `sqrt(mu)` of each: per corner the two
+/// directions' node pairs in SIMD lanes `[x_i, y_i, x_o, y_o]`, summed
+/// over the corners and interpolated once (the interpolation is linear).
 #[inline(always)]
-fn scale_at(t: &Tri, dense: bool, root_mu: f32) -> f32 {
-    let (i0, _, f) = split(root_mu * (SCALE_MU_N - 1) as f32, SCALE_MU_N);
-    let off = dense as usize * SCALE_MU_N + i0;
-    let mut s = 0.0;
-    for &(b, w) in t {
-        let [x, y] = SCALE
-            .get(b as usize + off..)
+fn scale_pair(t: &Tri, (dense_i, root_i): (bool, f32), (dense_o, root_o): (bool, f32)) -> f32 {
+    let (i0, fi) = split_root(root_i, SCALE_MU_N);
+    let (o0, fo) = split_root(root_o, SCALE_MU_N);
+    let (off_i, off_o) = (
+        dense_i as usize * SCALE_MU_N + i0,
+        dense_o as usize * SCALE_MU_N + o0,
+    );
+    let pair = |at: usize| {
+        SCALE
+            .get(at..)
             .and_then(|s| s.first_chunk::<2>())
             .copied()
-            .unwrap_or([0.0; 2]);
-        s += (x + (y - x) * f) * w;
+            .unwrap_or([0.0; 2])
+    };
+    let mut acc = Vec4::ZERO;
+    for &(b, w) in t {
+        let ([xi, yi], [xo, yo]) = (pair(b as usize + off_i), pair(b as usize + off_o));
+        acc += Vec4::new(xi, yi, xo, yo) * w;
     }
-    s
+    (acc.x + (acc.y - acc.x) * fi) * (acc.z + (acc.w - acc.z) * fo)
 }
 
 /// Largest furnace scale (the generator clamps the scales to `[0.25, 4]`).
@@ -947,15 +973,15 @@ fn series(v: Vec4, c: f32) -> f32 {
 fn ms_albedo(t: &Tri, dense: bool, mu_i: f32) -> (f32, f32) {
     let (i0, f) = split_root(mu_i.clamp(0.0, 1.0).sqrt(), MU_N);
     let at = LOBE_LEN + (dense as usize * MU_N + i0) * 2;
-    let (mut r, mut tr) = (0.0, 0.0);
+    // Lanes [r0, t0, r1, t1] summed over the corners, then interpolated
+    // in the cosine once (the interpolation is linear).
+    let mut acc = Vec4::ZERO;
     for &(n, w) in t {
         // Node start in the albedo block from its start in the lobe block.
         let b = n as usize / NODE_LEN * NODE_ALBEDO_LEN + at;
-        let [r0, t0, r1, t1] = floats::<4, 16>(RAW, b);
-        r += (r0 + (r1 - r0) * f) * w;
-        tr += (t0 + (t1 - t0) * f) * w;
+        acc += Vec4::from_array(floats::<4, 16>(RAW, b)) * w;
     }
-    (r, tr)
+    (acc.x + (acc.z - acc.x) * f, acc.y + (acc.w - acc.y) * f)
 }
 
 /// The tabulated microfacet BSDF with dielectric facets.
@@ -977,7 +1003,8 @@ pub struct TabulatedDielectric {
     /// `[side][mu]` in units of [`SCALE_STEP`] (the scale table's plane
     /// read once, at construction; zeros for an anisotropic one).
     scale: [u16; 2 * SCALE_MU_N],
-    /// Continuous scale-table coordinate of the index.
+    /// The index's coordinate on the scale table's grid, in `[0, 1]`
+    /// (node `e` at `e / (SCALE_ETA_N - 1)`).
     scale_eta: f32,
     anisotropic: bool,
     /// The anisotropic furnace correction's corners (anisotropic
@@ -1000,7 +1027,7 @@ impl TabulatedDielectric {
         let alpha_rms = (0.5 * (ndf.alpha_x * ndf.alpha_x + ndf.alpha_y * ndf.alpha_y)).sqrt();
         let alpha = split(alpha_coord(alpha_rms), ALPHA_N);
         let eta = split(eta_coord(e), ETA_N);
-        let scale_eta = eta_coord(e) / (ETA_N - 1) as f32 * (SCALE_ETA_N - 1) as f32;
+        let scale_eta = eta_coord(e) * (1.0 / (ETA_N - 1) as f32);
         TabulatedDielectric {
             single: Single::new(ndf, facet, G2Form::HeightCorrelated),
             ndf,
@@ -1014,7 +1041,7 @@ impl TabulatedDielectric {
             scale: if ndf.alpha_x != ndf.alpha_y {
                 [0; 2 * SCALE_MU_N]
             } else {
-                node_scales(&scale_tri(ndf_index, alpha_rms, scale_eta))
+                node_scales(&scale_tri(ndf_index, alpha_root(alpha_rms), scale_eta))
             },
             scale_eta,
             anisotropic: ndf.alpha_x != ndf.alpha_y,
@@ -1116,11 +1143,15 @@ impl TabulatedDielectric {
         );
         let b = DIELECTRIC_BLEND_S2;
         let a = (0.5 * (alpha_proj2(ax2, ay2, wi, b) + alpha_proj2(ax2, ay2, wo, b))).sqrt();
-        let plane = lobe_tri(self.ndf_index, split(alpha_coord(a), ALPHA_N), self.eta);
+        // Both grids are uniform in sqrt(alpha): the root once, nodes by
+        // rounding (`split_root`).
+        let root = alpha_root(a);
+        let (a0, fa) = split_root(root, ALPHA_N);
+        let plane = lobe_tri(self.ndf_index, (a0, a0 + 1, fa), self.eta);
         if !scaled {
             return (plane, 1.0);
         }
-        let sp = scale_tri(self.ndf_index, a, self.scale_eta);
+        let sp = scale_tri(self.ndf_index, root, self.scale_eta);
         let corr = match &self.dcorr {
             Some(c) => {
                 let rho = c.stretches();
@@ -1129,10 +1160,7 @@ impl TabulatedDielectric {
             }
             None => 1.0,
         };
-        (
-            plane,
-            scale_at(&sp, dense, ri) * scale_at(&sp, dense_o, ro) * corr,
-        )
+        (plane, scale_pair(&sp, (dense, ri), (dense_o, ro)) * corr)
     }
 
     /// The furnace scale of an isotropic material on one side (`dense`) at
