@@ -1,6 +1,10 @@
 //! Time per call of eval, sample and pdf through the C entry points
 //! (the functions a C renderer links), single thread. Prints the median of
-//! several runs in ns per call.
+//! several runs in ns per call, and for TABULATED the ratios to SINGLE's
+//! times on the same material (issue 16's eval <= 1.5x and sample <= 2x;
+//! wall clock on a shared machine: the instruction counts of
+//! `gen_tabulated -- --dielectric-ir` and `gen_tabulated_aniso -- --ir`
+//! are the load-independent figures).
 //!
 //! `cargo bench --bench capi` (add `-- MODEL` to filter by name).
 
@@ -11,6 +15,13 @@ use std::time::Instant;
 struct Case {
     name: &'static str,
     desc: msbsdf_material_desc,
+}
+
+/// `d` with anisotropic roughness `(ax, ay)`.
+fn aniso(mut d: msbsdf_material_desc, ax: f32, ay: f32) -> msbsdf_material_desc {
+    d.alpha_x = ax;
+    d.alpha_y = ay;
+    d
 }
 
 fn gold(model: u32, alpha: f32) -> msbsdf_material_desc {
@@ -80,6 +91,30 @@ fn main() {
                 ..gold(MSBSDF_MODEL_SINGLE, 0.5)
             },
         },
+        Case {
+            name: "TABULATED GGX gold alpha 0.5",
+            desc: gold(MSBSDF_MODEL_TABULATED, 0.5),
+        },
+        Case {
+            name: "TABULATED GGX glass alpha 0.5",
+            desc: glass(MSBSDF_MODEL_TABULATED, 0.5),
+        },
+        Case {
+            name: "SINGLE GGX gold (0.1, 0.6)",
+            desc: aniso(gold(MSBSDF_MODEL_SINGLE, 0.5), 0.1, 0.6),
+        },
+        Case {
+            name: "TABULATED GGX gold (0.1, 0.6)",
+            desc: aniso(gold(MSBSDF_MODEL_TABULATED, 0.5), 0.1, 0.6),
+        },
+        Case {
+            name: "SINGLE GGX glass (0.1, 0.6)",
+            desc: aniso(glass(MSBSDF_MODEL_SINGLE, 0.5), 0.1, 0.6),
+        },
+        Case {
+            name: "TABULATED GGX glass (0.1, 0.6)",
+            desc: aniso(glass(MSBSDF_MODEL_TABULATED, 0.5), 0.1, 0.6),
+        },
     ];
     // Fixed direction pairs spread over the hemisphere.
     let mut rng = msbsdf_rng::default();
@@ -108,9 +143,11 @@ fn main() {
         })
         .collect();
     println!(
-        "{:<34} {:>10} {:>10} {:>10}",
+        "{:<34} {:>10} {:>10} {:>10}  ratios to SINGLE",
         "material", "eval ns", "sample ns", "pdf ns"
     );
+    // SINGLE's times by the rest of the case name (the material).
+    let mut single: Vec<(&str, [f64; 3])> = Vec::new();
     for case in cases
         .iter()
         .filter(|c| filter.as_deref().is_none_or(|f| c.name.contains(f)))
@@ -139,7 +176,20 @@ fn main() {
             let (wi, wo) = dirs[i & 1023];
             black_box(msbsdf_pdf(m, wi, wo, &mut p));
         });
-        println!("{:<34} {eval:>10.1} {sample:>10.1} {pdf:>10.1}", case.name);
+        let material = case.name.split_once(' ').map_or("", |(_, m)| m);
+        let ratios = match single.iter().find(|(m, _)| *m == material) {
+            Some((_, [e, s, p])) if case.name.starts_with("TABULATED") => {
+                format!("  {:.2}x {:.2}x {:.2}x", eval / e, sample / s, pdf / p)
+            }
+            _ => String::new(),
+        };
+        if case.name.starts_with("SINGLE") {
+            single.push((material, [eval, sample, pdf]));
+        }
+        println!(
+            "{:<34} {eval:>10.1} {sample:>10.1} {pdf:>10.1}{ratios}",
+            case.name
+        );
         // SAFETY: created above, not used afterwards.
         unsafe { msbsdf_material_destroy(m) };
     }
