@@ -178,31 +178,42 @@ fn anisotropic_furnace_at_correction_nodes() {
 /// The anisotropic furnace at the roughness nodes of
 /// `anisotropic_furnace_at_correction_nodes` and indices halfway in `ln E`
 /// between the correction's index nodes (`tabulated_dielectric::dcorr_grid_eta`:
-/// 12, the lobe table's 6, the midpoints of its intervals and the first
-/// quarter point of the lowest, 1.107), the same directions: what the linear
+/// 14, the lobe table's 6, the midpoints of its intervals, the quarter
+/// points of the lowest, 1.107 and 1.229, and its first eighth point,
+/// 1.078), the same directions: what the linear
 /// interpolation in `ln E` leaves, where it is largest. With 7 index nodes (the lobe table's 6 and the midpoint
 /// 1.166 of the lowest interval; until session 13) the worst at 1.15, 1.5,
 /// 1.8 and 2.7 was 0.0170, 0.0220, 0.0092 and 0.0057 (all Beckmann or GGX
 /// (0.28, 1.125), 1.5 from inside at 60 degrees along x); with 11, at the
 /// same indices, 0.0170, 0.0078, 0.0030 and 0.0029, and halfway between
 /// 1.05 and 1.166 (1.107) 0.0400, as with 7 (the old test's 1.15 sat
-/// next to the node 1.166). Measured here with 12 (halfway 1.078, 1.136,
+/// next to the node 1.166). With 12 (session 13; halfway 1.078, 1.136,
 /// 1.229, 1.516, 1.870 and 2.563): 0.0323, 0.0095, 0.0169, 0.0078,
 /// 0.0059, 0.0037 (the factors move fastest with the index near 1.05).
+/// Measured here with 14 (session 14; halfway 1.064, 1.092, 1.136,
+/// 1.197, 1.262, 1.516, 1.870 and 2.563): 0.0136, 0.0102, 0.0095, 0.0088,
+/// 0.0171, 0.0078, 0.0059, 0.0037. The worst, Beckmann (0.125, 0.5) from
+/// inside at 85 degrees along y at 1.262, is +0.13% at the node 1.229,
+/// +1.0% at 1.241, +1.7% at 1.263 and +0.03% at the node 1.297: it rises
+/// steeply just above the node, while between 1.166 and 1.229 it stays
+/// within 0.4% (the isotropic furnace scales' grid has a node at 1.229
+/// too; not investigated further).
 #[test]
 fn anisotropic_furnace_between_index_nodes() {
     let (a3, a6, a2, a4) = (grid_alpha(3), grid_alpha(6), grid_alpha(2), grid_alpha(4));
     let mut failed = String::new();
-    // Halfway between nodes 0-1, 1-2 and 2-3 (the lowest lobe interval),
-    // 4-5, 6-7 and 9-10.
+    // Halfway between nodes 0-1 to 4-5 (the lowest lobe interval), 6-7,
+    // 8-9 and 11-12.
     let mid = |e: usize| (dcorr_grid_eta(e) * dcorr_grid_eta(e + 1)).sqrt();
     for (eta, bound) in [
-        (mid(0), 0.035f64),
+        (mid(0), 0.015f64),
         (mid(1), 0.012),
-        (mid(2), 0.02),
-        (mid(4), 0.01),
-        (mid(6), 0.007),
-        (mid(9), 0.005),
+        (mid(2), 0.011),
+        (mid(3), 0.01),
+        (mid(4), 0.019),
+        (mid(6), 0.01),
+        (mid(8), 0.007),
+        (mid(11), 0.005),
     ] {
         let (report, worst) = aniso_furnace(&[(a3, a6), (a2, a4)], eta);
         println!("eta {eta:.4}: worst |albedo - 1| = {worst:.4}");

@@ -755,7 +755,8 @@ fn solve<R: AsRef<[f64]>>(m: &[R], target: &[f64]) -> (Vec<f32>, Stats) {
 /// furnace correction of TABULATED's dielectric tier: per NDF, pair of the
 /// lobe table's roughness nodes `1 <= jx <= jy` (9 per axis), index node
 /// (`DCORR_ETA_N`: the lobe table's 6, the midpoints in `ln E` of its
-/// intervals and the first quarter point of the lowest, 1.107) and
+/// intervals, the quarter points of the lowest, 1.107 and 1.229, and its
+/// first eighth point, 1.078) and
 /// side, on `AN_PHI` azimuths (`tabulated::dcorr_dir`) and
 /// ENERGY_COMPENSATED's cosine grid, factors
 /// `s` such that the lobe (read at the pair's effective roughness, with
@@ -809,11 +810,11 @@ fn dielectric(args: &[String], quad: usize) {
     }
     let command: Vec<String> = args.iter().skip(1).cloned().collect();
     let header = format!(
-        "DIELECTRIC ANISO_CORRECTION v8 (MSBSDF_MODEL_TABULATED, dielectric facets): factors s \
+        "DIELECTRIC ANISO_CORRECTION v9 (MSBSDF_MODEL_TABULATED, dielectric facets): factors s \
          per [ndf: Beckmann, GGX][pair of the lobe table's roughness nodes 1 <= jx <= jy <= \
          {}][index node: {DCORR_ETA_N}, in ln E from {ETA_MIN} to {ETA_MAX}: the lobe \
-         table's nodes, the midpoints of its intervals and the first quarter point of the lowest \
-         (tabulated_dielectric::dcorr_grid_eta)][side: thin, \
+         table's nodes, the midpoints of its intervals, the quarter points of the lowest and \
+         its first eighth point (tabulated_dielectric::dcorr_grid_eta)][side: thin, \
          dense][phi: {AN_PHI}][mu: {AN_MU}] \
          (azimuth: uniform nodes from 0 to 1 of u = c - 0.4637 c (1 - c) (1 - 2 c), c = rho \
          |y| / (|x| + rho |y|) the diamond angle stretched by the block's rho = sqrt(jy / jx) \

@@ -97,8 +97,8 @@
 //! (`data/tabulated_aniso_dielectric.bin`, `gen_tabulated_aniso --
 //! --dielectric`): per NDF, pair of the lobe table's roughness nodes,
 //! index node of its own ([`DCORR_ETA_N`]: the lobe table's index nodes,
-//! the midpoints of its intervals and the first quarter point, 1.107)
-//! and side, on 7 azimuths
+//! the midpoints of its intervals, the quarter points of the lowest and
+//! its first eighth point) and side, on 7 azimuths
 //! (uniform in `tabulated::dcorr_phi` of the diamond angle, stretched per
 //! block towards its smoother axis by [`dcorr_stretch`]: no
 //! `atan2`)
@@ -110,10 +110,11 @@
 //! furnace is not within 0.5% everywhere: 0.31% at roughness and index
 //! nodes, up to 1.95% on `tests/tabulated_dielectric.rs`'s directions
 //! (Beckmann (0.3, 1) glass 1.5 from outside at 85 degrees, between
-//! roughness nodes), 3.2% between the two lowest index nodes (1.05 and
-//! 1.107), up to 3.0% at 200 random anisotropic materials, indices and
-//! directions to 89 degrees (`gen_tabulated_aniso -- --dielectric-random`;
-//! 90% of them within 1.0%).
+//! roughness nodes), 1.7% between index nodes (1.229 and 1.295; 1.4%
+//! between the two lowest, 1.05 and 1.078), up to 3.0% at 200 random
+//! anisotropic materials, indices and directions to 89 degrees
+//! (`gen_tabulated_aniso -- --dielectric-random`; 90% of them within
+//! 1.0%).
 //!
 //! ## Sampling
 //!
@@ -255,41 +256,54 @@ pub const DCORR_PAIRS: usize = (ALPHA_N - 1) * ALPHA_N / 2;
 pub const DCORR_BLOCK: usize = 2 * AN_PHI * AN_MU;
 /// Relative index nodes of the anisotropic furnace correction: the lobe
 /// table's [`ETA_N`] (where the lobe's linear interpolation in `ln E` has
-/// its kinks) and the midpoints in `ln E` of its intervals, and the first
-/// quarter point of the lowest interval (1.05 to 1.295), 1.107: 12 nodes,
-/// uniform in `ln E` above 1.166 and twice as dense below
+/// its kinks) and the midpoints in `ln E` of its intervals, the quarter
+/// points of the lowest interval (1.05 to 1.295) and the eighth point
+/// 1.078: 14 nodes, uniform in `ln E` at the lobe table's coordinate step
+/// 1/2 above 1.295, 1/4 from 1.107 to 1.295 and 1/8 below
 /// ([`dcorr_grid_eta`]). The factors move with the index steeply enough
 /// that linear interpolation over the lobe table's 6 left 2.2% of albedo
 /// between nodes at 1.5 (7 nodes, with the midpoint of the lowest
 /// interval, until session 13), and fastest near 1 (4% halfway between
-/// 1.05 and 1.166 with 11 uniform nodes).
-pub const DCORR_ETA_N: usize = 2 * ETA_N;
+/// 1.05 and 1.166 with 11 uniform nodes; 3.2% halfway between 1.05 and
+/// 1.107 and 1.7% between 1.166 and 1.295 with 12).
+pub const DCORR_ETA_N: usize = 2 * ETA_N + 2;
 /// Values of the correction table `[ndf][pair][eta][side][phi][mu]`.
 pub const DCORR_LEN: usize = NDF_N * DCORR_PAIRS * DCORR_ETA_N * DCORR_BLOCK;
 /// Size of the correction file: a text header of [`HEADER_BYTES`] and
 /// [`DCORR_LEN`] little-endian `u16` (`tabulated::corr_encode`).
 pub const DCORR_FILE_BYTES: usize = HEADER_BYTES + 2 * DCORR_LEN;
 /// First bytes of the correction file.
-pub const DCORR_MAGIC: &[u8; 37] = b"MSBSDF-TABULATED-DIELECTRIC-ANISO-v7\n";
+pub const DCORR_MAGIC: &[u8; 37] = b"MSBSDF-TABULATED-DIELECTRIC-ANISO-v8\n";
 
 /// Relative index of node `e` of the anisotropic correction: at the lobe
-/// table's index coordinate `e / 4` for `e <= 2` (nodes 1.05, 1.107,
-/// 1.166), `(e - 1) / 2` above (the lobe table's node or the midpoint of
-/// its interval), in `ln E` (`dcorr_eta_coord` inverted).
+/// table's index coordinate `e / 8` for `e <= 2` (nodes 1.05, 1.078,
+/// 1.107), `1 / 4 + (e - 2) / 4` for `2 <= e <= 5` (1.166, 1.229, 1.295),
+/// `1 + (e - 5) / 2` above (the lobe table's node or the midpoint of its
+/// interval), in `ln E` (`dcorr_eta_coord` inverted).
 pub fn dcorr_grid_eta(e: usize) -> f32 {
-    eta_at_coord(if e <= 2 {
-        e as f32 / 4.0
+    let e = e as f32;
+    eta_at_coord(if e <= 2.0 {
+        e / 8.0
+    } else if e <= 5.0 {
+        0.25 + (e - 2.0) / 4.0
     } else {
-        (e - 1) as f32 / 2.0
+        1.0 + (e - 5.0) / 2.0
     })
 }
 
 /// Continuous node coordinate on the correction's index grid of the lobe
-/// table's index coordinate `c` ([`eta_coord`]), linear in `ln E` on each
-/// side of node 2 (the lobe table's coordinate 0.5).
+/// table's index coordinate `c` ([`eta_coord`]), linear in `ln E` between
+/// nodes 2 and 5 (the lobe table's coordinates 1/4 and 1) and on either
+/// side of them.
 #[inline]
 fn dcorr_eta_coord(c: f32) -> f32 {
-    if c < 0.5 { 4.0 * c } else { 2.0 * c + 1.0 }
+    if c < 0.25 {
+        8.0 * c
+    } else if c < 1.0 {
+        4.0 * c + 1.0
+    } else {
+        2.0 * c + 3.0
+    }
 }
 
 /// Index of the stored pair of lobe roughness nodes `1 <= jx <= jy`.
@@ -1354,6 +1368,39 @@ mod tests {
                     }
                 }
             }
+        }
+    }
+
+    /// The correction's index nodes and eval's coordinate on them agree:
+    /// each node's index maps back to its own coordinate (within 2e-5
+    /// nodes, f32 `ln` and `exp`), the nodes increase from `ETA_MIN` to
+    /// `ETA_MAX`, the coordinate is continuous at the rule's two joints,
+    /// and an index halfway in `ln E` between nodes reads halfway between
+    /// them. Fails when one side of the pair is edited alone.
+    #[test]
+    fn correction_index_nodes_and_coordinate_agree() {
+        let mut last = 0.0;
+        for e in 0..DCORR_ETA_N {
+            let eta = dcorr_grid_eta(e);
+            assert!(eta > last, "node {e}: {eta} after {last}");
+            last = eta;
+            let c = dcorr_eta_coord(eta_coord(eta));
+            assert!((c - e as f32).abs() < 2e-5, "node {e} ({eta}) reads {c}");
+            if e + 1 < DCORR_ETA_N {
+                let mid = (eta * dcorr_grid_eta(e + 1)).sqrt();
+                let c = dcorr_eta_coord(eta_coord(mid));
+                assert!(
+                    (c - e as f32 - 0.5).abs() < 1e-4,
+                    "between {e} and {}: {c}",
+                    e + 1
+                );
+            }
+        }
+        assert!((dcorr_grid_eta(0) - ETA_MIN).abs() < 1e-6);
+        assert!((dcorr_grid_eta(DCORR_ETA_N - 1) - ETA_MAX).abs() < 1e-5);
+        for joint in [0.25f32, 1.0] {
+            let (lo, hi) = (dcorr_eta_coord(joint - 1e-6), dcorr_eta_coord(joint + 1e-6));
+            assert!((hi - lo).abs() < 1e-4, "joint {joint}: {lo} / {hi}");
         }
     }
 
