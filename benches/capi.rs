@@ -13,7 +13,7 @@ use std::hint::black_box;
 use std::time::Instant;
 
 struct Case {
-    name: &'static str,
+    name: String,
     desc: msbsdf_material_desc,
 }
 
@@ -75,47 +75,40 @@ fn time(runs: usize, n: usize, mut f: impl FnMut(usize)) -> f64 {
 
 fn main() {
     let filter = std::env::args().skip(1).find(|a| !a.starts_with('-'));
-    let cases = [
-        Case {
-            name: "SINGLE GGX gold alpha 0.5",
-            desc: gold(MSBSDF_MODEL_SINGLE, 0.5),
-        },
-        Case {
-            name: "SINGLE GGX glass alpha 0.5",
-            desc: glass(MSBSDF_MODEL_SINGLE, 0.5),
-        },
-        Case {
-            name: "SINGLE Beckmann gold alpha 0.5",
-            desc: msbsdf_material_desc {
+    // Each material with SINGLE and then TABULATED (whose row gives the
+    // ratios to SINGLE's).
+    let materials = [
+        ("GGX gold alpha 0.5", gold(MSBSDF_MODEL_SINGLE, 0.5)),
+        ("GGX glass alpha 0.5", glass(MSBSDF_MODEL_SINGLE, 0.5)),
+        (
+            "Beckmann gold alpha 0.5",
+            msbsdf_material_desc {
                 ndf: MSBSDF_NDF_BECKMANN,
                 ..gold(MSBSDF_MODEL_SINGLE, 0.5)
             },
-        },
-        Case {
-            name: "TABULATED GGX gold alpha 0.5",
-            desc: gold(MSBSDF_MODEL_TABULATED, 0.5),
-        },
-        Case {
-            name: "TABULATED GGX glass alpha 0.5",
-            desc: glass(MSBSDF_MODEL_TABULATED, 0.5),
-        },
-        Case {
-            name: "SINGLE GGX gold (0.1, 0.6)",
-            desc: aniso(gold(MSBSDF_MODEL_SINGLE, 0.5), 0.1, 0.6),
-        },
-        Case {
-            name: "TABULATED GGX gold (0.1, 0.6)",
-            desc: aniso(gold(MSBSDF_MODEL_TABULATED, 0.5), 0.1, 0.6),
-        },
-        Case {
-            name: "SINGLE GGX glass (0.1, 0.6)",
-            desc: aniso(glass(MSBSDF_MODEL_SINGLE, 0.5), 0.1, 0.6),
-        },
-        Case {
-            name: "TABULATED GGX glass (0.1, 0.6)",
-            desc: aniso(glass(MSBSDF_MODEL_TABULATED, 0.5), 0.1, 0.6),
-        },
+        ),
+        (
+            "GGX gold (0.1, 0.6)",
+            aniso(gold(MSBSDF_MODEL_SINGLE, 0.5), 0.1, 0.6),
+        ),
+        (
+            "GGX glass (0.1, 0.6)",
+            aniso(glass(MSBSDF_MODEL_SINGLE, 0.5), 0.1, 0.6),
+        ),
     ];
+    let cases: Vec<Case> = materials
+        .iter()
+        .flat_map(|&(material, desc)| {
+            [
+                ("SINGLE", MSBSDF_MODEL_SINGLE),
+                ("TABULATED", MSBSDF_MODEL_TABULATED),
+            ]
+            .map(|(model_name, model)| Case {
+                name: format!("{model_name} {material}"),
+                desc: msbsdf_material_desc { model, ..desc },
+            })
+        })
+        .collect();
     // Fixed direction pairs spread over the hemisphere.
     let mut rng = msbsdf_rng::default();
     // SAFETY: rng is a valid local.
