@@ -757,12 +757,13 @@ fn lobe_tri(ndf: usize, alpha: (usize, usize, f32), eta: (usize, usize, f32)) ->
     })
 }
 
-/// The scale table's triangle of a roughness ([`alpha_root`]) and an
-/// index coordinate in `[0, 1]` (`TabulatedDielectric::scale_eta`):
-/// indices of `(side 0, mu 0)` of each vertex.
+/// The scale table's triangle of a roughness's coordinate `root`
+/// ([`alpha_root`]) and an index coordinate `eta_r` in `[0, 1]`
+/// (`TabulatedDielectric::scale_eta`): indices of `(side 0, mu 0)` of
+/// each vertex.
 #[inline]
-fn scale_tri(ndf: usize, alpha_root: f32, eta_r: f32) -> Tri {
-    let (a0, fa) = split_root(alpha_root, SCALE_ALPHA_N);
+fn scale_tri(ndf: usize, root: f32, eta_r: f32) -> Tri {
+    let (a0, fa) = split_root(root, SCALE_ALPHA_N);
     let (e0, fe) = split_root(eta_r, SCALE_ETA_N);
     triangle(fa, fe).map(|((da, de), w)| (scale_index(ndf, a0 + da, e0 + de, 0, 0) as u32, w))
 }
