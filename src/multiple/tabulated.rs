@@ -740,6 +740,11 @@ pub fn split(x: f32, n: usize) -> (usize, usize, f32) {
     (i, i + 1, x - i as f32)
 }
 
+/// `1.5 * 2^23`: added to a float in `[-2^22, 2^22]`, it leaves the nearest
+/// integer (ties to even) in the low mantissa bits ([`split_root`],
+/// [`split_root4`]).
+const ROUND: f32 = 12_582_912.0;
+
 /// [`split`] of `r (n - 1)` for `r` in `[0, 1]` (the square root of a
 /// cosine), as the lower node and the weight of the upper one, without the
 /// clamp and the saturating float-to-integer cast: `r (n - 1) - 1/2` is
@@ -748,11 +753,10 @@ pub fn split(x: f32, n: usize) -> (usize, usize, f32) {
 /// linear interpolation).
 #[inline(always)]
 pub(crate) fn split_root(r: f32, n: usize) -> (usize, f32) {
-    const MAGIC: f32 = 12_582_912.0;
     let x = r * (n - 1) as f32;
-    let t = (x - 0.5) + MAGIC;
-    // t >= MAGIC for x >= 0; a NaN gives some index, clamped.
-    let i = (t.to_bits().wrapping_sub(MAGIC.to_bits()) as usize).min(n - 2);
+    let t = (x - 0.5) + ROUND;
+    // t >= ROUND for x >= 0; a NaN gives some index, clamped.
+    let i = (t.to_bits().wrapping_sub(ROUND.to_bits()) as usize).min(n - 2);
     (i, x - i as f32)
 }
 
@@ -764,13 +768,12 @@ pub(crate) fn split_root(r: f32, n: usize) -> (usize, f32) {
 /// range whatever the lanes hold.
 #[inline(always)]
 pub(crate) fn split_root4(r: Vec4, n: usize) -> ([usize; 4], Vec4) {
-    const MAGIC: f32 = 12_582_912.0;
     let x = r * (n - 1) as f32;
-    let t = (x - 0.5).min(Vec4::splat((n - 2) as f32)) + MAGIC;
-    let f = x - (t - MAGIC);
+    let t = (x - 0.5).min(Vec4::splat((n - 2) as f32)) + ROUND;
+    let f = x - (t - ROUND);
     let k = t
         .to_array()
-        .map(|v| (v.to_bits().wrapping_sub(MAGIC.to_bits()) as usize).min(n - 2));
+        .map(|v| (v.to_bits().wrapping_sub(ROUND.to_bits()) as usize).min(n - 2));
     (k, f)
 }
 

@@ -260,7 +260,7 @@ pub const DCORR_BLOCK: usize = 2 * AN_PHI * AN_MU;
 /// points of the lowest interval (1.05 to 1.295) and the eighth point
 /// 1.078: 14 nodes, uniform in `ln E` at the lobe table's coordinate step
 /// 1/2 above 1.295, 1/4 from 1.107 to 1.295 and 1/8 below
-/// ([`dcorr_grid_eta`]). The factors move with the index steeply enough
+/// (`DCORR_KNOT_NODE`). The factors move with the index steeply enough
 /// that linear interpolation over the lobe table's 6 left 2.2% of albedo
 /// between nodes at 1.5 (7 nodes, with the midpoint of the lowest
 /// interval, until session 13), and fastest near 1 (4% halfway between
@@ -275,35 +275,69 @@ pub const DCORR_FILE_BYTES: usize = HEADER_BYTES + 2 * DCORR_LEN;
 /// First bytes of the correction file.
 pub const DCORR_MAGIC: &[u8; 37] = b"MSBSDF-TABULATED-DIELECTRIC-ANISO-v8\n";
 
-/// Relative index of node `e` of the anisotropic correction: at the lobe
-/// table's index coordinate `e / 8` for `e <= 2` (nodes 1.05, 1.078,
-/// 1.107), `1 / 4 + (e - 2) / 4` for `2 <= e <= 5` (1.166, 1.229, 1.295),
-/// `1 + (e - 5) / 2` above (the lobe table's node or the midpoint of its
-/// interval), in `ln E` (`dcorr_eta_coord` inverted).
-pub fn dcorr_grid_eta(e: usize) -> f32 {
-    let e = e as f32;
-    eta_at_coord(if e <= 2.0 {
-        e / 8.0
-    } else if e <= 5.0 {
-        0.25 + (e - 2.0) / 4.0
+/// The anisotropic correction's index grid as knots of a piecewise
+/// linear map between its node coordinate ([`DCORR_KNOT_NODE`]) and the
+/// lobe table's index coordinate ([`DCORR_KNOT_LOBE`], [`eta_coord`]),
+/// both linear in `ln E`: lobe coordinate step 1/8 up to node 2 (1.05,
+/// 1.078, 1.107), 1/4 up to node 5 (1.166, 1.229, 1.295), 1/2 above (the
+/// lobe table's nodes and the midpoints of its intervals). Both
+/// directions of the map read these knots ([`dcorr_grid_eta`],
+/// `dcorr_eta_coord`).
+const DCORR_KNOT_NODE: [f32; 4] = [0.0, 2.0, 5.0, (DCORR_ETA_N - 1) as f32];
+/// The lobe table's index coordinates of the knots [`DCORR_KNOT_NODE`].
+const DCORR_KNOT_LOBE: [f32; 4] = [0.0, 0.25, 1.0, (ETA_N - 1) as f32];
+
+const _: () = assert!(
+    (DCORR_ETA_N - 1 - 5) == 2 * (ETA_N - 1 - 1),
+    "the knots' last segment has the lobe coordinate step 1/2"
+);
+
+/// The slopes `(ys[i + 1] - ys[i]) / (xs[i + 1] - xs[i])` of the segments
+/// between knots, at compile time.
+const fn knot_slopes(xs: &[f32; 4], ys: &[f32; 4]) -> [f32; 3] {
+    let mut out = [0.0; 3];
+    let mut i = 0;
+    while i < 3 {
+        out[i] = (ys[i + 1] - ys[i]) / (xs[i + 1] - xs[i]);
+        i += 1;
+    }
+    out
+}
+
+/// The piecewise linear map through the knots `(xs[i], ys[i])` with the
+/// segments' `slopes` ([`knot_slopes`]) at `x` (the end segments
+/// extended).
+#[inline]
+fn knot_map(x: f32, xs: &[f32; 4], ys: &[f32; 4], slopes: &[f32; 3]) -> f32 {
+    let i = if x < xs[1] {
+        0
+    } else if x < xs[2] {
+        1
     } else {
-        1.0 + (e - 5.0) / 2.0
-    })
+        2
+    };
+    ys[i] + (x - xs[i]) * slopes[i]
+}
+
+/// Relative index of node `e` of the anisotropic correction (its knots
+/// `DCORR_KNOT_NODE`, in `ln E`).
+pub fn dcorr_grid_eta(e: usize) -> f32 {
+    const SLOPES: [f32; 3] = knot_slopes(&DCORR_KNOT_NODE, &DCORR_KNOT_LOBE);
+    eta_at_coord(knot_map(
+        e as f32,
+        &DCORR_KNOT_NODE,
+        &DCORR_KNOT_LOBE,
+        &SLOPES,
+    ))
 }
 
 /// Continuous node coordinate on the correction's index grid of the lobe
-/// table's index coordinate `c` ([`eta_coord`]), linear in `ln E` between
-/// nodes 2 and 5 (the lobe table's coordinates 1/4 and 1) and on either
-/// side of them.
+/// table's index coordinate `c` ([`eta_coord`]; [`dcorr_grid_eta`]
+/// inverted).
 #[inline]
 fn dcorr_eta_coord(c: f32) -> f32 {
-    if c < 0.25 {
-        8.0 * c
-    } else if c < 1.0 {
-        4.0 * c + 1.0
-    } else {
-        2.0 * c + 3.0
-    }
+    const SLOPES: [f32; 3] = knot_slopes(&DCORR_KNOT_LOBE, &DCORR_KNOT_NODE);
+    knot_map(c, &DCORR_KNOT_LOBE, &DCORR_KNOT_NODE, &SLOPES)
 }
 
 /// Index of the stored pair of lobe roughness nodes `1 <= jx <= jy`.
