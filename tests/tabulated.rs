@@ -368,6 +368,9 @@ fn suite_error_against_reference_values() {
     // 0.0285, copper 0.0212 -> 0.0236, aluminium 0.0218 -> 0.0240;
     // Beckmann 0.014-0.018 -> 0.013-0.017; class 0.0119 -> 0.0121. AUTO's
     // default tolerance 0.03 still takes TABULATED for these materials.
+    // Beckmann's peaked factor over its proxy (session 15,
+    // `tabulated::CORR_PROXY_V`): Beckmann 0.013-0.017 -> 0.012-0.015;
+    // the same proxy for GGX took gold to 0.0295, so GGX has none.
     assert!(worst_aniso_ggx < 0.029, "{report}");
     assert!(worst_aniso < 0.03, "{report}");
 }

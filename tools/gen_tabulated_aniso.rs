@@ -50,9 +50,9 @@ use msbsdf::multiple::compensation::{
 };
 use msbsdf::multiple::compensation_aniso_tables::{AN_A, AN_MU, AN_PHI, CONDUCTOR_E_ANISO};
 use msbsdf::multiple::tabulated::{
-    CORR_A, CORR_BLOCK, CORR_LEN, CORR_MAGIC, CORR_MAX, CORR_PAIR_MAX, CORR_PHI, CORR_VALUES,
-    HEADER_BYTES, Tabulated, corr_decode, corr_dir_weights, corr_encode, corr_grid_alpha,
-    corr_index, corr_node_dir, dcorr_dir_weights, dcorr_node_dir,
+    CORR_A, CORR_BLOCK, CORR_LEN, CORR_MAGIC, CORR_MAX, CORR_PAIR_MAX, CORR_PHI, CORR_PROXY_V,
+    CORR_VALUES, HEADER_BYTES, Tabulated, corr_decode, corr_dir_weights, corr_encode,
+    corr_grid_alpha, corr_index, corr_node_dir, corr_proxy_ln, dcorr_dir_weights, dcorr_node_dir,
 };
 use msbsdf::ndf::{Ndf, NdfKind};
 use msbsdf::rng::Rng;
@@ -142,7 +142,15 @@ fn run_jobs<J: Sync, V: Send>(
 fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) {
     let (ax, ay) = (corr_grid_alpha(jx), corr_grid_alpha(jy));
     if ax < 1e-3 || ay < 1e-3 {
-        return (vec![[1.0; 2]; CORR_BLOCK], Stats::default());
+        // Factors 1, `v` times the nodes' proxies (`corr_proxy_ln`).
+        let pv = CORR_PROXY_V[n] as f64;
+        let g = (0..CORR_BLOCK).map(|r| {
+            [
+                1.0,
+                (pv * corr_proxy_ln(ax, ay, corr_node_dir(r)) as f64).exp() as f32,
+            ]
+        });
+        return (g.collect(), Stats::default());
     }
     // On the diagonal the model is isotropic; the factors there are read by
     // anisotropic materials between nodes, so they are taken for a barely
@@ -163,8 +171,15 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
             (t as f64, b as f64)
         })
         .collect();
+    // The peaked factor's proxies at the nodes (`CORR_PROXY_V`, 1 for
+    // GGX): the table stores `v g(n)`, and eval divides the interpolated
+    // value by the proxy of its own direction.
+    let proxy: Vec<f64> = (0..CORR_BLOCK)
+        .map(|r| tab.aniso_proxy(corr_node_dir(r)).expect("anisotropic") as f64)
+        .collect();
     let mut target = vec![0.0f64; CORR_BLOCK];
-    // The two parts integrated against the interpolation weights of wo.
+    // The two parts integrated against the interpolation weights of wo
+    // (the peaked one's `v(wo) = sum_n phi_n(wo) v_n g(n) / g(wo)`).
     let mut mt = vec![[0.0f64; CORR_BLOCK]; CORR_BLOCK];
     let mut mp = vec![[0.0f64; CORR_BLOCK]; CORR_BLOCK];
     for r in 0..CORR_BLOCK {
@@ -175,12 +190,13 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
         // hemisphere nearly empty when the roughness is strongly
         // anisotropic (`broad_reflection_nodes`).
         broad_reflection_nodes(ax, ay, wi, quad, (2 * quad / 3, 4 * quad / 3), |wo, w| {
-            let Some((t, p)) = tab.aniso_parts(wi, wo) else {
+            let (Some((t, p)), Some(g)) = (tab.aniso_parts(wi, wo), tab.aniso_proxy(wo)) else {
                 return;
             };
+            let (t, p) = (t as f64 * w, p as f64 * w / g as f64);
             for (node, b) in corr_dir_weights(wo) {
-                mt[r][node] += t as f64 * w * b as f64;
-                mp[r][node] += p as f64 * w * b as f64;
+                mt[r][node] += t * b as f64;
+                mp[r][node] += p * b as f64 * proxy[node];
             }
         });
     }
@@ -196,7 +212,12 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
     let (s, mut stats) = solve(&m, &target);
     let round = |x: f64| corr_decode(corr_encode(x as f32, CORR_PAIR_MAX), CORR_PAIR_MAX) as f64;
     let uv: Vec<[f64; 2]> = (0..CORR_BLOCK)
-        .map(|r| [round(s[r] as f64 * fac[r].0), round(s[r] as f64 * fac[r].1)])
+        .map(|r| {
+            [
+                round(s[r] as f64 * fac[r].0),
+                round(s[r] as f64 * fac[r].1 * proxy[r]),
+            ]
+        })
         .collect();
     stats.pair_clamped = uv
         .iter()
@@ -210,7 +231,10 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
             continue;
         }
         let a: f64 = (0..CORR_BLOCK)
-            .map(|c| uv[r][0] * mt[r][c] * uv[c][0] + uv[r][1] * mp[r][c] * uv[c][1])
+            .map(|c| {
+                let peaked = uv[r][1] / proxy[r] * mp[r][c] * uv[c][1] / proxy[c];
+                uv[r][0] * mt[r][c] * uv[c][0] + peaked
+            })
             .sum();
         if a > 1e-4 {
             stats.residual = stats.residual.max((a - target[r]).abs());
@@ -343,12 +367,14 @@ fn main() {
     }
     let command: Vec<String> = args.iter().skip(1).cloned().collect();
     let header = format!(
-        "ANISO_CORRECTION v7 (MSBSDF_MODEL_TABULATED): per [ndf: Beckmann, GGX][roughness \
+        "ANISO_CORRECTION v8 (MSBSDF_MODEL_TABULATED): per [ndf: Beckmann, GGX][roughness \
          pair (jx <= jy) of {CORR_A} x {CORR_A}: alpha = 2 (j / {})^2][azimuth: {CORR_PHI} \
          nodes of the diamond angle |y| / (|x| + |y|) from 0 to 1 (tabulated::corr_dir)][mu: \
          {AN_MU}] (ENERGY_COMPENSATED's anisotropic cosine grid) the two factors \
          u = s sqrt(t), v = s sqrt(b) of the lobe's table and peaked parts \
-         (Tabulated::aniso_parts, aniso_factors) as little-endian u16 pairs x, factor = \
+         (Tabulated::aniso_parts, aniso_factors), Beckmann's v times the node's proxy \
+         exp({} L), L = sin^2 theta ln(proj / mean) (tabulated::corr_proxy_ln; eval \
+         divides by its own direction's), as little-endian u16 pairs x, value = \
          {CORR_PAIR_MAX} (x / 65535)^2, after this {HEADER_BYTES}-byte header; (jx > jy, k) \
          reads (jy, jx, {} - k). The lobe parts.0 u(wi) u(wo) + parts.1 v(wi) v(wo), u and v \
          interpolated as eval does, has the multiply scattered albedo 1 - E_ss at every \
@@ -357,14 +383,15 @@ fn main() {
          lobe over compensation::broad_reflection_nodes: those normals and a {} x {} \
          direction grid split by node density), s by the \
          symmetric Sinkhorn iteration on the integrated interpolation weights (residual 1e-6 \
-         or 3000 steps); no random numbers. [1, 1] where an axis has roughness < 1e-3; \
-         diagonal nodes at alpha_y (1 + 1e-4); s clamped to [{S_MIN}, {CORR_MAX}]. Range u \
+         or 3000 steps); no random numbers. Factors [1, 1] where an axis has roughness < 1e-3; \
+         diagonal nodes at alpha_y (1 + 1e-4); s clamped to [{S_MIN}, {CORR_MAX}]. Stored range u \
          {:.4} - {:.4}, v {:.4} - {:.4}; worst |albedo - (1 - E_ss)| at the nodes with the \
          stored values {:.2e}; {} clamped factors s, {} stored values at the top of the \
          range; at most {} Sinkhorn steps.\n\
          Command: cargo run --release --example gen_tabulated_aniso{}{}\nCommit: {}\n\
          Time: {:.0} s\n",
         CORR_A - 1,
+        CORR_PROXY_V[0],
         CORR_PHI - 1,
         2 * quad / 3,
         4 * quad / 3,
