@@ -52,7 +52,7 @@ use msbsdf::multiple::compensation_aniso_tables::{AN_A, AN_MU, AN_PHI, CONDUCTOR
 use msbsdf::multiple::tabulated::{
     CORR_A, CORR_BLOCK, CORR_LEN, CORR_MAGIC, CORR_MAX, CORR_PAIR_MAX, CORR_PHI, CORR_PROXY_V,
     CORR_VALUES, HEADER_BYTES, Tabulated, corr_decode, corr_dir_weights, corr_encode,
-    corr_grid_alpha, corr_index, corr_node_dir, corr_proxy_ln, dcorr_dir_weights, dcorr_node_dir,
+    corr_grid_alpha, corr_index, corr_node_dir, corr_proxy, dcorr_dir_weights, dcorr_node_dir,
 };
 use msbsdf::ndf::{Ndf, NdfKind};
 use msbsdf::rng::Rng;
@@ -142,14 +142,8 @@ fn run_jobs<J: Sync, V: Send>(
 fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) {
     let (ax, ay) = (corr_grid_alpha(jx), corr_grid_alpha(jy));
     if ax < 1e-3 || ay < 1e-3 {
-        // Factors 1, `v` times the nodes' proxies (`corr_proxy_ln`).
-        let pv = CORR_PROXY_V[n] as f64;
-        let g = (0..CORR_BLOCK).map(|r| {
-            [
-                1.0,
-                (pv * corr_proxy_ln(ax, ay, corr_node_dir(r)) as f64).exp() as f32,
-            ]
-        });
+        // Factors 1, `v` times the nodes' proxies (`corr_proxy`).
+        let g = (0..CORR_BLOCK).map(|r| [1.0, corr_proxy(n, ax, ay, corr_node_dir(r))]);
         return (g.collect(), Stats::default());
     }
     // On the diagonal the model is isotropic; the factors there are read by
@@ -175,7 +169,7 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
     // GGX): the table stores `v g(n)`, and eval divides the interpolated
     // value by the proxy of its own direction.
     let proxy: Vec<f64> = (0..CORR_BLOCK)
-        .map(|r| tab.aniso_proxy(corr_node_dir(r)).expect("anisotropic") as f64)
+        .map(|r| corr_proxy(n, ax, ay, corr_node_dir(r)) as f64)
         .collect();
     let mut target = vec![0.0f64; CORR_BLOCK];
     // The two parts integrated against the interpolation weights of wo
@@ -190,10 +184,13 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
         // hemisphere nearly empty when the roughness is strongly
         // anisotropic (`broad_reflection_nodes`).
         broad_reflection_nodes(ax, ay, wi, quad, (2 * quad / 3, 4 * quad / 3), |wo, w| {
-            let (Some((t, p)), Some(g)) = (tab.aniso_parts(wi, wo), tab.aniso_proxy(wo)) else {
+            let Some((t, p)) = tab.aniso_parts(wi, wo) else {
                 return;
             };
-            let (t, p) = (t as f64 * w, p as f64 * w / g as f64);
+            let (t, p) = (
+                t as f64 * w,
+                p as f64 * w / corr_proxy(n, ax, ay, wo) as f64,
+            );
             for (node, b) in corr_dir_weights(wo) {
                 mt[r][node] += t * b as f64;
                 mp[r][node] += p * b as f64 * proxy[node];

@@ -291,6 +291,15 @@ pub fn corr_proxy_ln(ax: f32, ay: f32, w: Vec3) -> f32 {
     let proj = (w.x * w.x * ax2 + w.y * w.y * ay2) / s2;
     s2 * ((proj + CORR_PROXY_FLOOR) / (0.5 * (ax2 + ay2) + CORR_PROXY_FLOOR)).ln()
 }
+
+/// The proxy `exp(CORR_PROXY_V L)` ([`corr_proxy_ln`]) of the peaked
+/// factor of a direction `w` for NDF index `ndf` at the roughness
+/// `(alpha_x, alpha_y)`: what the correction table's `v` is multiplied by
+/// at its nodes (1 for GGX).
+pub fn corr_proxy(ndf: usize, ax: f32, ay: f32, w: Vec3) -> f32 {
+    let pv = CORR_PROXY_V.get(ndf).copied().unwrap_or(0.0);
+    (pv * corr_proxy_ln(ax, ay, w)).exp()
+}
 /// Largest stored factor of the dielectric's correction (the encoding's
 /// range; [`corr_encode`]).
 pub const CORR_MAX: f32 = 8.0;
@@ -1240,6 +1249,9 @@ struct AnisoLobe {
     w2: f32,
     /// The material's corners in the correction table.
     corners: CorrCorners,
+    /// The exponent of the peaked factor's proxy ([`CORR_PROXY_V`] of the
+    /// NDF; 0 with the exact factors, which carry none).
+    proxy_v: f32,
     /// Without the correction (the table generator only): SINGLE's
     /// albedo table at the material's roughness and at the peaked lobe's,
     /// for the factors `t` and `b` computed per direction.
@@ -1349,6 +1361,7 @@ impl Tabulated {
                 peak: Ndf::new(ndf.kind, ndf.alpha_x * width, ndf.alpha_y * width),
                 w2: width * width,
                 corners: corr_corners(ndf_index, ndf.alpha_x, ndf.alpha_y),
+                proxy_v: CORR_PROXY_V.get(ndf_index).copied().unwrap_or(0.0),
                 exact: None,
             }
         });
@@ -1389,25 +1402,11 @@ impl Tabulated {
                     Aniso::new(ndf_index, self.ndf.alpha_x, self.ndf.alpha_y),
                     Aniso::new(ndf_index, a.peak.alpha_x, a.peak.alpha_y),
                 )),
+                proxy_v: 0.0,
                 ..a
             }),
             ..self
         }
-    }
-
-    /// The proxy `exp(CORR_PROXY_V L)` ([`corr_proxy_ln`]) of the peaked
-    /// factor of a direction at an anisotropic material's roughness (what
-    /// the correction table's `v` is multiplied by); `None` when
-    /// isotropic.
-    pub fn aniso_proxy(&self, w: Vec3) -> Option<f32> {
-        self.aniso.as_ref()?;
-        Some((self.proxy_v() * corr_proxy_ln(self.ndf.alpha_x, self.ndf.alpha_y, w)).exp())
-    }
-
-    /// The NDF's [`CORR_PROXY_V`].
-    #[inline(always)]
-    fn proxy_v(&self) -> f32 {
-        CORR_PROXY_V.get(self.ndf_index).copied().unwrap_or(0.0)
     }
 
     /// The uncorrected per-direction factors `(sqrt(t(w)), sqrt(b(w)))` of
@@ -1563,11 +1562,10 @@ impl Tabulated {
             }
         };
         // Beckmann's stored `v` carries the proxy of its node
-        // (`CORR_PROXY_V`); the exact factors (generator) do not.
-        let pv = self.proxy_v();
-        let kv = if pv > 0.0 && a.exact.is_none() {
+        // (`CORR_PROXY_V`, 0 for the exact factors of the generator).
+        let kv = if a.proxy_v > 0.0 {
             let (ax, ay) = (self.ndf.alpha_x, self.ndf.alpha_y);
-            (-pv * (corr_proxy_ln(ax, ay, wi) + corr_proxy_ln(ax, ay, wo))).exp()
+            (-a.proxy_v * (corr_proxy_ln(ax, ay, wi) + corr_proxy_ln(ax, ay, wo))).exp()
         } else {
             1.0
         };
