@@ -502,7 +502,9 @@ fn stability_sweep() {
 #[test]
 fn anisotropic_furnace_at_correction_nodes() {
     use msbsdf::multiple::compensation_aniso_tables::AN_MU;
-    use msbsdf::multiple::tabulated::{CORR_A, CORR_PHI, corr_grid_alpha, corr_node_dir};
+    use msbsdf::multiple::tabulated::{
+        CORR_A, CORR_PHI, corr_grid_alpha, corr_node_dir, corr_stretch,
+    };
     let mut pick = Rng::new(2718, 2);
     let mut report = String::new();
     let mut worst: f64 = 0.0;
@@ -518,7 +520,7 @@ fn anisotropic_furnace_at_correction_nodes() {
         n += 1;
         let k = (pick.next_u32() % CORR_PHI as u32) as usize;
         let i = (pick.next_u32() % AN_MU as u32) as usize;
-        let wi = corr_node_dir(k * AN_MU + i);
+        let wi = corr_node_dir(k * AN_MU + i, corr_stretch(jx, jy));
         let (mu, phi) = (wi.z, wi.y.atan2(wi.x));
         let m = mirror(NDFS[nd], ax, ay);
         let q = albedo_quadrature(&m, wi, ax, ay, 0);

@@ -51,8 +51,9 @@ use msbsdf::multiple::compensation::{
 use msbsdf::multiple::compensation_aniso_tables::{AN_A, AN_MU, AN_PHI, CONDUCTOR_E_ANISO};
 use msbsdf::multiple::tabulated::{
     CORR_A, CORR_BLOCK, CORR_LEN, CORR_MAGIC, CORR_MAX, CORR_PAIR_MAX, CORR_PHI, CORR_PROXY_V,
-    CORR_VALUES, HEADER_BYTES, Tabulated, corr_decode, corr_dir_weights, corr_encode,
-    corr_grid_alpha, corr_index, corr_node_dir, corr_proxy, dcorr_dir_weights, dcorr_node_dir,
+    CORR_STRETCH_POW, CORR_STRETCH_RATIO, CORR_VALUES, HEADER_BYTES, Tabulated, corr_decode,
+    corr_dir_weights, corr_encode, corr_grid_alpha, corr_index, corr_node_dir, corr_proxy,
+    corr_stretch, dcorr_dir_weights, dcorr_node_dir,
 };
 use msbsdf::ndf::{Ndf, NdfKind};
 use msbsdf::rng::Rng;
@@ -141,9 +142,11 @@ fn run_jobs<J: Sync, V: Send>(
 /// residual of the rounded values.
 fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) {
     let (ax, ay) = (corr_grid_alpha(jx), corr_grid_alpha(jy));
+    // The block's azimuth stretch (its nodes and eval's weights).
+    let rho = corr_stretch(jx, jy);
     if ax < 1e-3 || ay < 1e-3 {
         // Factors 1, `v` times the nodes' proxies (`corr_proxy`).
-        let g = (0..CORR_BLOCK).map(|r| [1.0, corr_proxy(n, ax, ay, corr_node_dir(r))]);
+        let g = (0..CORR_BLOCK).map(|r| [1.0, corr_proxy(n, ax, ay, corr_node_dir(r, rho))]);
         return (g.collect(), Stats::default());
     }
     // On the diagonal the model is isotropic; the factors there are read by
@@ -161,7 +164,9 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
     // The uncorrected factors sqrt(t), sqrt(b) at every node.
     let fac: Vec<(f64, f64)> = (0..CORR_BLOCK)
         .map(|r| {
-            let (t, b) = tab.aniso_factors(corr_node_dir(r)).expect("anisotropic");
+            let (t, b) = tab
+                .aniso_factors(corr_node_dir(r, rho))
+                .expect("anisotropic");
             (t as f64, b as f64)
         })
         .collect();
@@ -169,7 +174,7 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
     // GGX): the table stores `v g(n)`, and eval divides the interpolated
     // value by the proxy of its own direction.
     let proxy: Vec<f64> = (0..CORR_BLOCK)
-        .map(|r| corr_proxy(n, ax, ay, corr_node_dir(r)) as f64)
+        .map(|r| corr_proxy(n, ax, ay, corr_node_dir(r, rho)) as f64)
         .collect();
     let mut target = vec![0.0f64; CORR_BLOCK];
     // The two parts integrated against the interpolation weights of wo
@@ -177,7 +182,7 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
     let mut mt = vec![[0.0f64; CORR_BLOCK]; CORR_BLOCK];
     let mut mp = vec![[0.0f64; CORR_BLOCK]; CORR_BLOCK];
     for r in 0..CORR_BLOCK {
-        let wi = corr_node_dir(r);
+        let wi = corr_node_dir(r, rho);
         target[r] =
             1.0 - single_albedo(|x, y| single.eval(x, y, &mut rng).x, ax, ay, wi, None, quad);
         // The lobe is broad: the normals' nodes alone leave most of the
@@ -191,7 +196,7 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
                 t as f64 * w,
                 p as f64 * w / corr_proxy(n, ax, ay, wo) as f64,
             );
-            for (node, b) in corr_dir_weights(wo) {
+            for (node, b) in corr_dir_weights(wo, rho) {
                 mt[r][node] += t * b as f64;
                 mp[r][node] += p * b as f64 * proxy[node];
             }
@@ -364,9 +369,11 @@ fn main() {
     }
     let command: Vec<String> = args.iter().skip(1).cloned().collect();
     let header = format!(
-        "ANISO_CORRECTION v8 (MSBSDF_MODEL_TABULATED): per [ndf: Beckmann, GGX][roughness \
+        "ANISO_CORRECTION v9 (MSBSDF_MODEL_TABULATED): per [ndf: Beckmann, GGX][roughness \
          pair (jx <= jy) of {CORR_A} x {CORR_A}: alpha = 2 (j / {})^2][azimuth: {CORR_PHI} \
-         nodes of the diamond angle |y| / (|x| + |y|) from 0 to 1 (tabulated::corr_dir)][mu: \
+         nodes of the diamond angle rho |y| / (|x| + rho |y|) from 0 to 1, rho the block's \
+         stretch (tabulated::corr_stretch: 1 up to alpha_y / alpha_x = {CORR_STRETCH_RATIO}, \
+         above it (alpha_y / alpha_x)^{CORR_STRETCH_POW}; tabulated::corr_dirs)][mu: \
          {AN_MU}] (ENERGY_COMPENSATED's anisotropic cosine grid) the two factors \
          u = s sqrt(t), v = s sqrt(b) of the lobe's table and peaked parts \
          (Tabulated::aniso_parts, aniso_factors), Beckmann's v times the node's proxy \
@@ -483,7 +490,7 @@ fn check(quad: usize) {
         nodes += 1;
         let k = (pick.next_u32() % CORR_PHI as u32) as usize;
         let i = (pick.next_u32() % AN_MU as u32) as usize;
-        let w = corr_node_dir(k * AN_MU + i);
+        let w = corr_node_dir(k * AN_MU + i, corr_stretch(jx, jy));
         cases.push((n, ax, ay, w.z.acos(), w.y.atan2(w.x)));
     }
     // Random materials and directions (between nodes in general).
@@ -529,7 +536,7 @@ fn check(quad: usize) {
         // own roughness): the floor of any finer roughness grid.
         let e_dir = {
             let mut v = 0.0;
-            for (r, wt) in corr_dir_weights(wi) {
+            for (r, wt) in corr_dir_weights(wi, 1.0) {
                 if wt == 0.0 {
                     continue;
                 }
@@ -539,7 +546,7 @@ fn check(quad: usize) {
                         |x, y| single.eval(x, y, &mut rr).x,
                         ax,
                         ay,
-                        corr_node_dir(r),
+                        corr_node_dir(r, 1.0),
                         None,
                         quad,
                     );

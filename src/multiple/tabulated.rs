@@ -246,7 +246,7 @@ pub const CORR_VALUES: usize = 2;
 /// [`CORR_LEN`].
 pub const CORR_FILE_BYTES: usize = HEADER_BYTES + 2 * CORR_VALUES * CORR_LEN;
 /// First bytes of the correction table file.
-pub const CORR_MAGIC: &[u8; 28] = b"MSBSDF-TABULATED-ANISO-F-v8\n";
+pub const CORR_MAGIC: &[u8; 28] = b"MSBSDF-TABULATED-ANISO-F-v9\n";
 
 /// Exponent of the peaked part's proxy ([`corr_proxy_ln`]) per NDF index
 /// (Beckmann, GGX): the correction table stores `v exp(CORR_PROXY_V L)`
@@ -312,6 +312,35 @@ pub const CORR_PAIR_MAX: f32 = 16.0;
 pub fn corr_grid_alpha(j: usize) -> f32 {
     let s = j as f32 / (CORR_A - 1) as f32;
     MAX_ALPHA * s * s
+}
+
+/// Anisotropy ratio `alpha_y / alpha_x` of a stored roughness pair above
+/// which the conductor correction's azimuth nodes are crowded towards the
+/// smoother axis ([`corr_stretch`]).
+pub const CORR_STRETCH_RATIO: f32 = 8.0;
+
+/// Power of the anisotropy ratio in [`corr_stretch`].
+pub const CORR_STRETCH_POW: f32 = 0.3;
+
+/// The azimuth stretch of the conductor correction's block at roughness
+/// nodes `(jx, jy)`: a direction's azimuth coordinate in the block is
+/// the diamond angle of `(|x|, rho |y|)` ([`corr_dirs`]). 1 (the plain
+/// diamond angle) unless the block's ratio `alpha_y / alpha_x` (or its
+/// inverse) is above [`CORR_STRETCH_RATIO`]; there
+/// `ratio^CORR_STRETCH_POW`, crowding the nodes towards the smoother
+/// axis (`1 / rho` for `alpha_x > alpha_y`).
+pub fn corr_stretch(jx: usize, jy: usize) -> f32 {
+    if jx == 0 || jy == 0 {
+        return 1.0;
+    }
+    let (ax, ay) = (corr_grid_alpha(jx), corr_grid_alpha(jy));
+    let (lo, hi) = (ax.min(ay), ax.max(ay));
+    let ratio = hi / lo;
+    if ratio <= CORR_STRETCH_RATIO {
+        return 1.0;
+    }
+    let rho = ratio.powf(CORR_STRETCH_POW);
+    if ax <= ay { rho } else { 1.0 / rho }
 }
 
 /// Index of the stored pair `(jx, jy)`, `jx <= jy`.
@@ -403,6 +432,16 @@ pub(crate) const CORR_MIRROR: u32 = 1 << 31;
 /// when it is stored as its transpose) and its weight.
 type CorrCorners = [(u32, f32); 3];
 
+/// A material's corners in the conductor's correction table
+/// ([`CorrCorners`]) and each corner's azimuth stretch
+/// ([`corr_stretch`]; `None` when all three are 1, the plain diamond
+/// angle read once for the three).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct CorrBlocks {
+    corners: CorrCorners,
+    stretch: Option<[f32; 3]>,
+}
+
 /// The corners of `(alpha_x, alpha_y)` for NDF index `ndf`: linear on the
 /// triangle of the grid square that holds the material, the square cut
 /// along its diagonal `fx = fy` (Kuhn). The lobe has a kink at isotropy
@@ -411,16 +450,22 @@ type CorrCorners = [(u32, f32); 3];
 /// cut along it, so a nearly isotropic material never mixes the factors of
 /// `alpha_x < alpha_y` and `alpha_x > alpha_y` (bilinear weights did: 1.4%
 /// furnace error at GGX (1.348, 1.345), 75 degrees).
-fn corr_corners(ndf: usize, ax: f32, ay: f32) -> CorrCorners {
+fn corr_corners(ndf: usize, ax: f32, ay: f32) -> CorrBlocks {
     let coord = |a: f32| (a / MAX_ALPHA).clamp(0.0, 1.0).sqrt() * (CORR_A - 1) as f32;
     let (jx, _, fx) = split(coord(ax), CORR_A);
     let (jy, _, fy) = split(coord(ay), CORR_A);
-    triangle(fx, fy).map(|((dx, dy), w)| {
+    let tri = triangle(fx, fy);
+    let corners = tri.map(|((dx, dy), w)| {
         let (lo, hi, m) = stored_pair(jx + dx, jy + dy);
         let pair = CORR_PAIR_BASE[lo.min(CORR_A - 1)] as usize + hi;
         let block = (ndf * CORR_PAIRS + pair) * CORR_BLOCK;
         ((HEADER_BYTES + 2 * CORR_VALUES * block) as u32 | m, w)
-    })
+    });
+    let stretch = tri.map(|((dx, dy), _)| corr_stretch(jx + dx, jy + dy));
+    CorrBlocks {
+        corners,
+        stretch: stretch.iter().any(|&r| r != 1.0).then_some(stretch),
+    }
 }
 
 /// The triangle of the unit square holding `(fx, fy)` (Kuhn: the diagonal
@@ -448,23 +493,24 @@ pub(crate) fn stored_pair(a: usize, b: usize) -> (usize, usize, u32) {
 }
 
 /// The conductor's two corrected factors ([`corr_values`]) at a
-/// direction's nodes ([`corr_dir`]): per roughness corner the two
-/// cosine nodes of each of the two azimuth rows as one 8-byte read of
-/// `[u, v, u, v]`, squared (the encoding) and weighted in SIMD lanes; the
-/// encoding's constant factor once at the end. `[1, 1]` outside the file.
+/// direction's nodes in each corner's block ([`corr_dirs`]): per
+/// roughness corner the two cosine nodes of each of the two azimuth rows
+/// as one 8-byte read of `[u, v, u, v]`, squared (the encoding) and
+/// weighted in SIMD lanes; the encoding's constant factor once at the
+/// end. `[1, 1]` outside the file.
 #[inline]
-fn corr_at(corners: &CorrCorners, d: &AnisoDir) -> [f32; 2] {
-    // Per direction, once for the three corners: the byte offset of its
-    // lower azimuth row in a block, plain and mirrored (node `CORR_PHI - 2
-    // - k0`, weight `1 - fk`), and the lane weights of the two rows.
-    let row = |k: usize| 2 * CORR_VALUES * (k * AN_MU + d.i0);
-    let (plain, mirrored) = (row(d.k0), row(CORR_PHI - 2 - d.k0));
-    let lanes = Vec4::new(1.0 - d.fi, 1.0 - d.fi, d.fi, d.fi);
-    let (w_lo, w_hi) = (lanes * (1.0 - d.fk), lanes * d.fk);
+fn corr_at(corners: &CorrCorners, d: &[AnisoDir; 3]) -> [f32; 2] {
     let mut acc = Vec4::ZERO;
-    for &(b, w) in corners {
+    for (&(b, w), d) in corners.iter().zip(d) {
+        // Mirrored, the row read first is the direction's upper one (node
+        // `CORR_PHI - 2 - k0`, weight `1 - fk`).
         let mirror = b & CORR_MIRROR != 0;
-        let at = (b & !CORR_MIRROR) as usize + if mirror { mirrored } else { plain };
+        let (k, g) = if mirror {
+            (CORR_PHI - 2 - d.k0, 1.0 - d.fk)
+        } else {
+            (d.k0, d.fk)
+        };
+        let at = (b & !CORR_MIRROR) as usize + 2 * CORR_VALUES * (k * AN_MU + d.i0);
         let Some(r) = RAW_CORR
             .get(at..)
             .and_then(|r| r.first_chunk::<{ 2 * CORR_VALUES * (AN_MU + 2) }>())
@@ -474,9 +520,8 @@ fn corr_at(corners: &CorrCorners, d: &AnisoDir) -> [f32; 2] {
         // The chunk ends with the upper row's two nodes.
         const _: () = assert!(2 * CORR_VALUES * AN_MU + 8 == 2 * CORR_VALUES * (AN_MU + 2));
         let (lo, hi) = (u16x4(r.first_chunk::<8>()), u16x4(r.last_chunk::<8>()));
-        // Mirrored, the lower row read is the upper one of the direction.
-        let (a, c) = if mirror { (w_hi, w_lo) } else { (w_lo, w_hi) };
-        acc += (lo * lo * a + hi * hi * c) * w;
+        let lanes = Vec4::new(1.0 - d.fi, 1.0 - d.fi, d.fi, d.fi) * w;
+        acc += lo * lo * (lanes * (1.0 - g)) + hi * hi * (lanes * g);
     }
     let s = acc * (CORR_PAIR_MAX / (65535.0 * 65535.0));
     [s.x + s.z, s.y + s.w]
@@ -560,6 +605,26 @@ pub(crate) fn u16x2x2(lo: &[u8; 4], hi: &[u8; 4]) -> Vec4 {
 #[inline]
 pub(crate) fn corr_dir(w: Vec3) -> AnisoDir {
     grid_dir(diamond(w), w, CORR_PHI)
+}
+
+/// A direction's nodes in the conductor correction's blocks of a
+/// material ([`CorrBlocks`]): per roughness corner, [`corr_dir`] at the
+/// corner's azimuth stretch (the diamond angle of `(|x|, rho |y|)`;
+/// the cosine node once, the three azimuth coordinates in SIMD lanes).
+#[inline]
+fn corr_dirs(blocks: &CorrBlocks, w: Vec3) -> [AnisoDir; 3] {
+    let Some([r0, r1, r2]) = blocks.stretch else {
+        let d = corr_dir(w);
+        return [d, d, d];
+    };
+    let (i0, fi) = split_root(compensation::aniso_mu_root(w.z.abs()), AN_MU);
+    let (k, fk) = split_root4(diamond4(w, Vec4::new(r0, r1, r2, 1.0)), CORR_PHI);
+    [0, 1, 2].map(|j| AnisoDir {
+        k0: k[j],
+        fk: fk[j],
+        i0,
+        fi,
+    })
 }
 
 /// The diamond angle `|y| / (|x| + |y|)` of a direction (0.5 along the
@@ -651,10 +716,16 @@ pub(crate) fn dcorr_dir(w: Vec3, rho: f32) -> AnisoDir {
 /// The incident direction of node `r = k * AN_MU + i` of the conductor's
 /// correction (`corr_dir`: diamond angle `k / (CORR_PHI - 1)`, the albedo
 /// table's cosine node `i`).
-pub fn corr_node_dir(r: usize) -> Vec3 {
+pub fn corr_node_dir(r: usize, rho: f32) -> Vec3 {
+    let c = (r / AN_MU) as f32 / (CORR_PHI - 1) as f32;
+    // rho y / (x + rho y) = c  <=>  y / (x + y) = c / (c + rho (1 - c)).
     diamond_node(
         compensation::aniso_grid_mu(r % AN_MU),
-        (r / AN_MU) as f32 / (CORR_PHI - 1) as f32,
+        if rho == 1.0 {
+            c
+        } else {
+            c / (c + rho * (1.0 - c))
+        },
     )
 }
 
@@ -683,8 +754,16 @@ fn diamond_node(mu: f32, c: f32) -> Vec3 {
 /// The conductor correction's azimuth-cosine nodes of a direction and
 /// their bilinear weights, as eval reads them (`corr_dir`; `k * AN_MU +
 /// i` in a roughness pair's block; generator).
-pub fn corr_dir_weights(w: Vec3) -> [(usize, f32); 4] {
-    dir_weights(&corr_dir(w))
+pub fn corr_dir_weights(w: Vec3, rho: f32) -> [(usize, f32); 4] {
+    if rho == 1.0 {
+        dir_weights(&corr_dir(w))
+    } else {
+        dir_weights(&grid_dir(
+            diamond_xy(w.x.abs(), rho * w.y.abs()),
+            w,
+            CORR_PHI,
+        ))
+    }
 }
 
 /// The dielectric correction's azimuth-cosine nodes of a direction in a
@@ -1248,7 +1327,7 @@ struct AnisoLobe {
     /// `w^2` (GGX's peaked terms from SINGLE's, `ggx::d_lambda_scaled`).
     w2: f32,
     /// The material's corners in the correction table.
-    corners: CorrCorners,
+    corners: CorrBlocks,
     /// The exponent of the peaked factor's proxy ([`CORR_PROXY_V`] of the
     /// NDF; 0 with the exact factors, which carry none).
     proxy_v: f32,
@@ -1551,8 +1630,8 @@ impl Tabulated {
         // jointly from the correction table (s the furnace correction).
         let ([ui, vi], [uo, vo]) = match &a.exact {
             None => (
-                corr_at(&a.corners, &corr_dir(wi)),
-                corr_at(&a.corners, &corr_dir(wo)),
+                corr_at(&a.corners.corners, &corr_dirs(&a.corners, wi)),
+                corr_at(&a.corners.corners, &corr_dirs(&a.corners, wo)),
             ),
             Some((e, e_peak)) => {
                 let [pi, po] = self.proj2(wi, wo);
@@ -1850,6 +1929,74 @@ mod tests {
         }
     }
 
+    /// The conductor correction's azimuth stretch ([`corr_stretch`]) is 1
+    /// up to the anisotropy ratio [`CORR_STRETCH_RATIO`] and for an axis at
+    /// node 0, `ratio^CORR_STRETCH_POW` above it, inverted by the exchange
+    /// of the axes; and every node direction of a block reads its own node
+    /// with weight 1 ([`corr_dir_weights`] and eval's per-corner
+    /// [`corr_dirs`]), for plain, stretched and transposed blocks.
+    #[test]
+    fn conductor_stretch_and_its_nodes() {
+        let mut stretched = 0;
+        for jx in 0..CORR_A {
+            for jy in 0..CORR_A {
+                let rho = corr_stretch(jx, jy);
+                assert!(
+                    (rho * corr_stretch(jy, jx) - 1.0).abs() < 1e-6,
+                    "({jx}, {jy})"
+                );
+                if jx == 0 || jy == 0 {
+                    assert_eq!(rho, 1.0);
+                    continue;
+                }
+                let ratio = corr_grid_alpha(jy) / corr_grid_alpha(jx);
+                let want = if ratio.max(1.0 / ratio) > CORR_STRETCH_RATIO {
+                    ratio.powf(CORR_STRETCH_POW)
+                } else {
+                    1.0
+                };
+                assert!(
+                    (rho - want).abs() <= 1e-5 * want,
+                    "({jx}, {jy}): {rho} vs {want}"
+                );
+                stretched += (rho != 1.0) as usize;
+            }
+        }
+        // Pairs with jy > sqrt(8) jx, both ways.
+        assert_eq!(stretched, 2 * 150);
+        for (jx, jy) in [(9, 9), (4, 11), (2, 27), (27, 2), (5, 29)] {
+            let rho = corr_stretch(jx, jy);
+            let blocks = corr_corners(1, corr_grid_alpha(jx), corr_grid_alpha(jy));
+            for r in 0..CORR_BLOCK {
+                let w = corr_node_dir(r, rho);
+                assert!((w.length() - 1.0).abs() < 1e-5, "node {r}: {w}");
+                // At the normal (the last cosine node) every azimuth is the
+                // same direction: only the cosine is checked there.
+                let top = r % AN_MU == AN_MU - 1;
+                let weights = corr_dir_weights(w, rho);
+                let at_node: f32 = weights
+                    .iter()
+                    .filter(|&&(n, _)| n == r || (top && n % AN_MU == AN_MU - 1))
+                    .map(|&(_, v)| v)
+                    .sum();
+                assert!(at_node > 0.999, "({jx}, {jy}) node {r}: {weights:?}");
+                // The corner of weight 1 (the material is on the node).
+                let c = (0..3)
+                    .max_by(|&a, &b| blocks.corners[a].1.total_cmp(&blocks.corners[b].1))
+                    .unwrap_or(0);
+                let d = corr_dirs(&blocks, w)[c];
+                let (kk, ii) = (d.k0 as f32 + d.fk, d.i0 as f32 + d.fi);
+                if !top {
+                    assert!(
+                        (kk - (r / AN_MU) as f32).abs() < 1e-3,
+                        "({jx}, {jy}) node {r}: {kk}"
+                    );
+                }
+                assert!((ii - (r % AN_MU) as f32).abs() < 1e-3, "node {r}: {ii}");
+            }
+        }
+    }
+
     /// Eval's read of the conductor's joint table (`corr_at`: the SIMD
     /// row conversion, the triangle corners, the mirrored storage of
     /// `alpha_x > alpha_y`) gives, for a material on a roughness node and
@@ -1864,10 +2011,12 @@ mod tests {
         for ndf in 0..NDF_N {
             for (jx, jy) in [(4, 11), (11, 4), (9, 9), (2, 27), (27, 2), (20, 13)] {
                 let (ax, ay) = (corr_grid_alpha(jx), corr_grid_alpha(jy));
-                let corners = corr_corners(ndf, ax, ay);
+                let blocks = corr_corners(ndf, ax, ay);
+                let rho = corr_stretch(jx, jy);
                 for k in 0..CORR_PHI {
                     for i in [0, 3, 7, 12, AN_MU - 1] {
-                        let got = corr_at(&corners, &corr_dir(corr_node_dir(k * AN_MU + i)));
+                        let w = corr_node_dir(k * AN_MU + i, rho);
+                        let got = corr_at(&blocks.corners, &corr_dirs(&blocks, w));
                         let want = corr_values(corr_index(ndf, jx, jy, k, i));
                         for c in 0..2 {
                             let tol = 1e-4 * want[c].abs().max(1e-3);
