@@ -577,10 +577,10 @@ fn check(quad: usize) {
     );
 }
 
-/// `--ir MODEL NDF CALLS [glass] [sample]` (MODEL `single` or
-/// `tabulated`, NDF `ggx` or `beckmann`): CALLS evals (samples with
+/// `--ir MODEL NDF CALLS [glass] [sample] [alpha=AX,AY]` (MODEL `single`
+/// or `tabulated`, NDF `ggx` or `beckmann`): CALLS evals (samples with
 /// `sample`, from the pairs' first directions) through `Material` of gold (or glass
-/// 1.5) with roughness (0.1, 0.6) on 1024 fixed random pairs (directions
+/// 1.5) with roughness (0.1, 0.6) (or `(AX, AY)`) on 1024 fixed random pairs (directions
 /// up to 85 degrees, both above for gold, on either side for glass), for
 /// callgrind: `(Ir(CALLS) - Ir(0)) / CALLS` is the cost per
 /// eval.
@@ -599,13 +599,20 @@ fn ir(args: &[String]) {
     };
     let calls: usize = get(2).parse().unwrap_or(0);
     let glass = get(3) == "glass";
+    // `alpha=AX,AY` anywhere after CALLS: another roughness pair.
+    let (alpha_x, alpha_y) = args
+        .iter()
+        .find_map(|a| a.strip_prefix("alpha="))
+        .and_then(|a| a.split_once(','))
+        .and_then(|(x, y)| Some((x.parse().ok()?, y.parse().ok()?)))
+        .unwrap_or((0.1, 0.6));
     let d = if glass {
         MaterialDesc {
             model,
             ndf,
             facet: FacetKind::Dielectric,
-            alpha_x: 0.1,
-            alpha_y: 0.6,
+            alpha_x,
+            alpha_y,
             eta: Vec3::splat(1.5),
             ..Default::default()
         }
@@ -614,8 +621,8 @@ fn ir(args: &[String]) {
             model,
             ndf,
             facet: FacetKind::Conductor,
-            alpha_x: 0.1,
-            alpha_y: 0.6,
+            alpha_x,
+            alpha_y,
             eta: Vec3::new(0.143, 0.374, 1.442),
             k: Vec3::new(3.983, 2.385, 1.603),
             ..Default::default()

@@ -116,9 +116,11 @@
 //! reads jointly from `data/tabulated_aniso.bin` ([`corr_values`]): per
 //! NDF, roughness pair on a 31 x 31 grid ([`corr_grid_alpha`]) and node of
 //! a direction grid (`corr_dir`: the albedo table's 16 cosines and 17
-//! nodes of the diamond angle `|y| / (|x| + |y|)`, no `atan2`), linear on
-//! triangles in roughness (the lobe has a kink at isotropy) and bilinear
-//! in direction. `s` gives the lobe with `u` and `v` interpolated so the
+//! nodes of the diamond angle `|y| / (|x| + |y|)`, no `atan2`; in blocks
+//! of anisotropy ratio above 8 the diamond angle of `(|x|, rho |y|)`,
+//! [`corr_stretch`], whose nodes crowd towards the smoother axis), linear
+//! on triangles in roughness (the lobe has a kink at isotropy) and
+//! bilinear in direction. `s` gives the lobe with `u` and `v` interpolated so the
 //! albedo `1 - E_ss(w)` at every node (`E_ss` SINGLE's albedo with F = 1
 //! by quadrature; solved per roughness pair by `gen_tabulated_aniso` from
 //! `t` and `b` at the nodes, [`Tabulated::aniso_factors`]). Eval thus
@@ -128,9 +130,9 @@
 //! by [`crate::ndf::beckmann::lambda_rational`]; GGX 1242 with SINGLE's
 //! term and the peaked lobe from one set of slope terms,
 //! [`crate::ndf::ggx::d_lambda_scaled`]). Measured worst furnace
-//! error 0.01% at the nodes, 0.42% on the test's directions, 5.6% at the
+//! error 0.03% at the nodes, 0.42% on the test's directions, 2.05% at the
 //! range's most anisotropic corners (roughness (0.05, 1.9), 89 degrees,
-//! near the smooth axis; `docs/tabulated.md`).
+//! near the smooth axis, between two cosine nodes; `docs/tabulated.md`).
 //!
 //! ## Sampling
 //!
@@ -324,11 +326,24 @@ pub const CORR_STRETCH_POW: f32 = 0.3;
 
 /// The azimuth stretch of the conductor correction's block at roughness
 /// nodes `(jx, jy)`: a direction's azimuth coordinate in the block is
-/// the diamond angle of `(|x|, rho |y|)` ([`corr_dirs`]). 1 (the plain
+/// the diamond angle of `(|x|, rho |y|)` (`corr_dirs`). 1 (the plain
 /// diamond angle) unless the block's ratio `alpha_y / alpha_x` (or its
 /// inverse) is above [`CORR_STRETCH_RATIO`]; there
 /// `ratio^CORR_STRETCH_POW`, crowding the nodes towards the smoother
 /// axis (`1 / rho` for `alpha_x > alpha_y`).
+///
+/// Near the smooth axis of a strongly anisotropic surface at grazing
+/// incidence the factors fall steeply with the azimuth (GGX (0.056, 1.87)
+/// at 89 degrees: `v` 0.81 on the axis, 0.43 at the plain grid's next
+/// node 3.8 degrees away, 0.22 at 8.1 degrees), faster than linear
+/// interpolation between plain nodes follows. At that block `rho` = 2.9
+/// puts the first nodes 1.3, 2.8 and 4.6 degrees from the axis. Only
+/// blocks above the ratio 8 are stretched: the suite's (0.1, 0.6)
+/// materials read blocks of ratio 5.2-7.1 and keep the plain nodes (when
+/// every block was stretched, session 12, their anisotropic GGX gold moved
+/// by +0.003, `docs/tabulated.md`). A material's three roughness corners
+/// are each read at their own nodes (one SIMD division for the three
+/// azimuth coordinates, only when a corner is stretched).
 pub fn corr_stretch(jx: usize, jy: usize) -> f32 {
     if jx == 0 || jy == 0 {
         return 1.0;
@@ -493,38 +508,72 @@ pub(crate) fn stored_pair(a: usize, b: usize) -> (usize, usize, u32) {
 }
 
 /// The conductor's two corrected factors ([`corr_values`]) at a
-/// direction's nodes in each corner's block ([`corr_dirs`]): per
-/// roughness corner the two cosine nodes of each of the two azimuth rows
-/// as one 8-byte read of `[u, v, u, v]`, squared (the encoding) and
-/// weighted in SIMD lanes; the encoding's constant factor once at the
-/// end. `[1, 1]` outside the file.
+/// direction's nodes ([`corr_dir`]) in plain blocks: per roughness corner
+/// the two cosine nodes of each of the two azimuth rows as one 8-byte read
+/// of `[u, v, u, v]` ([`corr_rows`]) weighted in SIMD lanes; the
+/// encoding's constant factor once at the end. `[1, 1]` outside the file.
 #[inline]
-fn corr_at(corners: &CorrCorners, d: &[AnisoDir; 3]) -> [f32; 2] {
+fn corr_at(corners: &CorrCorners, d: &AnisoDir) -> [f32; 2] {
+    // Per direction, once for the three corners: the byte offset of its
+    // lower azimuth row in a block, plain and mirrored (node `CORR_PHI - 2
+    // - k0`, weight `1 - fk`), and the lane weights of the two rows.
+    let row = |k: usize| 2 * CORR_VALUES * (k * AN_MU + d.i0);
+    let (plain, mirrored) = (row(d.k0), row(CORR_PHI - 2 - d.k0));
+    let lanes = Vec4::new(1.0 - d.fi, 1.0 - d.fi, d.fi, d.fi);
+    let (w_lo, w_hi) = (lanes * (1.0 - d.fk), lanes * d.fk);
+    let mut acc = Vec4::ZERO;
+    for &(b, w) in corners {
+        let mirror = b & CORR_MIRROR != 0;
+        let at = (b & !CORR_MIRROR) as usize + if mirror { mirrored } else { plain };
+        let Some((lo, hi)) = corr_rows(at) else {
+            return [1.0; 2];
+        };
+        // Mirrored, the lower row read is the upper one of the direction.
+        let (a, c) = if mirror { (w_hi, w_lo) } else { (w_lo, w_hi) };
+        acc += (lo * a + hi * c) * w;
+    }
+    let s = acc * (CORR_PAIR_MAX / (65535.0 * 65535.0));
+    [s.x + s.z, s.y + s.w]
+}
+
+/// [`corr_at`] for a material with a stretched corner ([`CorrBlocks`]):
+/// each corner read at the direction's nodes in its own block
+/// ([`corr_dirs`]).
+#[inline]
+fn corr_at_stretched(corners: &CorrCorners, d: &[AnisoDir; 3]) -> [f32; 2] {
     let mut acc = Vec4::ZERO;
     for (&(b, w), d) in corners.iter().zip(d) {
         // Mirrored, the row read first is the direction's upper one (node
         // `CORR_PHI - 2 - k0`, weight `1 - fk`).
-        let mirror = b & CORR_MIRROR != 0;
-        let (k, g) = if mirror {
+        let (k, g) = if b & CORR_MIRROR != 0 {
             (CORR_PHI - 2 - d.k0, 1.0 - d.fk)
         } else {
             (d.k0, d.fk)
         };
         let at = (b & !CORR_MIRROR) as usize + 2 * CORR_VALUES * (k * AN_MU + d.i0);
-        let Some(r) = RAW_CORR
-            .get(at..)
-            .and_then(|r| r.first_chunk::<{ 2 * CORR_VALUES * (AN_MU + 2) }>())
-        else {
+        let Some((lo, hi)) = corr_rows(at) else {
             return [1.0; 2];
         };
-        // The chunk ends with the upper row's two nodes.
-        const _: () = assert!(2 * CORR_VALUES * AN_MU + 8 == 2 * CORR_VALUES * (AN_MU + 2));
-        let (lo, hi) = (u16x4(r.first_chunk::<8>()), u16x4(r.last_chunk::<8>()));
         let lanes = Vec4::new(1.0 - d.fi, 1.0 - d.fi, d.fi, d.fi) * w;
-        acc += lo * lo * (lanes * (1.0 - g)) + hi * hi * (lanes * g);
+        acc += lo * (lanes * (1.0 - g)) + hi * (lanes * g);
     }
     let s = acc * (CORR_PAIR_MAX / (65535.0 * 65535.0));
     [s.x + s.z, s.y + s.w]
+}
+
+/// The two cosine nodes of an azimuth row and of the next row of the
+/// conductor's correction, from byte offset `at` in the file, as `[u, v,
+/// u, v]` lanes squared (the encoding, without its constant factor): one
+/// 8-byte read per row. `None` outside the file.
+#[inline(always)]
+fn corr_rows(at: usize) -> Option<(Vec4, Vec4)> {
+    let r = RAW_CORR
+        .get(at..)
+        .and_then(|r| r.first_chunk::<{ 2 * CORR_VALUES * (AN_MU + 2) }>())?;
+    // The chunk ends with the upper row's two nodes.
+    const _: () = assert!(2 * CORR_VALUES * AN_MU + 8 == 2 * CORR_VALUES * (AN_MU + 2));
+    let (lo, hi) = (u16x4(r.first_chunk::<8>()), u16x4(r.last_chunk::<8>()));
+    Some((lo * lo, hi * hi))
 }
 
 /// Four little-endian `u16` as the lanes of a `Vec4` (0 when `None`): on
@@ -608,15 +657,12 @@ pub(crate) fn corr_dir(w: Vec3) -> AnisoDir {
 }
 
 /// A direction's nodes in the conductor correction's blocks of a
-/// material ([`CorrBlocks`]): per roughness corner, [`corr_dir`] at the
-/// corner's azimuth stretch (the diamond angle of `(|x|, rho |y|)`;
-/// the cosine node once, the three azimuth coordinates in SIMD lanes).
+/// material with a stretched corner ([`CorrBlocks`]): per roughness
+/// corner, [`corr_dir`] at the corner's azimuth stretch `rho` (the
+/// diamond angle of `(|x|, rho |y|)`; the cosine node once, the three
+/// azimuth coordinates in SIMD lanes).
 #[inline]
-fn corr_dirs(blocks: &CorrBlocks, w: Vec3) -> [AnisoDir; 3] {
-    let Some([r0, r1, r2]) = blocks.stretch else {
-        let d = corr_dir(w);
-        return [d, d, d];
-    };
+fn corr_dirs([r0, r1, r2]: [f32; 3], w: Vec3) -> [AnisoDir; 3] {
     let (i0, fi) = split_root(compensation::aniso_mu_root(w.z.abs()), AN_MU);
     let (k, fk) = split_root4(diamond4(w, Vec4::new(r0, r1, r2, 1.0)), CORR_PHI);
     [0, 1, 2].map(|j| AnisoDir {
@@ -704,10 +750,9 @@ pub(crate) fn dcorr_phi4(c: Vec4) -> Vec4 {
 /// 0.25 / 0.063 / 0.0131 / 0.0016. The exchange of the axes turns `rho`
 /// into `1 / rho` and the coordinate `c` into `1 - c`, so a transposed
 /// block is read with the corner's own stretch and its nodes mirrored.
-/// (The conductor's correction keeps the plain diamond angle on 17 nodes:
-/// with 9, stretched nodes took the corners of its range from 19% to 4-6%
-/// but moved the suite's anisotropic GGX gold more than 17 plain nodes
-/// do, which reach 5.6%, `docs/tabulated.md`.)
+/// (The conductor's correction stretches only its blocks of anisotropy
+/// ratio above 8, by `ratio^0.3` on 17 nodes, [`corr_stretch`]: stretching
+/// every block moved the suite's anisotropic GGX gold, `docs/tabulated.md`.)
 #[inline(always)]
 pub(crate) fn dcorr_dir(w: Vec3, rho: f32) -> AnisoDir {
     grid_dir(dcorr_phi(diamond_xy(w.x.abs(), rho * w.y.abs())), w, AN_PHI)
@@ -1628,12 +1673,14 @@ impl Tabulated {
         // are close to E(wi) and E_p(wi) (over the peak of f_p); symmetric.
         // The factors u = s sqrt(t), v = s sqrt(b) per direction, read
         // jointly from the correction table (s the furnace correction).
-        let ([ui, vi], [uo, vo]) = match &a.exact {
-            None => (
-                corr_at(&a.corners.corners, &corr_dirs(&a.corners, wi)),
-                corr_at(&a.corners.corners, &corr_dirs(&a.corners, wo)),
+        let c = &a.corners.corners;
+        let ([ui, vi], [uo, vo]) = match (&a.exact, a.corners.stretch) {
+            (None, None) => (corr_at(c, &corr_dir(wi)), corr_at(c, &corr_dir(wo))),
+            (None, Some(rho)) => (
+                corr_at_stretched(c, &corr_dirs(rho, wi)),
+                corr_at_stretched(c, &corr_dirs(rho, wo)),
             ),
-            Some((e, e_peak)) => {
+            (Some((e, e_peak)), _) => {
                 let [pi, po] = self.proj2(wi, wo);
                 let (ti, bi) = self.exact_factors(e, e_peak, wi, pi);
                 let (to, bo) = self.exact_factors(e, e_peak, wo, po);
@@ -1984,7 +2031,10 @@ mod tests {
                 let c = (0..3)
                     .max_by(|&a, &b| blocks.corners[a].1.total_cmp(&blocks.corners[b].1))
                     .unwrap_or(0);
-                let d = corr_dirs(&blocks, w)[c];
+                let d = match blocks.stretch {
+                    Some(rho) => corr_dirs(rho, w)[c],
+                    None => corr_dir(w),
+                };
                 let (kk, ii) = (d.k0 as f32 + d.fk, d.i0 as f32 + d.fi);
                 if !top {
                     assert!(
@@ -2016,7 +2066,10 @@ mod tests {
                 for k in 0..CORR_PHI {
                     for i in [0, 3, 7, 12, AN_MU - 1] {
                         let w = corr_node_dir(k * AN_MU + i, rho);
-                        let got = corr_at(&blocks.corners, &corr_dirs(&blocks, w));
+                        let got = match blocks.stretch {
+                            Some(rho) => corr_at_stretched(&blocks.corners, &corr_dirs(rho, w)),
+                            None => corr_at(&blocks.corners, &corr_dir(w)),
+                        };
                         let want = corr_values(corr_index(ndf, jx, jy, k, i));
                         for c in 0..2 {
                             let tol = 1e-4 * want[c].abs().max(1e-3);
