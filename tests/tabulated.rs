@@ -132,15 +132,16 @@ fn white_furnace_anisotropic() {
 /// axis (2.8, 5.6 and 11.25 degrees), at 45 and near the rough axis (70.3
 /// degrees); eval over `compensation::broad_reflection_nodes` (the lobe is
 /// broad, the normals' reflections crowd into a band at this anisotropy).
-/// Measured worst 0.0205 (GGX (0.05, 1.9) at 89 degrees, azimuth 5.6:
-/// between the cosine nodes at 88.4 and 89.2 degrees; at those nodes
-/// 0.1-0.3%). The issue's 0.5% is not met there: this bounds what is
-/// (0.025). With 9 plain azimuth nodes (until session 13) it was 0.1917
-/// (Beckmann (0.05, 1.9), 89 degrees, azimuth 2.8), with 17 plain nodes
-/// 0.0560 (version 8, between azimuth nodes 3.8 and 8.1 degrees); the
-/// blocks of anisotropy ratio above 8 now have their nodes crowded
-/// towards the smoother axis (`tabulated::corr_stretch`, version 9,
-/// `docs/tabulated.md`).
+/// Measured worst 0.0131 (GGX (0.05, 1.9) at 89 degrees, azimuth 5.6:
+/// between the cosine nodes at 88.4 and 89.2 degrees). The issue's 0.5%
+/// is not met there: this bounds what is (0.015). With 9 plain azimuth
+/// nodes (until session 13) it was 0.1917 (Beckmann (0.05, 1.9), 89
+/// degrees, azimuth 2.8), with 17 plain nodes 0.0560 (version 8, between
+/// azimuth nodes 3.8 and 8.1 degrees), with the blocks of anisotropy
+/// ratio above 8 crowding their nodes towards the smoother axis 0.0205
+/// (version 9, `tabulated::corr_stretch`; 0.1-0.3% at the cosine nodes on
+/// either side), and with those blocks' node targets balanced against
+/// the cosine midpoints 0.0131 (version 10, `docs/tabulated.md`).
 #[test]
 fn anisotropic_furnace_at_the_range_corners() {
     use msbsdf::multiple::compensation::broad_reflection_nodes;
@@ -164,7 +165,7 @@ fn anisotropic_furnace_at_the_range_corners() {
         }
     }
     println!("{report}worst |albedo - 1| = {worst:.4}");
-    assert!(worst < 0.025, "{report}");
+    assert!(worst < 0.015, "{report}");
 }
 
 /// Sample directions against the pdf: chi-square per configuration with a
@@ -499,7 +500,13 @@ fn stability_sweep() {
 /// resolve the needle-like lobe of GGX (0.056, 1.62) at 83 degrees to
 /// about 1%; 0.0072 with the 16 x 16 table of six Sinkhorn passes, clamped
 /// at 0.05, 0.0115 with the earlier lobe and correction), bounded at 0.2%
-/// (0.5% until the generator's quadrature was refined).
+/// (0.5% until the generator's quadrature was refined). That holds for the
+/// plain blocks. In the stretched blocks (anisotropy ratio above 8,
+/// `tabulated::corr_stretch`) the generator moves the node targets so
+/// that the furnace errors at the nodes and at the cosine midpoints
+/// between them balance (version 10): their nodes are held to 2% (the
+/// generator's balanced worst there is in the table's header), and the
+/// directions between nodes by `anisotropic_furnace_at_the_range_corners`.
 #[test]
 fn anisotropic_furnace_at_correction_nodes() {
     use msbsdf::multiple::compensation_aniso_tables::AN_MU;
@@ -508,7 +515,7 @@ fn anisotropic_furnace_at_correction_nodes() {
     };
     let mut pick = Rng::new(2718, 2);
     let mut report = String::new();
-    let mut worst: f64 = 0.0;
+    let (mut worst, mut worst_stretched): (f64, f64) = (0.0, 0.0);
     let mut n = 0;
     while n < 16 {
         let nd = (pick.next_u32() % 2) as usize;
@@ -521,18 +528,27 @@ fn anisotropic_furnace_at_correction_nodes() {
         n += 1;
         let k = (pick.next_u32() % CORR_PHI as u32) as usize;
         let i = (pick.next_u32() % AN_MU as u32) as usize;
-        let wi = corr_node_dir(k * AN_MU + i, corr_stretch(jx, jy));
+        let rho = corr_stretch(jx, jy);
+        let wi = corr_node_dir(k * AN_MU + i, rho);
         let (mu, phi) = (wi.z, wi.y.atan2(wi.x));
         let m = mirror(NDFS[nd], ax, ay);
         let q = albedo_quadrature(&m, wi, ax, ay, 0);
         report += &format!(
-            "{:?} ({ax:.3}, {ay:.3}) phi {phi:.2} mu {mu:.3}: {q:.4}\n",
+            "{:?} ({ax:.3}, {ay:.3}) rho {rho:.2} phi {phi:.2} mu {mu:.3}: {q:.4}\n",
             NDFS[nd]
         );
-        worst = worst.max((q - 1.0).abs());
+        if rho == 1.0 {
+            worst = worst.max((q - 1.0).abs());
+        } else {
+            worst_stretched = worst_stretched.max((q - 1.0).abs());
+        }
     }
-    println!("{report}worst |albedo - 1| at the nodes = {worst:.4}");
+    println!(
+        "{report}worst |albedo - 1| at the nodes = {worst:.4} (plain blocks), \
+         {worst_stretched:.4} (stretched blocks)"
+    );
     assert!(worst < 0.002, "{report}");
+    assert!(worst_stretched < 0.02, "{report}");
 }
 
 /// Anisotropic roughness off the suite, on pairs of its own (16 incident

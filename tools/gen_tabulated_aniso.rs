@@ -76,6 +76,10 @@ struct Stats {
     /// Stored products at the top of their range (conductor).
     pair_clamped: usize,
     steps: usize,
+    /// Stretched blocks: the worst furnace error at the cosine midpoints
+    /// and at the nodes after the balancing of their targets.
+    mid: f64,
+    node: f64,
 }
 
 /// A correction table file: `magic`, the text `header` padded with zeros
@@ -136,6 +140,18 @@ fn run_jobs<J: Sync, V: Send>(
     results
 }
 
+/// A cosine midpoint of a stretched block (`block`): its direction, its
+/// furnace target `1 - E_ss`, the lobe's two parts integrated against the
+/// interpolation weights of `wo`, and eval's interpolation weights of the
+/// direction itself.
+struct Mid {
+    w: Vec3,
+    t: f64,
+    a: Vec<f64>,
+    b: Vec<f64>,
+    wts: [(usize, f32); 4],
+}
+
 /// The stored values of roughness pair `(jx, jy)` of NDF `n`: per node
 /// `[s sqrt(t), s sqrt(b)]` (`[1, 1]` where an axis has roughness < 1e-3:
 /// no multiply scattered energy to correct), and the statistics with the
@@ -176,15 +192,13 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
     let proxy: Vec<f64> = (0..CORR_BLOCK)
         .map(|r| corr_proxy(n, ax, ay, corr_node_dir(r, rho)) as f64)
         .collect();
-    let mut target = vec![0.0f64; CORR_BLOCK];
-    // The two parts integrated against the interpolation weights of wo
-    // (the peaked one's `v(wo) = sum_n phi_n(wo) v_n g(n) / g(wo)`).
-    let mut mt = vec![[0.0f64; CORR_BLOCK]; CORR_BLOCK];
-    let mut mp = vec![[0.0f64; CORR_BLOCK]; CORR_BLOCK];
-    for r in 0..CORR_BLOCK {
-        let wi = corr_node_dir(r, rho);
-        target[r] =
+    // A direction's furnace target `1 - E_ss` and the lobe's two parts
+    // integrated against the interpolation weights of wo (the peaked
+    // one's `v(wo) = sum_n phi_n(wo) v_n g(n) / g(wo)`).
+    let mut rows = |wi: Vec3| {
+        let target =
             1.0 - single_albedo(|x, y| single.eval(x, y, &mut rng).x, ax, ay, wi, None, quad);
+        let (mut mt, mut mp) = (vec![0.0f64; CORR_BLOCK], vec![0.0f64; CORR_BLOCK]);
         // The lobe is broad: the normals' nodes alone leave most of the
         // hemisphere nearly empty when the roughness is strongly
         // anisotropic (`broad_reflection_nodes`).
@@ -197,11 +211,46 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
                 p as f64 * w / corr_proxy(n, ax, ay, wo) as f64,
             );
             for (node, b) in corr_dir_weights(wo, rho) {
-                mt[r][node] += t * b as f64;
-                mp[r][node] += p * b as f64 * proxy[node];
+                mt[node] += t * b as f64;
+                mp[node] += p * b as f64 * proxy[node];
             }
         });
+        (target, mt, mp)
+    };
+    let (mut target, mut mt, mut mp) = (Vec::new(), Vec::new(), Vec::new());
+    for r in 0..CORR_BLOCK {
+        let (t, a, b) = rows(corr_node_dir(r, rho));
+        target.push(t);
+        mt.push(a);
+        mp.push(b);
     }
+    // In a stretched block, the cosine midpoints between the nodes of
+    // each azimuth node (where the linear interpolation of the factors
+    // strays most at grazing incidence): their directions, targets, rows
+    // and eval's interpolation weights.
+    let mids: Vec<_> = if rho != 1.0 {
+        let mu_min = msbsdf::multiple::compensation::aniso_grid_mu(0) as f64;
+        (0..CORR_PHI)
+            .flat_map(|k| (1..AN_MU - 1).map(move |i| (k, i)))
+            .map(|(k, i)| {
+                let x = (i as f64 + 0.5) / (AN_MU - 1) as f64;
+                let mu = (mu_min + (1.0 - mu_min) * x * x) as f32;
+                let axis = corr_node_dir(k * AN_MU, rho);
+                let xy = Vec3::new(axis.x, axis.y, 0.0).normalize_or_zero();
+                let w = xy * (1.0 - mu * mu).max(0.0).sqrt() + Vec3::Z * mu;
+                let (t, a, b) = rows(w);
+                Mid {
+                    w,
+                    t,
+                    a,
+                    b,
+                    wts: corr_dir_weights(w, rho),
+                }
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
     // With u = s sqrt(t), v = s sqrt(b) at every node, the albedo from node
     // r is s_r sum_n M[r][n] s_n.
     let m: Vec<Vec<f64>> = (0..CORR_BLOCK)
@@ -211,7 +260,61 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
                 .collect()
         })
         .collect();
-    let (s, mut stats) = solve(&m, &target);
+    // The node targets the solve meets (shifted in stretched blocks).
+    let mut shifted = target.clone();
+    let (mut s, mut stats) = solve(&m, &target);
+    // Stretched blocks: the node targets shifted so that the furnace
+    // errors at the nodes and at the adjacent cosine midpoints balance
+    // (half each), a few fixed-point steps.
+    if !mids.is_empty() {
+        let node_albedo = |s: &[f32], r: usize| {
+            s[r] as f64 * (0..CORR_BLOCK).map(|c| m[r][c] * s[c] as f64).sum::<f64>()
+        };
+        let mid_error = |s: &[f32], q: &Mid| {
+            let Mid { w, t, a, b, wts } = q;
+            let (mut u, mut v) = (0.0f64, 0.0f64);
+            for &(nd, wt) in wts {
+                u += wt as f64 * s[nd] as f64 * fac[nd].0;
+                v += wt as f64 * s[nd] as f64 * fac[nd].1 * proxy[nd];
+            }
+            v /= corr_proxy(n, ax, ay, *w) as f64;
+            let at: f64 = (0..CORR_BLOCK).map(|c| a[c] * fac[c].0 * s[c] as f64).sum();
+            let bt: f64 = (0..CORR_BLOCK).map(|c| b[c] * fac[c].1 * s[c] as f64).sum();
+            u * at + v * bt - t
+        };
+        for _ in 0..3 {
+            let e: Vec<f64> = mids.iter().map(|q| mid_error(&s, q)).collect();
+            for r in 0..CORR_BLOCK {
+                let (k, i) = (r / AN_MU, r % AN_MU);
+                // Midpoint j (of AN_MU - 2 per azimuth node) lies between
+                // cosine nodes j + 1 and j + 2; none below node 1.
+                let mut adj = Vec::new();
+                if i > 1 {
+                    adj.push(e[k * (AN_MU - 2) + i - 2]);
+                }
+                if i >= 1 && i + 1 < AN_MU {
+                    adj.push(e[k * (AN_MU - 2) + i - 1]);
+                }
+                // The last cosine node is the normal, the same direction
+                // for every azimuth node: its target is not moved (the
+                // factors there stay equal across the azimuth nodes).
+                if adj.is_empty() || i + 1 == AN_MU {
+                    continue;
+                }
+                let em = adj.iter().sum::<f64>() / adj.len() as f64;
+                let en = node_albedo(&s, r) - target[r];
+                shifted[r] -= 0.5 * (em + en);
+            }
+            let (s2, st2) = solve(&m, &shifted);
+            s = s2;
+            stats = st2;
+        }
+        let e: Vec<f64> = mids.iter().map(|q| mid_error(&s, q)).collect();
+        stats.mid = e.iter().fold(0.0f64, |w, x| w.max(x.abs()));
+        stats.node = (0..CORR_BLOCK)
+            .filter(|&r| target[r] >= 1e-4)
+            .fold(0.0f64, |w, r| w.max((node_albedo(&s, r) - target[r]).abs()));
+    }
     let round = |x: f64| corr_decode(corr_encode(x as f32, CORR_PAIR_MAX), CORR_PAIR_MAX) as f64;
     let uv: Vec<[f64; 2]> = (0..CORR_BLOCK)
         .map(|r| {
@@ -229,7 +332,7 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
     // The residual of what is stored.
     stats.residual = 0.0;
     for r in 0..CORR_BLOCK {
-        if target[r] < 1e-4 {
+        if shifted[r] < 1e-4 {
             continue;
         }
         let a: f64 = (0..CORR_BLOCK)
@@ -239,7 +342,7 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
             })
             .sum();
         if a > 1e-4 {
-            stats.residual = stats.residual.max((a - target[r]).abs());
+            stats.residual = stats.residual.max((a - shifted[r]).abs());
         }
     }
     (uv.iter().map(|v| v.map(|x| x as f32)).collect(), stats)
@@ -356,6 +459,8 @@ fn main() {
         stats.clamped += st.clamped;
         stats.pair_clamped += st.pair_clamped;
         stats.steps = stats.steps.max(st.steps);
+        stats.mid = stats.mid.max(st.mid);
+        stats.node = stats.node.max(st.node);
         for k in 0..CORR_PHI {
             for i in 0..AN_MU {
                 let at = corr_index(n, jx, jy, k, i);
@@ -369,7 +474,7 @@ fn main() {
     }
     let command: Vec<String> = args.iter().skip(1).cloned().collect();
     let header = format!(
-        "ANISO_CORRECTION v9 (MSBSDF_MODEL_TABULATED): per [ndf: Beckmann, GGX][roughness \
+        "ANISO_CORRECTION v10 (MSBSDF_MODEL_TABULATED): per [ndf: Beckmann, GGX][roughness \
          pair (jx <= jy) of {CORR_A} x {CORR_A}: alpha = 2 (j / {})^2][azimuth: {CORR_PHI} \
          nodes of the diamond angle rho |y| / (|x| + rho |y|) from 0 to 1, rho the block's \
          stretch (tabulated::corr_stretch: 1 up to alpha_y / alpha_x = {CORR_STRETCH_RATIO}, \
@@ -382,7 +487,11 @@ fn main() {
          {CORR_PAIR_MAX} (x / 65535)^2, after this {HEADER_BYTES}-byte header; (jx > jy, k) \
          reads (jy, jx, {} - k). The lobe parts.0 u(wi) u(wo) + parts.1 v(wi) v(wo), u and v \
          interpolated as eval does, has the multiply scattered albedo 1 - E_ss at every \
-         node, E_ss SINGLE's albedo with F = 1; both by deterministic quadrature \
+         node, E_ss SINGLE's albedo with F = 1 (in the stretched blocks at targets shifted \
+         by three fixed-point steps so that the furnace errors at each node and at the \
+         adjacent cosine midpoints, those from the second cosine node on, balance, the \
+         normal's node not moved: worst \
+         then {:.4} at the midpoints and {:.4} at the nodes); both by deterministic quadrature \
          (E_ss over compensation::single_albedo's normals, {quad} x {quad} per node; the \
          lobe over compensation::broad_reflection_nodes: those normals and a {} x {} \
          direction grid split by node density), s by the \
@@ -397,6 +506,8 @@ fn main() {
         CORR_A - 1,
         CORR_PROXY_V[0],
         CORR_PHI - 1,
+        stats.mid,
+        stats.node,
         2 * quad / 3,
         4 * quad / 3,
         lo[0],
