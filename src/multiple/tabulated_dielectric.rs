@@ -130,14 +130,14 @@ use crate::bsdf::{LOBE_ALL, Sample, ScatterModel};
 use crate::desc::MaterialDesc;
 use crate::facet::Facet;
 use crate::frame::flip_z;
-use crate::multiple::compensation::{AnisoDir, aniso_mu_root};
+use crate::multiple::compensation::AnisoDir;
 use crate::multiple::compensation_aniso_tables::{AN_MU, AN_PHI};
 use crate::multiple::tabulated::{
     CORR_MAX, CORR_MIRROR, dcorr_phi4, diamond4, stored_pair, tabulated_ndf, triangle, u16x2x2,
 };
 use crate::multiple::tabulated::{
-    DIELECTRIC_BLEND_S2, MAX_ALPHA, MU_N, alpha_proj2, cos_phi, cosine_sample, decode, ndf_index,
-    split, split_root, split_root4, text_header,
+    DIELECTRIC_BLEND_S2, MAX_ALPHA, MU_N, alpha_proj2, cos_phi, cosine_sample, decode, grid_dirs3,
+    ndf_index, split, split_root, text_header,
 };
 use crate::ndf::Ndf;
 use crate::rng::Rng;
@@ -510,14 +510,7 @@ fn dcorr_corners(ndf: usize, ax: f32, ay: f32, eta: (usize, usize, f32)) -> DCor
 /// once, the three azimuth coordinates in SIMD lanes).
 #[inline]
 fn dcorr_dirs(rho: Vec4, w: Vec3) -> [AnisoDir; 3] {
-    let (i0, fi) = split_root(aniso_mu_root(w.z.abs()), AN_MU);
-    let (k, fk) = split_root4(dcorr_phi4(diamond4(w, rho)), AN_PHI);
-    [0, 1, 2].map(|j| AnisoDir {
-        k0: k[j],
-        fk: fk[j],
-        i0,
-        fi,
-    })
+    grid_dirs3(dcorr_phi4(diamond4(w, rho)), w, AN_PHI)
 }
 
 /// The correction `s` of a direction on `side` (0 thin, 1 dense) at its
