@@ -251,7 +251,7 @@ pub const CORR_VALUES: usize = 2;
 /// [`CORR_LEN`].
 pub const CORR_FILE_BYTES: usize = HEADER_BYTES + 2 * CORR_VALUES * CORR_LEN;
 /// First bytes of the correction table file.
-pub const CORR_MAGIC: &[u8; 29] = b"MSBSDF-TABULATED-ANISO-F-v10\n";
+pub const CORR_MAGIC: &[u8; 29] = b"MSBSDF-TABULATED-ANISO-F-v11\n";
 
 /// Exponent of the peaked part's proxy ([`corr_proxy_ln`]) per NDF index
 /// (Beckmann, GGX): the correction table stores `v exp(CORR_PROXY_V L)`
@@ -277,15 +277,20 @@ pub const CORR_PROXY_V: [f32; NDF_N] = [0.375, 0.0];
 const CORR_PROXY_FLOOR: f32 = 1e-5;
 
 /// The logarithm `L` of the proxy of a direction `w` at the roughness
-/// `(alpha_x, alpha_y)`: `sin^2 theta ln(proj / mean)`, `proj` the
+/// `(alpha_x, alpha_y)`: `(1 - cos theta) ln(proj / mean)`, `proj` the
 /// projected squared roughness of the direction's azimuth and `mean` the
-/// mean of the axes' squares (0 along the normal). The weight `sin^2
+/// mean of the axes' squares (0 along the normal). The weight `1 - cos
 /// theta` fades the proxy towards the normal, where the factors do not
-/// depend on the azimuth, and leaves it nearly constant in theta near
-/// grazing, where the cosine nodes are dense. A blend of `proj` and
-/// `mean` linear in `sin^2 theta` (as `alpha_proj2`) put its curvature in
-/// the cosine: +0.66% between two cosine nodes 2.3 degrees apart (GGX
-/// (0.27, 1.87), 84.3 degrees, on the smooth axis).
+/// depend on the azimuth; being linear in the cosine, it keeps the proxy
+/// close to linear across the wide last cosine interval next to the
+/// normal (29.3 to 0 degrees), which eval interpolates linearly. Until
+/// version 11 the weight was `sin^2 theta`, whose proxy there is
+/// exponential in `sin^2 theta`: Beckmann (0.05, 1.9) at 20 degrees on the
+/// smooth axis (`ln(proj / mean)` -6.6) was +2.2% (now within 0.5%,
+/// `docs/tabulated.md`). A blend of `proj` and `mean` linear in `sin^2
+/// theta` (as `alpha_proj2`) put its curvature in the cosine: +0.66%
+/// between two cosine nodes 2.3 degrees apart (GGX (0.27, 1.87), 84.3
+/// degrees, on the smooth axis).
 #[inline]
 pub fn corr_proxy_ln(ax: f32, ay: f32, w: Vec3) -> f32 {
     let s2 = w.x * w.x + w.y * w.y;
@@ -294,7 +299,7 @@ pub fn corr_proxy_ln(ax: f32, ay: f32, w: Vec3) -> f32 {
     }
     let (ax2, ay2) = (ax * ax, ay * ay);
     let proj = (w.x * w.x * ax2 + w.y * w.y * ay2) / s2;
-    s2 * ((proj + CORR_PROXY_FLOOR) / (0.5 * (ax2 + ay2) + CORR_PROXY_FLOOR)).ln()
+    (1.0 - w.z.abs()) * ((proj + CORR_PROXY_FLOOR) / (0.5 * (ax2 + ay2) + CORR_PROXY_FLOOR)).ln()
 }
 
 /// The proxy `exp(CORR_PROXY_V L)` ([`corr_proxy_ln`]) of the peaked
