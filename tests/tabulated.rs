@@ -127,21 +127,26 @@ fn white_furnace_anisotropic() {
 }
 
 /// The furnace at the corners of the roughness range, where the
-/// correction's azimuth interpolation is hardest: both NDFs, (0.05, 1.9)
-/// and (0.11, 1.9), 60, 75, 85 and 89 degrees, azimuths near the smooth
-/// axis (2.8, 5.6 and 11.25 degrees), at 45 and near the rough axis (70.3
-/// degrees); eval over `compensation::broad_reflection_nodes` (the lobe is
-/// broad, the normals' reflections crowd into a band at this anisotropy).
-/// Measured worst 0.0131 (GGX (0.05, 1.9) at 89 degrees, azimuth 5.6:
-/// between the cosine nodes at 88.4 and 89.2 degrees). The issue's 0.5%
-/// is not met there: this bounds what is (0.015). With 9 plain azimuth
-/// nodes (until session 13) it was 0.1917 (Beckmann (0.05, 1.9), 89
-/// degrees, azimuth 2.8), with 17 plain nodes 0.0560 (version 8, between
-/// azimuth nodes 3.8 and 8.1 degrees), with the blocks of anisotropy
-/// ratio above 8 crowding their nodes towards the smoother axis 0.0205
-/// (version 9, `tabulated::corr_stretch`; 0.1-0.3% at the cosine nodes on
-/// either side), and with those blocks' node targets balanced against
-/// the cosine midpoints 0.0131 (version 10, `docs/tabulated.md`).
+/// correction's interpolation is hardest: both NDFs, (0.05, 1.9) and
+/// (0.11, 1.9), 60, 75, 85 and 89 degrees and 20 degrees (inside the last
+/// cosine interval, 29.3 to 0 degrees), azimuths on and near the smooth
+/// axis (0, 2.8, 5.6 and 11.25 degrees), at 45 and near the rough axis
+/// (70.3 degrees); eval over `compensation::broad_reflection_nodes` (the
+/// lobe is broad, the normals' reflections crowd into a band at this
+/// anisotropy). Measured worst 0.0131 (GGX (0.05, 1.9) at 89
+/// degrees, azimuth 5.6: between the cosine nodes at 89.2 and 88.4
+/// degrees). The issue's 0.5% is not met there: this
+/// bounds what is (0.015). With 9 plain azimuth nodes (until session 13)
+/// it was 0.1917 (Beckmann (0.05, 1.9), 89 degrees, azimuth 2.8), with 17
+/// plain nodes 0.0560 (version 8, between azimuth nodes 3.8 and 8.1
+/// degrees), with the blocks of anisotropy ratio above 8 crowding their
+/// nodes towards the smoother axis 0.0205 (version 9,
+/// `tabulated::corr_stretch`), with those blocks' node targets balanced
+/// against the cosine midpoints 0.0131 at the angles from 60 degrees and
+/// 0.0223 at 20 degrees on the smooth axis (version 10: Beckmann (0.05,
+/// 1.9), its proxy's curvature across the last cosine interval; the
+/// angle and the azimuth 0 were added with version 11, which changed the
+/// proxy's weight, `docs/tabulated.md`).
 #[test]
 fn anisotropic_furnace_at_the_range_corners() {
     use msbsdf::multiple::compensation::broad_reflection_nodes;
@@ -150,8 +155,8 @@ fn anisotropic_furnace_at_the_range_corners() {
     for ndf in NDFS {
         for (ax, ay) in [(0.05, 1.9), (0.11, 1.9)] {
             let m = mirror(ndf, ax, ay);
-            for theta in [60.0, 75.0, 85.0, 89.0] {
-                for phi in [2.8125, 5.625, 11.25, 45.0, 70.3125] {
+            for theta in [20.0, 60.0, 75.0, 85.0, 89.0] {
+                for phi in [0.0, 2.8125, 5.625, 11.25, 45.0, 70.3125] {
                     let wi = dir_deg_az(theta, phi);
                     let mut rng = Rng::new(0, 0);
                     let mut q = 0.0;
@@ -373,6 +378,9 @@ fn suite_error_against_reference_values() {
     // Beckmann's peaked factor over its proxy (session 15,
     // `tabulated::CORR_PROXY_V`): Beckmann 0.013-0.017 -> 0.012-0.015;
     // the same proxy for GGX took gold to 0.0295, so GGX has none.
+    // Version 11 (every block's targets balanced against the cosine
+    // midpoints, Beckmann's proxy weight 1 - cos theta): GGX gold 0.0285
+    // -> 0.0287, Beckmann gold 0.0127 -> 0.0126.
     assert!(worst_aniso_ggx < 0.029, "{report}");
     assert!(worst_aniso < 0.03, "{report}");
 }
@@ -492,30 +500,28 @@ fn stability_sweep() {
 /// The anisotropic furnace at the nodes of the correction table
 /// (`data/tabulated_aniso.bin`, random nodes of its 31 x 31 roughness grid
 /// with a fixed seed, roughness >= 0.05 on both axes, any azimuth and
-/// cosine node): eval's albedo by quadrature (400 x 400 normals) against 1
+/// cosine node) and at the cosine midpoint next to each (towards the
+/// normal): eval's albedo by quadrature (400 x 400 normals) against 1
 /// with SINGLE's albedo from the same quadrature. The generator solves the
-/// scaling at the nodes to 1e-4 with its own quadrature (192 x 192), so
-/// what remains is that quadrature's error and the u16 rounding: measured
-/// worst 0.0006 (0.0044 with the generator's 128 x 128 normals, which
-/// resolve the needle-like lobe of GGX (0.056, 1.62) at 83 degrees to
-/// about 1%; 0.0072 with the 16 x 16 table of six Sinkhorn passes, clamped
-/// at 0.05, 0.0115 with the earlier lobe and correction), bounded at 0.2%
-/// (0.5% until the generator's quadrature was refined). That holds for the
-/// plain blocks. In the stretched blocks (anisotropy ratio above 8,
-/// `tabulated::corr_stretch`) the generator moves the node targets so
-/// that the furnace errors at the nodes and at the cosine midpoints
-/// between them balance (version 10): their nodes are held to 2% (the
-/// generator's balanced worst there is in the table's header), and the
-/// directions between nodes by `anisotropic_furnace_at_the_range_corners`.
+/// scaling with its own quadrature (192 x 192); since version 11 it moves
+/// every node's target so that the furnace errors at the node and at its
+/// adjacent cosine midpoints balance (version 10 did so in the stretched
+/// blocks only; before, the nodes were met to 1e-4 and held here to 0.2%,
+/// measured 0.0001, while the midpoints were not tested). What is held
+/// here is the error of a whole cosine interval of a node material: the
+/// nodes and the midpoints to 1% (the generator's balanced worst, in its
+/// header, is above that only in blocks with `alpha_x` below 0.05, which
+/// this test does not pick).
 #[test]
 fn anisotropic_furnace_at_correction_nodes() {
+    use msbsdf::multiple::compensation::aniso_grid_mu;
     use msbsdf::multiple::compensation_aniso_tables::AN_MU;
     use msbsdf::multiple::tabulated::{
         CORR_A, CORR_PHI, corr_grid_alpha, corr_node_dir, corr_stretch,
     };
     let mut pick = Rng::new(2718, 2);
     let mut report = String::new();
-    let (mut worst, mut worst_stretched): (f64, f64) = (0.0, 0.0);
+    let (mut worst_node, mut worst_mid): (f64, f64) = (0.0, 0.0);
     let mut n = 0;
     while n < 16 {
         let nd = (pick.next_u32() % 2) as usize;
@@ -527,28 +533,35 @@ fn anisotropic_furnace_at_correction_nodes() {
         }
         n += 1;
         let k = (pick.next_u32() % CORR_PHI as u32) as usize;
-        let i = (pick.next_u32() % AN_MU as u32) as usize;
+        // Cosine nodes 1 to AN_MU - 2: the midpoint towards the normal is
+        // within 89 degrees and not the normal itself.
+        let i = 1 + (pick.next_u32() % (AN_MU as u32 - 2)) as usize;
         let rho = corr_stretch(jx, jy);
         let wi = corr_node_dir(k * AN_MU + i, rho);
-        let (mu, phi) = (wi.z, wi.y.atan2(wi.x));
+        // The midpoint in the grid's coordinate (`aniso_grid_mu`'s
+        // square) towards the next cosine node, at the same azimuth.
+        let x = (i as f32 + 0.5) / (AN_MU - 1) as f32;
+        let mu0 = aniso_grid_mu(0);
+        let mu_mid = mu0 + (1.0 - mu0) * x * x;
+        let xy = Vec3::new(wi.x, wi.y, 0.0).normalize_or_zero();
+        let w_mid = xy * (1.0 - mu_mid * mu_mid).max(0.0).sqrt() + Vec3::Z * mu_mid;
         let m = mirror(NDFS[nd], ax, ay);
         let q = albedo_quadrature(&m, wi, ax, ay, 0);
+        let qm = albedo_quadrature(&m, w_mid, ax, ay, 0);
         report += &format!(
-            "{:?} ({ax:.3}, {ay:.3}) rho {rho:.2} phi {phi:.2} mu {mu:.3}: {q:.4}\n",
-            NDFS[nd]
+            "{:?} ({ax:.3}, {ay:.3}) rho {rho:.2} phi {:.2} mu {:.3}: {q:.4}, midpoint mu {mu_mid:.3}: {qm:.4}\n",
+            NDFS[nd],
+            wi.y.atan2(wi.x),
+            wi.z
         );
-        if rho == 1.0 {
-            worst = worst.max((q - 1.0).abs());
-        } else {
-            worst_stretched = worst_stretched.max((q - 1.0).abs());
-        }
+        worst_node = worst_node.max((q - 1.0).abs());
+        worst_mid = worst_mid.max((qm - 1.0).abs());
     }
     println!(
-        "{report}worst |albedo - 1| at the nodes = {worst:.4} (plain blocks), \
-         {worst_stretched:.4} (stretched blocks)"
+        "{report}worst |albedo - 1| at the nodes = {worst_node:.4}, at the midpoints = {worst_mid:.4}"
     );
-    assert!(worst < 0.002, "{report}");
-    assert!(worst_stretched < 0.02, "{report}");
+    assert!(worst_node < 0.01, "{report}");
+    assert!(worst_mid < 0.01, "{report}");
 }
 
 /// Anisotropic roughness off the suite, on pairs of its own (16 incident

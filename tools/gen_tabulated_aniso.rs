@@ -76,8 +76,8 @@ struct Stats {
     /// Stored products at the top of their range (conductor).
     pair_clamped: usize,
     steps: usize,
-    /// Stretched blocks: the worst furnace error at the cosine midpoints
-    /// and at the nodes after the balancing of their targets.
+    /// The worst furnace error at the cosine midpoints and at the nodes
+    /// after the balancing of the node targets.
     mid: f64,
     node: f64,
 }
@@ -140,7 +140,7 @@ fn run_jobs<J: Sync, V: Send>(
     results
 }
 
-/// A cosine midpoint of a stretched block (`block`): its direction, its
+/// A cosine midpoint of a block (`block`): its direction, its
 /// furnace target `1 - E_ss`, the lobe's two parts integrated against the
 /// interpolation weights of `wo`, and eval's interpolation weights of the
 /// direction itself.
@@ -224,11 +224,11 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
         mt.push(a);
         mp.push(b);
     }
-    // In a stretched block, the cosine midpoints between the nodes of
-    // each azimuth node (where the linear interpolation of the factors
-    // strays most at grazing incidence): their directions, targets, rows
-    // and eval's interpolation weights.
-    let mids: Vec<_> = if rho != 1.0 {
+    // The cosine midpoints between the nodes of each azimuth node (where
+    // the linear interpolation of the factors strays most: near grazing
+    // and in the wide last interval next to the normal): their
+    // directions, targets, rows and eval's interpolation weights.
+    let mids: Vec<_> = {
         let mu_min = msbsdf::multiple::compensation::aniso_grid_mu(0) as f64;
         (0..CORR_PHI)
             .flat_map(|k| (1..AN_MU - 1).map(move |i| (k, i)))
@@ -248,8 +248,6 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
                 }
             })
             .collect()
-    } else {
-        Vec::new()
     };
     // With u = s sqrt(t), v = s sqrt(b) at every node, the albedo from node
     // r is s_r sum_n M[r][n] s_n.
@@ -260,12 +258,13 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
                 .collect()
         })
         .collect();
-    // The node targets the solve meets (shifted in stretched blocks).
+    // The node targets the solve meets (shifted by the balancing).
     let mut shifted = target.clone();
     let (mut s, mut stats) = solve(&m, &target);
-    // Stretched blocks: the node targets shifted so that the furnace
-    // errors at the nodes and at the adjacent cosine midpoints balance
-    // (half each), a few fixed-point steps.
+    // The node targets shifted so that the furnace error at each node
+    // and the mean error of its adjacent cosine midpoints come out equal
+    // and opposite (the interpolant's overshoot split in two), a few
+    // fixed-point steps.
     if !mids.is_empty() {
         let node_albedo = |s: &[f32], r: usize| {
             s[r] as f64 * (0..CORR_BLOCK).map(|c| m[r][c] * s[c] as f64).sum::<f64>()
@@ -296,12 +295,19 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
                     adj.push(e[k * (AN_MU - 2) + i - 1]);
                 }
                 // The last cosine node is the normal, the same direction
-                // for every azimuth node: its target is not moved (the
-                // factors there stay equal across the azimuth nodes).
-                if adj.is_empty() || i + 1 == AN_MU {
+                // for every azimuth node: its target moves by the mean of
+                // the last midpoints' errors over all azimuth nodes, so
+                // that its factors stay equal across the azimuth nodes.
+                let em = if i + 1 == AN_MU {
+                    (0..CORR_PHI)
+                        .map(|kk| e[kk * (AN_MU - 2) + AN_MU - 3])
+                        .sum::<f64>()
+                        / CORR_PHI as f64
+                } else if adj.is_empty() {
                     continue;
-                }
-                let em = adj.iter().sum::<f64>() / adj.len() as f64;
+                } else {
+                    adj.iter().sum::<f64>() / adj.len() as f64
+                };
                 let en = node_albedo(&s, r) - target[r];
                 shifted[r] -= 0.5 * (em + en);
             }
@@ -474,7 +480,7 @@ fn main() {
     }
     let command: Vec<String> = args.iter().skip(1).cloned().collect();
     let header = format!(
-        "ANISO_CORRECTION v10 (MSBSDF_MODEL_TABULATED): per [ndf: Beckmann, GGX][roughness \
+        "ANISO_CORRECTION v11 (MSBSDF_MODEL_TABULATED): per [ndf: Beckmann, GGX][roughness \
          pair (jx <= jy) of {CORR_A} x {CORR_A}: alpha = 2 (j / {})^2][azimuth: {CORR_PHI} \
          nodes of the diamond angle rho |y| / (|x| + rho |y|) from 0 to 1, rho the block's \
          stretch (tabulated::corr_stretch: 1 up to alpha_y / alpha_x = {CORR_STRETCH_RATIO}, \
@@ -482,15 +488,15 @@ fn main() {
          {AN_MU}] (ENERGY_COMPENSATED's anisotropic cosine grid) the two factors \
          u = s sqrt(t), v = s sqrt(b) of the lobe's table and peaked parts \
          (Tabulated::aniso_parts, aniso_factors), Beckmann's v times the node's proxy \
-         exp({} L), L = sin^2 theta ln(proj / mean) (tabulated::corr_proxy_ln; eval \
+         exp({} L), L = (1 - cos theta) ln(proj / mean) (tabulated::corr_proxy_ln; eval \
          divides by its own direction's), as little-endian u16 pairs x, value = \
          {CORR_PAIR_MAX} (x / 65535)^2, after this {HEADER_BYTES}-byte header; (jx > jy, k) \
          reads (jy, jx, {} - k). The lobe parts.0 u(wi) u(wo) + parts.1 v(wi) v(wo), u and v \
          interpolated as eval does, has the multiply scattered albedo 1 - E_ss at every \
-         node, E_ss SINGLE's albedo with F = 1 (in the stretched blocks at targets shifted \
-         by three fixed-point steps so that the furnace errors at each node and at the \
-         adjacent cosine midpoints, those from the second cosine node on, balance, the \
-         normal's node not moved: worst \
+         node, E_ss SINGLE's albedo with F = 1 (at targets shifted by three fixed-point \
+         steps so that the furnace error at each node and the mean one at its adjacent \
+         cosine midpoints, those from the second cosine node on, balance; the normal's \
+         node, shared by the azimuth nodes, by the mean of the midpoints next to it: worst \
          then {:.4} at the midpoints and {:.4} at the nodes); both by deterministic quadrature \
          (E_ss over compensation::single_albedo's normals, {quad} x {quad} per node; the \
          lobe over compensation::broad_reflection_nodes: those normals and a {} x {} \
@@ -1267,18 +1273,33 @@ fn azimuths_arg(args: &[String]) -> usize {
         .max(2)
 }
 
+/// The polar angles of the sweeps in degrees: `--thetas A,B,...`, by
+/// default 0, 30, 60, 75, 85 and 89.
+fn thetas_arg() -> Vec<f32> {
+    let args: Vec<String> = std::env::args().collect();
+    args.iter()
+        .position(|a| a == "--thetas")
+        .and_then(|p| args.get(p + 1))
+        .map(|v| {
+            v.split(',')
+                .filter_map(|t| t.trim().parse().ok())
+                .collect::<Vec<f32>>()
+        })
+        .filter(|v| !v.is_empty())
+        .unwrap_or_else(|| vec![0.0, 30.0, 60.0, 75.0, 85.0, 89.0])
+}
+
 /// Incident directions of the furnace sweeps: 0, 30, 60, 75, 85 and 89
-/// degrees times `azimuths` uniform azimuths from 0 to 90 degrees.
+/// degrees (or the comma-separated `--thetas`, [`thetas_arg`]) times
+/// `azimuths` uniform azimuths from 0 to 90 degrees.
 fn sweep_dirs(azimuths: usize) -> impl Iterator<Item = Vec3> {
     let step = 90.0 / (azimuths - 1) as f32;
-    [0.0f32, 30.0, 60.0, 75.0, 85.0, 89.0]
-        .into_iter()
-        .flat_map(move |th| {
-            (0..azimuths).map(move |k| {
-                let (th, ph) = (th.to_radians(), (k as f32 * step).to_radians());
-                Vec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos())
-            })
+    thetas_arg().into_iter().flat_map(move |th| {
+        (0..azimuths).map(move |k| {
+            let (th, ph) = (th.to_radians(), (k as f32 * step).to_radians());
+            Vec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos())
         })
+    })
 }
 
 /// Prints the spread of furnace errors `albedo - 1`: their count, the
