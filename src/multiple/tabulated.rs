@@ -352,17 +352,41 @@ pub const CORR_STRETCH_POW: f32 = 0.3;
 /// are each read at their own nodes (one SIMD division for the three
 /// azimuth coordinates, only when a corner is stretched).
 pub fn corr_stretch(jx: usize, jy: usize) -> f32 {
-    // The nodes' roughness is proportional to j^2: the ratio test on the
-    // integers (exact; no pair has the ratio 8 itself), so that material
-    // init pays no division for plain corners.
-    let (a, b) = ((jx * jx) as f32, (jy * jy) as f32);
-    if jx == 0 || jy == 0 || (b <= CORR_STRETCH_RATIO * a && a <= CORR_STRETCH_RATIO * b) {
+    // Plain corners (most materials) cost material init one table read.
+    let stretched = CORR_STRETCHED
+        .get(jx)
+        .is_some_and(|&m| jy < 32 && (m >> jy) & 1 != 0);
+    if !stretched {
         return 1.0;
     }
     let (ax, ay) = (corr_grid_alpha(jx), corr_grid_alpha(jy));
     let rho = (ax.max(ay) / ax.min(ay)).powf(CORR_STRETCH_POW);
     if ax <= ay { rho } else { 1.0 / rho }
 }
+
+/// Per node `jx`, bit `jy` set when the pair `(jx, jy)` has its azimuth
+/// nodes stretched ([`corr_stretch`]): the nodes' roughness is
+/// proportional to `j^2`, so the ratio test is exact on the integers (no
+/// pair has the ratio [`CORR_STRETCH_RATIO`] itself); pairs with a node 0
+/// (roughness 0) are plain.
+const CORR_STRETCHED: [u32; CORR_A] = {
+    assert!(CORR_A <= 32);
+    let ratio = CORR_STRETCH_RATIO as usize;
+    let mut out = [0u32; CORR_A];
+    let mut jx = 1;
+    while jx < CORR_A {
+        let mut jy = 1;
+        while jy < CORR_A {
+            let (a, b) = (jx * jx, jy * jy);
+            if b > ratio * a || a > ratio * b {
+                out[jx] |= 1 << jy;
+            }
+            jy += 1;
+        }
+        jx += 1;
+    }
+    out
+};
 
 /// Index of the stored pair `(jx, jy)`, `jx <= jy`.
 #[inline]
@@ -2062,6 +2086,34 @@ mod tests {
                 assert!((ii - (r % AN_MU) as f32).abs() < 1e-3, "node {r}: {ii}");
             }
         }
+    }
+
+    /// The stretched pairs' bit table gives what the anisotropy ratio of
+    /// the nodes' roughness says (above [`CORR_STRETCH_RATIO`], neither
+    /// roughness 0), for every pair, and the stretch of a stretched pair
+    /// is its ratio to [`CORR_STRETCH_POW`] (inverted when `alpha_x >
+    /// alpha_y`).
+    #[test]
+    fn stretched_pairs_follow_the_roughness_ratio() {
+        let mut stretched = 0;
+        for jx in 0..CORR_A {
+            for jy in 0..CORR_A {
+                let (ax, ay) = (corr_grid_alpha(jx), corr_grid_alpha(jy));
+                let ratio = ax.max(ay) / ax.min(ay);
+                let want = ax > 0.0 && ay > 0.0 && ratio > CORR_STRETCH_RATIO;
+                let rho = corr_stretch(jx, jy);
+                assert_eq!(rho != 1.0, want, "({jx}, {jy}): ratio {ratio}, rho {rho}");
+                if want {
+                    stretched += 1;
+                    let r = ratio.powf(CORR_STRETCH_POW);
+                    let expect = if ax <= ay { r } else { 1.0 / r };
+                    assert!((rho - expect).abs() <= 1e-6 * expect, "({jx}, {jy}): {rho}");
+                }
+            }
+        }
+        // 300 stored blocks of 992 (both NDFs, jx <= jy) are stretched:
+        // 150 pairs per NDF, twice that over the full square.
+        assert_eq!(stretched, 300);
     }
 
     /// The normal is the last cosine node of every azimuth node: the
