@@ -514,10 +514,10 @@ fn stability_sweep() {
 /// this test does not pick).
 #[test]
 fn anisotropic_furnace_at_correction_nodes() {
-    use msbsdf::multiple::compensation::aniso_grid_mu;
+    use msbsdf::multiple::compensation::aniso_grid_mu_at;
     use msbsdf::multiple::compensation_aniso_tables::AN_MU;
     use msbsdf::multiple::tabulated::{
-        CORR_A, CORR_PHI, corr_grid_alpha, corr_node_dir, corr_stretch,
+        CORR_A, CORR_PHI, corr_azimuth_dir, corr_grid_alpha, corr_node_dir, corr_stretch,
     };
     let mut pick = Rng::new(2718, 2);
     let mut report = String::new();
@@ -538,13 +538,10 @@ fn anisotropic_furnace_at_correction_nodes() {
         let i = 1 + (pick.next_u32() % (AN_MU as u32 - 2)) as usize;
         let rho = corr_stretch(jx, jy);
         let wi = corr_node_dir(k * AN_MU + i, rho);
-        // The midpoint in the grid's coordinate (`aniso_grid_mu`'s
-        // square) towards the next cosine node, at the same azimuth.
-        let x = (i as f32 + 0.5) / (AN_MU - 1) as f32;
-        let mu0 = aniso_grid_mu(0);
-        let mu_mid = mu0 + (1.0 - mu0) * x * x;
-        let xy = Vec3::new(wi.x, wi.y, 0.0).normalize_or_zero();
-        let w_mid = xy * (1.0 - mu_mid * mu_mid).max(0.0).sqrt() + Vec3::Z * mu_mid;
+        // The midpoint in the grid's coordinate towards the next cosine
+        // node, at the same azimuth.
+        let mu_mid = aniso_grid_mu_at(i as f32 + 0.5);
+        let w_mid = corr_azimuth_dir(k, mu_mid, rho);
         let m = mirror(NDFS[nd], ax, ay);
         let q = albedo_quadrature(&m, wi, ax, ay, 0);
         let qm = albedo_quadrature(&m, w_mid, ax, ay, 0);

@@ -46,14 +46,14 @@ use glam::Vec3;
 use msbsdf::bsdf::ScatterModel;
 use msbsdf::facet::Facet;
 use msbsdf::multiple::compensation::{
-    aniso_grid_mu, broad_reflection_nodes, lower_hemisphere_nodes, single_albedo,
+    aniso_grid_mu, aniso_grid_mu_at, broad_reflection_nodes, lower_hemisphere_nodes, single_albedo,
 };
 use msbsdf::multiple::compensation_aniso_tables::{AN_A, AN_MU, AN_PHI, CONDUCTOR_E_ANISO};
 use msbsdf::multiple::tabulated::{
     CORR_A, CORR_BLOCK, CORR_LEN, CORR_MAGIC, CORR_MAX, CORR_PAIR_MAX, CORR_PHI, CORR_PROXY_V,
-    CORR_STRETCH_POW, CORR_STRETCH_RATIO, CORR_VALUES, HEADER_BYTES, Tabulated, corr_decode,
-    corr_dir_weights, corr_encode, corr_grid_alpha, corr_index, corr_node_dir, corr_proxy,
-    corr_stretch, dcorr_dir_weights, dcorr_node_dir,
+    CORR_STRETCH_POW, CORR_STRETCH_RATIO, CORR_VALUES, HEADER_BYTES, Tabulated, corr_azimuth_dir,
+    corr_decode, corr_dir_weights, corr_encode, corr_grid_alpha, corr_index, corr_node_dir,
+    corr_proxy, corr_stretch, dcorr_dir_weights, dcorr_node_dir,
 };
 use msbsdf::ndf::{Ndf, NdfKind};
 use msbsdf::rng::Rng;
@@ -228,27 +228,20 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
     // the linear interpolation of the factors strays most: near grazing
     // and in the wide last interval next to the normal): their
     // directions, targets, rows and eval's interpolation weights.
-    let mids: Vec<_> = {
-        let mu_min = msbsdf::multiple::compensation::aniso_grid_mu(0) as f64;
-        (0..CORR_PHI)
-            .flat_map(|k| (1..AN_MU - 1).map(move |i| (k, i)))
-            .map(|(k, i)| {
-                let x = (i as f64 + 0.5) / (AN_MU - 1) as f64;
-                let mu = (mu_min + (1.0 - mu_min) * x * x) as f32;
-                let axis = corr_node_dir(k * AN_MU, rho);
-                let xy = Vec3::new(axis.x, axis.y, 0.0).normalize_or_zero();
-                let w = xy * (1.0 - mu * mu).max(0.0).sqrt() + Vec3::Z * mu;
-                let (t, a, b) = rows(w);
-                Mid {
-                    w,
-                    t,
-                    a,
-                    b,
-                    wts: corr_dir_weights(w, rho),
-                }
-            })
-            .collect()
-    };
+    let mids: Vec<_> = (0..CORR_PHI)
+        .flat_map(|k| (1..AN_MU - 1).map(move |i| (k, i)))
+        .map(|(k, i)| {
+            let w = corr_azimuth_dir(k, aniso_grid_mu_at(i as f32 + 0.5), rho);
+            let (t, a, b) = rows(w);
+            Mid {
+                w,
+                t,
+                a,
+                b,
+                wts: corr_dir_weights(w, rho),
+            }
+        })
+        .collect();
     // With u = s sqrt(t), v = s sqrt(b) at every node, the albedo from node
     // r is s_r sum_n M[r][n] s_n.
     let m: Vec<Vec<f64>> = (0..CORR_BLOCK)
@@ -265,62 +258,60 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
     // and the mean error of its adjacent cosine midpoints come out equal
     // and opposite (the interpolant's overshoot split in two), a few
     // fixed-point steps.
-    if !mids.is_empty() {
-        let node_albedo = |s: &[f32], r: usize| {
-            s[r] as f64 * (0..CORR_BLOCK).map(|c| m[r][c] * s[c] as f64).sum::<f64>()
-        };
-        let mid_error = |s: &[f32], q: &Mid| {
-            let Mid { w, t, a, b, wts } = q;
-            let (mut u, mut v) = (0.0f64, 0.0f64);
-            for &(nd, wt) in wts {
-                u += wt as f64 * s[nd] as f64 * fac[nd].0;
-                v += wt as f64 * s[nd] as f64 * fac[nd].1 * proxy[nd];
-            }
-            v /= corr_proxy(n, ax, ay, *w) as f64;
-            let at: f64 = (0..CORR_BLOCK).map(|c| a[c] * fac[c].0 * s[c] as f64).sum();
-            let bt: f64 = (0..CORR_BLOCK).map(|c| b[c] * fac[c].1 * s[c] as f64).sum();
-            u * at + v * bt - t
-        };
-        for _ in 0..3 {
-            let e: Vec<f64> = mids.iter().map(|q| mid_error(&s, q)).collect();
-            for r in 0..CORR_BLOCK {
-                let (k, i) = (r / AN_MU, r % AN_MU);
-                // Midpoint j (of AN_MU - 2 per azimuth node) lies between
-                // cosine nodes j + 1 and j + 2; none below node 1.
-                let mut adj = Vec::new();
-                if i > 1 {
-                    adj.push(e[k * (AN_MU - 2) + i - 2]);
-                }
-                if i >= 1 && i + 1 < AN_MU {
-                    adj.push(e[k * (AN_MU - 2) + i - 1]);
-                }
-                // The last cosine node is the normal, the same direction
-                // for every azimuth node: its target moves by the mean of
-                // the last midpoints' errors over all azimuth nodes, so
-                // that its factors stay equal across the azimuth nodes.
-                let em = if i + 1 == AN_MU {
-                    (0..CORR_PHI)
-                        .map(|kk| e[kk * (AN_MU - 2) + AN_MU - 3])
-                        .sum::<f64>()
-                        / CORR_PHI as f64
-                } else if adj.is_empty() {
-                    continue;
-                } else {
-                    adj.iter().sum::<f64>() / adj.len() as f64
-                };
-                let en = node_albedo(&s, r) - target[r];
-                shifted[r] -= 0.5 * (em + en);
-            }
-            let (s2, st2) = solve(&m, &shifted);
-            s = s2;
-            stats = st2;
+    let node_albedo = |s: &[f32], r: usize| {
+        s[r] as f64 * (0..CORR_BLOCK).map(|c| m[r][c] * s[c] as f64).sum::<f64>()
+    };
+    let mid_error = |s: &[f32], q: &Mid| {
+        let Mid { w, t, a, b, wts } = q;
+        let (mut u, mut v) = (0.0f64, 0.0f64);
+        for &(nd, wt) in wts {
+            u += wt as f64 * s[nd] as f64 * fac[nd].0;
+            v += wt as f64 * s[nd] as f64 * fac[nd].1 * proxy[nd];
         }
+        v /= corr_proxy(n, ax, ay, *w) as f64;
+        let at: f64 = (0..CORR_BLOCK).map(|c| a[c] * fac[c].0 * s[c] as f64).sum();
+        let bt: f64 = (0..CORR_BLOCK).map(|c| b[c] * fac[c].1 * s[c] as f64).sum();
+        u * at + v * bt - t
+    };
+    for _ in 0..3 {
         let e: Vec<f64> = mids.iter().map(|q| mid_error(&s, q)).collect();
-        stats.mid = e.iter().fold(0.0f64, |w, x| w.max(x.abs()));
-        stats.node = (0..CORR_BLOCK)
-            .filter(|&r| target[r] >= 1e-4)
-            .fold(0.0f64, |w, r| w.max((node_albedo(&s, r) - target[r]).abs()));
+        for r in 0..CORR_BLOCK {
+            let (k, i) = (r / AN_MU, r % AN_MU);
+            // Midpoint j (of AN_MU - 2 per azimuth node) lies between
+            // cosine nodes j + 1 and j + 2; none below node 1.
+            let mut adj = Vec::new();
+            if i > 1 {
+                adj.push(e[k * (AN_MU - 2) + i - 2]);
+            }
+            if i >= 1 && i + 1 < AN_MU {
+                adj.push(e[k * (AN_MU - 2) + i - 1]);
+            }
+            // The last cosine node is the normal, the same direction
+            // for every azimuth node: its target moves by the mean of
+            // the last midpoints' errors over all azimuth nodes, so
+            // that its factors stay equal across the azimuth nodes.
+            let em = if i + 1 == AN_MU {
+                (0..CORR_PHI)
+                    .map(|kk| e[kk * (AN_MU - 2) + AN_MU - 3])
+                    .sum::<f64>()
+                    / CORR_PHI as f64
+            } else if adj.is_empty() {
+                continue;
+            } else {
+                adj.iter().sum::<f64>() / adj.len() as f64
+            };
+            let en = node_albedo(&s, r) - target[r];
+            shifted[r] -= 0.5 * (em + en);
+        }
+        let (s2, st2) = solve(&m, &shifted);
+        s = s2;
+        stats = st2;
     }
+    let e: Vec<f64> = mids.iter().map(|q| mid_error(&s, q)).collect();
+    stats.mid = e.iter().fold(0.0f64, |w, x| w.max(x.abs()));
+    stats.node = (0..CORR_BLOCK)
+        .filter(|&r| target[r] >= 1e-4)
+        .fold(0.0f64, |w, r| w.max((node_albedo(&s, r) - target[r]).abs()));
     let round = |x: f64| corr_decode(corr_encode(x as f32, CORR_PAIR_MAX), CORR_PAIR_MAX) as f64;
     let uv: Vec<[f64; 2]> = (0..CORR_BLOCK)
         .map(|r| {
@@ -397,11 +388,11 @@ fn main() {
         return;
     }
     if args.iter().any(|a| a == "--sweep") {
-        conductor_sweep(azimuths_arg(&args));
+        conductor_sweep(azimuths_arg(&args), &thetas_arg(&args));
         return;
     }
     if args.iter().any(|a| a == "--dielectric-sweep") {
-        dielectric_sweep(azimuths_arg(&args));
+        dielectric_sweep(azimuths_arg(&args), &thetas_arg(&args));
         return;
     }
     if args.iter().any(|a| a == "--dielectric-eta-scan") {
@@ -1275,8 +1266,7 @@ fn azimuths_arg(args: &[String]) -> usize {
 
 /// The polar angles of the sweeps in degrees: `--thetas A,B,...`, by
 /// default 0, 30, 60, 75, 85 and 89.
-fn thetas_arg() -> Vec<f32> {
-    let args: Vec<String> = std::env::args().collect();
+fn thetas_arg(args: &[String]) -> Vec<f32> {
     args.iter()
         .position(|a| a == "--thetas")
         .and_then(|p| args.get(p + 1))
@@ -1289,12 +1279,12 @@ fn thetas_arg() -> Vec<f32> {
         .unwrap_or_else(|| vec![0.0, 30.0, 60.0, 75.0, 85.0, 89.0])
 }
 
-/// Incident directions of the furnace sweeps: 0, 30, 60, 75, 85 and 89
-/// degrees (or the comma-separated `--thetas`, [`thetas_arg`]) times
-/// `azimuths` uniform azimuths from 0 to 90 degrees.
-fn sweep_dirs(azimuths: usize) -> impl Iterator<Item = Vec3> {
+/// Incident directions of the furnace sweeps: the polar angles `thetas`
+/// in degrees ([`thetas_arg`]) times `azimuths` uniform azimuths from 0 to
+/// 90 degrees.
+fn sweep_dirs(azimuths: usize, thetas: &[f32]) -> impl Iterator<Item = Vec3> + '_ {
     let step = 90.0 / (azimuths - 1) as f32;
-    thetas_arg().into_iter().flat_map(move |th| {
+    thetas.iter().flat_map(move |&th| {
         (0..azimuths).map(move |k| {
             let (th, ph) = (th.to_radians(), (k as f32 * step).to_radians());
             Vec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos())
@@ -1375,8 +1365,9 @@ fn conductor_at(args: &[String]) {
 /// normals and a 266 x 533 grid) on the grid of [`dielectric_sweep`]
 /// without the index: both NDFs, roughness pairs `alpha_x < alpha_y` of
 /// {0.05, 0.11, 0.3, 0.6, 1, 1.9}, `wi` at 0, 30, 60, 75, 85 and 89
-/// degrees, `N` azimuths from 0 to 90 (9 by default, [`azimuths_arg`]).
-fn conductor_sweep(azimuths: usize) {
+/// degrees (or `--thetas`, [`thetas_arg`]), `N` azimuths from 0 to 90 (9
+/// by default, [`azimuths_arg`]).
+fn conductor_sweep(azimuths: usize, thetas: &[f32]) {
     let alphas = SWEEP_ALPHAS;
     let white = Facet::Conductor {
         eta: Vec3::ZERO,
@@ -1393,7 +1384,7 @@ fn conductor_sweep(azimuths: usize) {
     let t0 = std::time::Instant::now();
     let results = run_jobs(&materials, 2, "materials", t0, |&(n, ax, ay)| {
         let tab = Tabulated::new(Ndf::new(NDFS[n], ax, ay), white);
-        let rows = sweep_dirs(azimuths)
+        let rows = sweep_dirs(azimuths, thetas)
             .map(|wi| (wi, conductor_albedo(&tab, ax, ay, wi) - 1.0))
             .collect();
         (rows, Stats::default())
@@ -1433,11 +1424,11 @@ fn conductor_sweep(azimuths: usize) {
 /// (no random numbers) that reaches the corners of the range: both NDFs,
 /// roughness pairs `alpha_x < alpha_y` of {0.05, 0.11, 0.3, 0.6, 1, 1.9},
 /// indices 1.05, 1.2, 1.5, 2 and 3 seen from both sides, `wi` at 0, 30,
-/// 60, 75, 85 and 89 degrees and `--azimuths N` azimuths from 0 to 90
+/// 60, 75, 85 and 89 degrees (or `--thetas`) and `--azimuths N` azimuths from 0 to 90
 /// degrees (9 by default, [`azimuths_arg`]). Prints
 /// the worst, 99th and 90th percentiles and median of `|albedo - 1|` and
 /// the worst cases.
-fn dielectric_sweep(azimuths: usize) {
+fn dielectric_sweep(azimuths: usize, thetas: &[f32]) {
     use msbsdf::multiple::tabulated_dielectric::TabulatedDielectric;
     let alphas = SWEEP_ALPHAS;
     let mut materials = Vec::new();
@@ -1458,7 +1449,7 @@ fn dielectric_sweep(azimuths: usize) {
         let facet = Facet::Dielectric { eta };
         let t = TabulatedDielectric::new(ndf, facet);
         let s = Single::new(ndf, facet, G2Form::HeightCorrelated);
-        let rows = sweep_dirs(azimuths)
+        let rows = sweep_dirs(azimuths, thetas)
             .map(|wi| (wi, glass_albedo(&t, &s, wi, ax, ay, eta) - 1.0))
             .collect();
         (rows, Stats::default())

@@ -118,7 +118,14 @@ fn aniso_alpha_coord(alpha: f32) -> f32 {
 
 /// Grid value of mu point `i` of the anisotropic table.
 pub const fn aniso_grid_mu(i: usize) -> f32 {
-    let s = i as f32 / (an::AN_MU - 1) as f32;
+    aniso_grid_mu_at(i as f32)
+}
+
+/// The anisotropic table's cosine at the fractional node coordinate `x`
+/// (`x = i` gives [`aniso_grid_mu`]`(i)`; `i + 0.5` the cosine midpoint
+/// between nodes `i` and `i + 1` that the correction generator balances).
+pub const fn aniso_grid_mu_at(x: f32) -> f32 {
+    let s = x / (an::AN_MU - 1) as f32;
     t::MU_MIN + (1.0 - t::MU_MIN) * s * s
 }
 

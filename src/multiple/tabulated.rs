@@ -804,12 +804,20 @@ pub(crate) fn dcorr_dir(w: Vec3, rho: f32) -> AnisoDir {
 /// correction (`corr_dir`: diamond angle `k / (CORR_PHI - 1)`, the albedo
 /// table's cosine node `i`).
 pub fn corr_node_dir(r: usize, rho: f32) -> Vec3 {
-    let c = (r / AN_MU) as f32 / (CORR_PHI - 1) as f32;
+    corr_azimuth_dir(r / AN_MU, compensation::aniso_grid_mu(r % AN_MU), rho)
+}
+
+/// The direction of cosine `mu` at azimuth node `k` of the conductor
+/// correction in a block of azimuth stretch `rho` ([`corr_node_dir`] at
+/// the cosine nodes; the generator and the tests also take the cosine
+/// midpoints, [`compensation::aniso_grid_mu_at`]).
+pub fn corr_azimuth_dir(k: usize, mu: f32, rho: f32) -> Vec3 {
+    let c = k as f32 / (CORR_PHI - 1) as f32;
     // rho y / (x + rho y) = c  <=>  y / (x + y) = c / (c + rho (1 - c));
     // plain blocks take c itself (c + (1 - c) is not 1 in every rounding,
     // and their nodes are those of the tables before the stretch).
     diamond_node(
-        compensation::aniso_grid_mu(r % AN_MU),
+        mu,
         if rho == 1.0 {
             c
         } else {
