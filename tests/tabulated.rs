@@ -456,7 +456,7 @@ fn table_cells_reestimated_with_the_library_walk() {
         );
     }
     println!("{report}");
-    assert!(tabulated::header().starts_with("MSBSDF-TABULATED-v1"));
+    assert!(tabulated::header().starts_with("MSBSDF-TABULATED-v2"));
 }
 
 /// Stability sweep: grazing angles to 89.99 degrees, roughness from 1e-3

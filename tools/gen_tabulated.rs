@@ -10,11 +10,14 @@
 //! `cos(k phi)`; it counts orders 2, 3 and 4 apart. The table is then
 //! symmetrised in `(mu_i, mu_o)` and rescaled symmetrically so that the
 //! interpolant's multiply scattered albedo equals `1 - E_ss(mu_i)` (SINGLE's
-//! albedo with F = 1 by quadrature). A small instrumented walk (the same
-//! microsurface, validated against the library's through the table by
-//! `tests/tabulated.rs`) records the cosines at which multiply scattered
-//! paths meet facets; three equal-weight quantiles per (NDF, alpha) give the
-//! effective Fresnel reflectance of coloured conductors.
+//! albedo with F = 1 by quadrature); the file keeps the cells of `mu_i`
+//! node `<= mu_o` node (version 2; `--conductor-pack PATH` rewrites a
+//! version-1 file, which stored every cell, that way). A small
+//! instrumented walk (the same microsurface, validated against the
+//! library's through the table by `tests/tabulated.rs`) records the cosines
+//! at which multiply scattered paths meet facets; three equal-weight
+//! quantiles per (NDF, alpha) give the effective Fresnel reflectance of
+//! coloured conductors.
 //!
 //! The file starts with a 4096-byte text header (command, seeds, sample
 //! counts, commit, statistics), then little-endian f32 blocks.
@@ -28,7 +31,7 @@ use msbsdf::multiple::compensation::single_albedo;
 use msbsdf::multiple::heitz::{Heitz, default_max_bounces};
 use msbsdf::multiple::tabulated::{
     ALBEDO_LEN, ALPHA_N, CELL, FILE_BYTES, FIRST_LEN, FRESNEL_LEN, FRESNEL_Q, HEADER_BYTES,
-    K_STORED, LOBE_LEN, MAGIC, MU_N, NDF_N, ORDER0, ORDERS, PEAK, SBAR_LEN, SCALE_ALPHA_N,
+    K_STORED, LOBE_LEN, MAGIC, MU_N, NDF_N, ORDER0, ORDERS, PEAK, R_PAIRS, SBAR_LEN, SCALE_ALPHA_N,
     SCALE_FILE_BYTES, SCALE_LEN, SCALE_MAGIC, SCALE_MAX, SCALE_MU_N, add_cosines, albedo_index,
     alpha_coord, exit_hats, fresnel_index, grid_alpha, grid_mu, hat_moment, lobe_index, mu_coord,
     project_exit, scale_encode, scale_grid_alpha, scale_grid_mu, scale_index, split,
@@ -428,6 +431,8 @@ fn scale_main(args: &[String]) {
     let t0 = std::time::Instant::now();
     let raw = std::fs::read(&table).expect("read the lobe table");
     assert_eq!(raw.len(), FILE_BYTES, "lobe table size");
+    // The stored lobe block, read through `lobe_index` (which reads a cell
+    // (j, i) as its stored transpose (i, j)).
     let lobe: Vec<f64> = raw[HEADER_BYTES..HEADER_BYTES + 4 * LOBE_LEN]
         .chunks_exact(4)
         .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64)
@@ -659,6 +664,10 @@ fn main() {
         dielectric::pack_main(&args, &args[p + 1..]);
         return;
     }
+    if let Some(p) = args.iter().position(|a| a == "--conductor-pack") {
+        conductor_pack_main(&args, &args[p + 1..]);
+        return;
+    }
     if args.iter().any(|a| a == "--dielectric-check") {
         dielectric::check(&args);
         return;
@@ -856,7 +865,9 @@ fn finish(
         .flat_map(|n| (1..ALPHA_N).map(move |a| (n, a)))
         .collect();
     let h: Vec<f64> = (0..MU_N).map(hat_moment).collect();
-    let mut lobe = vec![0.0f64; LOBE_LEN];
+    // Every (mu_i, mu_o) cell (full_index): the symmetrisation and the
+    // scaling below work on both halves; the file keeps one (pack).
+    let mut lobe = vec![0.0f64; FULL_LOBE_LEN];
     let mut albedo = vec![0.0f64; ALBEDO_LEN];
     let mut fresnel = vec![1.0f32; FRESNEL_LEN];
     // int hat_j f_ss1 mu dw per (ndf, alpha, mu_i) and node j: albedo of the
@@ -870,7 +881,7 @@ fn finish(
         let s = &sums[jidx];
         total_walks += s.walks;
         for j in 0..MU_N {
-            let b = lobe_index(n, a, i, j);
+            let b = full_index(n, a, i, j);
             let m0 = s.moments[j][0];
             let nw = s.walks as f64;
             let (coef, bpk) = fit_node(
@@ -906,7 +917,7 @@ fn finish(
         for a in 1..ALPHA_N {
             for i in 0..MU_N {
                 for j in i + 1..MU_N {
-                    let (bi, bj) = (lobe_index(n, a, i, j), lobe_index(n, a, j, i));
+                    let (bi, bj) = (full_index(n, a, i, j), full_index(n, a, j, i));
                     // Azimuth-averaged f (smooth + peaked part) of both.
                     let qi = q_int[albedo_index(n, a, i) * MU_N + j];
                     let qj = q_int[albedo_index(n, a, j) * MU_N + i];
@@ -941,7 +952,7 @@ fn finish(
                 .collect();
             let q_row = |i: usize| &q_int[albedo_index(n, a, i) * MU_N..][..MU_N];
             let cell_albedo = |lobe: &[f64], i: usize, j: usize| -> f64 {
-                let b = lobe_index(n, a, i, j);
+                let b = full_index(n, a, i, j);
                 w[j] * lobe[b] + q_row(i)[j] * lobe[b + PEAK]
             };
             let row = |lobe: &[f64], i: usize| -> f64 {
@@ -956,7 +967,7 @@ fn finish(
             let sc = sinkhorn(&target, |i, j| cell_albedo(&lobe, i, j));
             for i in 0..MU_N {
                 for j in 0..MU_N {
-                    let b = lobe_index(n, a, i, j);
+                    let b = full_index(n, a, i, j);
                     for k in 0..=PEAK {
                         lobe[b + k] *= sc[i] * sc[j];
                     }
@@ -972,7 +983,7 @@ fn finish(
         }
     }
     let header = format!(
-        "MSBSDF-TABULATED-v1\n\
+        "MSBSDF-TABULATED-v2\n\
          MSBSDF_MODEL_TABULATED conductor table (layout: src/multiple/tabulated.rs)\n\
          command: cargo run --release --example gen_tabulated -- {}\n\
          commit: {}\n\
@@ -982,7 +993,7 @@ fn finish(
          symmetrisation: azimuth-averaged f(mu_i, mu_o) vs f(mu_o, mu_i): RMS relative difference {:.3e}, max {:.3e} (cells with f > 1e-3); {:.3e} without the three most grazing nodes (mu < 0.025, where the hat smoothing of steep lobes differs between the two)\n\
          albedo before rescaling vs 1 - E_ss: worst relative deviation {:.3e} (targets > 1e-3); after: {:.3e}\n\
          peaked part: Gram entries by {gram} SINGLE samples per node (seed Rng::new({SEED_GRAM}, stream = job index)), ridge {RIDGE} x G_BB\n\
-         grid: ndf {NDF_N} x alpha {ALPHA_N} x mu_i {MU_N} x mu_o {MU_N} x {CELL} floats (K = {K_STORED} cosine terms of a {K_FIT}-term fit, peaked weight B, order fractions 2, 3, 4)\n\
+         grid: ndf {NDF_N} x alpha {ALPHA_N} x (mu_i, mu_o) with mu_i node <= mu_o node ({R_PAIRS} of mu_i {MU_N} x mu_o {MU_N}) x {CELL} floats (K = {K_STORED} cosine terms of a {K_FIT}-term fit, peaked weight B, order fractions 2, 3, 4)\n\
          {}wall time: {:.0} s on {threads} threads\n",
         args[1..].join(" "),
         git_commit(),
@@ -1000,16 +1011,100 @@ fn finish(
         },
         t0.elapsed().as_secs_f64(),
     );
+    let lobe: Vec<f32> = lobe.iter().map(|v| *v as f32).collect();
     write_table(
         out,
+        &format!("{header}{PACKED}\n"),
+        MAGIC,
+        HEADER_BYTES,
+        FILE_BYTES,
+        pack(&lobe)
+            .into_iter()
+            .chain(albedo.iter().map(|v| *v as f32))
+            .chain(fresnel.iter().copied()),
+    );
+}
+
+/// Floats of the lobe block in the generator's layout: every `(mu_i,
+/// mu_o)` cell, `[ndf][alpha][mu_i][mu_o][CELL]` (the file's version 1).
+/// The file stores the `i <= j` half only (`lobe_index`): the
+/// symmetrisation in `finish` makes the other half its transpose.
+const FULL_LOBE_LEN: usize = NDF_N * ALPHA_N * MU_N * MU_N * CELL;
+/// How version 2 stores the lobe (a header line).
+const PACKED: &str = "layout: lobe stored for mu_i node <= mu_o node only (row by row; \
+    (j, i) reads (i, j), which the symmetrisation makes equal to the bit; \
+    tabulated::lobe_index)";
+
+/// Index of a lobe cell in the generator's full layout.
+fn full_index(n: usize, a: usize, i: usize, j: usize) -> usize {
+    (((n * ALPHA_N + a) * MU_N + i) * MU_N + j) * CELL
+}
+
+/// The stored lobe block (`lobe_index`) of a lobe block in the full
+/// layout; panics unless every cell equals its transpose to the bit (the
+/// half left out would differ).
+fn pack(full: &[f32]) -> Vec<f32> {
+    assert_eq!(full.len(), FULL_LOBE_LEN);
+    let mut out = vec![0.0f32; LOBE_LEN];
+    let mut written = vec![false; LOBE_LEN];
+    for n in 0..NDF_N {
+        for a in 0..ALPHA_N {
+            for i in 0..MU_N {
+                for j in 0..MU_N {
+                    let (src, dst) = (full_index(n, a, i, j), lobe_index(n, a, i, j));
+                    let tr = full_index(n, a, j, i);
+                    for k in 0..CELL {
+                        let (v, t) = (full[src + k], full[tr + k]);
+                        assert_eq!(v.to_bits(), t.to_bits(), "({n}, {a}, {i}, {j}) [{k}]");
+                        out[dst + k] = v;
+                        written[dst + k] = true;
+                    }
+                }
+            }
+        }
+    }
+    assert!(written.iter().all(|&w| w), "a stored cell left unwritten");
+    out
+}
+
+/// `--conductor-pack PATH`: rewrites a version-1 table (every `(mu_i,
+/// mu_o)` cell stored) as version 2 (`pack`) into `--out`, its header
+/// kept with a line saying how it was converted. Every stored value is
+/// version 1's, bit for bit; the albedo and Fresnel blocks are copied.
+fn conductor_pack_main(args: &[String], rest: &[String]) {
+    let out: String = arg(args, "--out", "data/tabulated_conductor.bin".to_string());
+    let Some(path) = rest.first() else {
+        eprintln!("--conductor-pack PATH (a version-1 table file)");
+        std::process::exit(2);
+    };
+    let raw = std::fs::read(path).expect("read the version-1 table");
+    let v1_magic = b"MSBSDF-TABULATED-v1\n";
+    assert!(raw.starts_with(v1_magic), "not a version-1 table");
+    assert_eq!(
+        raw.len(),
+        HEADER_BYTES + 4 * (FULL_LOBE_LEN + ALBEDO_LEN + FRESNEL_LEN)
+    );
+    let values: Vec<f32> = raw[HEADER_BYTES..]
+        .chunks_exact(4)
+        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        .collect();
+    let (full, rest) = values.split_at(FULL_LOBE_LEN);
+    let old = String::from_utf8_lossy(&raw[v1_magic.len()..HEADER_BYTES]);
+    let header = format!(
+        "MSBSDF-TABULATED-v2\n{}\
+         converted from version 1 (the lines above) by: cargo run --release --example \
+         gen_tabulated -- {} (commit {})\n{PACKED}\n",
+        old.trim_end_matches('\0'),
+        args[1..].join(" "),
+        git_commit(),
+    );
+    write_table(
+        &out,
         &header,
         MAGIC,
         HEADER_BYTES,
         FILE_BYTES,
-        lobe.iter()
-            .chain(albedo.iter())
-            .map(|v| *v as f32)
-            .chain(fresnel.iter().copied()),
+        pack(full).into_iter().chain(rest.iter().copied()),
     );
 }
 

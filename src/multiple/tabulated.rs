@@ -30,9 +30,12 @@
 //! from SINGLE's visible-normal samples; `B` has a small ridge and is capped
 //! so that the azimuth-averaged smooth part stays non-negative. The table
 //! was then made reciprocal by averaging `(mu_i, mu_o)` with `(mu_o, mu_i)`
-//! (`f_ss1` is symmetric). Each cell also stores, of the azimuth-averaged
-//! value, the fractions carried by orders 2, 3 and 4 (orders >= 5 take the
-//! rest).
+//! (`f_ss1` is symmetric), so the file stores each pair of cosine nodes
+//! once, `mu_i` node `<= mu_o` node ([`R_PAIRS`] cells of `MU_N^2` per NDF
+//! and roughness node, row by row, [`lobe_index`]; version 2 of the file,
+//! version 1 stored both halves). Each cell also stores, of the
+//! azimuth-averaged value, the fractions carried by orders 2, 3 and 4
+//! (orders >= 5 take the rest).
 //!
 //! The white furnace is enforced by a second, small table
 //! (`data/tabulated_scale.bin`, `gen_tabulated -- --scale`): factors
@@ -50,8 +53,11 @@
 //! so that one split and one read per direction give both.
 //!
 //! Lookups are linear in `alpha` (fixed per material), and in `sqrt(mu_i)`
-//! and `sqrt(mu_o)`; the tables are symmetric in `(mu_i, mu_o)` and read the
-//! same way in both, so the lobe is reciprocal to f32 rounding.
+//! and `sqrt(mu_o)`; the tables are symmetric in `(mu_i, mu_o)`: the lobe
+//! table is read with the two cosines put in order (the stored half, the
+//! same cells and operations for `(wi, wo)` and `(wo, wi)`) and the scale
+//! table the same way for both directions, so the lobe is reciprocal to f32
+//! rounding.
 //!
 //! ## Coloured conductors
 //!
@@ -181,10 +187,18 @@ pub const MAX_ALPHA: f32 = 2.0;
 /// Bytes of the text header at the start of the table file.
 pub const HEADER_BYTES: usize = 4096;
 /// First bytes of the table file.
-pub const MAGIC: &[u8; 20] = b"MSBSDF-TABULATED-v1\n";
+pub const MAGIC: &[u8; 20] = b"MSBSDF-TABULATED-v2\n";
 
-/// Floats of the lobe block: `[ndf][alpha][mu_i][mu_o][CELL]`.
-pub const LOBE_LEN: usize = NDF_N * ALPHA_N * MU_N * MU_N * CELL;
+/// Stored cosine pairs per `(ndf, alpha)`: `mu_i <= mu_o` (node `i <= j`),
+/// `MU_N (MU_N + 1) / 2`. The lobe is symmetric in the two cosines
+/// (reciprocity; the generator averages each cell with its transpose, to
+/// the bit), so the other half is not stored ([`lobe_index`]; version 2
+/// of the file, 47.5% of the lobe block less).
+pub const R_PAIRS: usize = MU_N * (MU_N + 1) / 2;
+
+/// Floats of the lobe block: `[ndf][alpha][(mu_i, mu_o) with i <= j, row
+/// by row][CELL]` ([`lobe_index`]).
+pub const LOBE_LEN: usize = NDF_N * ALPHA_N * R_PAIRS * CELL;
 /// Floats of the albedo block: `[ndf][alpha][mu_i]`, the multiply
 /// scattered albedo with F = 1 of the stored lobe.
 pub const ALBEDO_LEN: usize = NDF_N * ALPHA_N * MU_N;
@@ -1003,10 +1017,20 @@ pub(crate) fn split_root4(r: Vec4, n: usize) -> ([usize; 4], Vec4) {
     (k, f)
 }
 
-/// Index of the first float of a lobe cell.
+/// Index of the first float of the lobe cell of cosine nodes `(i, j)`;
+/// `(i, j)` and `(j, i)` are the same stored cell ([`R_PAIRS`]).
 #[inline]
 pub const fn lobe_index(ndf: usize, a: usize, i: usize, j: usize) -> usize {
-    (((ndf * ALPHA_N + a) * MU_N + i) * MU_N + j) * CELL
+    let pair = if i <= j { r_pair(i, j) } else { r_pair(j, i) };
+    ((ndf * ALPHA_N + a) * R_PAIRS + pair) * CELL
+}
+
+/// Stored cell of cosine nodes `i <= j` in an `(ndf, alpha)` block: row
+/// `i` (cells `j = i .. MU_N`) starts after the rows before it, which hold
+/// `MU_N - i'` cells each.
+#[inline(always)]
+const fn r_pair(i: usize, j: usize) -> usize {
+    i * MU_N - i * i.saturating_sub(1) / 2 + (j - i)
 }
 
 /// Index of an albedo entry.
@@ -1198,7 +1222,18 @@ pub fn lookup(
 
 /// [`lookup`] given the index of the lower roughness node's first cell
 /// (`lobe_index(ndf, a0, 0, 0)`), the weight of the upper roughness node and
-/// the lower cosine nodes and weights from [`split`].
+/// the lower cosine nodes and weights from [`split`] (or [`split_root`]).
+///
+/// The lobe block stores a pair of cosine nodes once (`i <= j`,
+/// [`R_PAIRS`]): the two cosines are put in order first (by lower node,
+/// then by weight), so `(wi, wo)` and `(wo, wi)` read the same cells with
+/// the same operations (the same value to the bit, on the diagonal too),
+/// and a square below the diagonal is read as its transpose.
+/// From its lower corner `(i0, j0)`, `i0 <= j0`, the corner `(i0, j0 + 1)`
+/// is the next cell and `(i0 + 1, j0 + 1)` is `MU_N - i0` cells on (the
+/// length of row `i0`); `(i0 + 1, j0)` is one cell before that, except on
+/// the diagonal, where it is the transpose `(i0, i0 + 1)`, the next cell
+/// ([`lookup_square`]). The upper roughness node is [`R_PAIRS`] cells on.
 #[inline]
 fn lookup_nodes(
     base: usize,
@@ -1211,33 +1246,31 @@ fn lookup_nodes(
         CELL == 8 && K_STORED == 4,
         "lookup reads a cell as two Vec4"
     );
-    // split gives upper nodes one above the lower ones, so the eight cells
-    // (a0 + da, i0 + di, j0 + dj) lie at constant offsets from the first:
-    // one bounds check for all of them.
-    const SPAN: usize = lobe_index(0, 1, 1, 2);
-    const DA: usize = lobe_index(0, 1, 0, 0);
-    const DI: usize = lobe_index(0, 0, 1, 0);
+    let ((i0, fi), (j0, fj)) = if i0 > j0 || (i0 == j0 && fi > fj) {
+        ((j0, fj), (i0, fi))
+    } else {
+        ((i0, fi), (j0, fj))
+    };
+    debug_assert!(j0 <= MU_N - 2, "a lower cosine node");
+    // split gives lower nodes up to MU_N - 2 (the minimum costs nothing
+    // then; it keeps the offsets below inside the chunk whatever the
+    // caller gives).
+    let (start, [o00, o01, o10, o11]) = lookup_square(i0.min(MU_N - 2), j0);
     let Some(c) = LOBE
-        .get(base + lobe_index(0, 0, i0, j0)..)
-        .and_then(|s| s.first_chunk::<SPAN>())
+        .get(base + start..)
+        .and_then(|s| s.first_chunk::<LOOKUP_SPAN>())
     else {
         return (0.0, 0.0, [0.0; 3]);
     };
-    // Linear in mu_o, then in mu_i, then in alpha (nested lerps: fewer
-    // operations than eight weighted corners).
-    let lerp = |a: Vec4, b: Vec4, t: f32| a + (b - a) * t;
-    let v = |o: usize| Vec4::new(c[o], c[o + 1], c[o + 2], c[o + 3]);
-    let pair = |o: usize| {
-        (
-            lerp(v(o), v(o + CELL), fj),
-            lerp(v(o + 4), v(o + CELL + 4), fj),
-        )
-    };
-    let row = |o: usize| {
-        let ((l0, h0), (l1, h1)) = (pair(o), pair(o + DI));
-        (lerp(l0, l1, fi), lerp(h0, h1, fi))
-    };
-    let ((l0, h0), (l1, h1)) = (row(0), row(DA));
+    // Linear in the second (larger) cosine, then in the first, then in
+    // alpha (nested lerps: fewer operations than eight weighted corners).
+    const DA: usize = R_PAIRS * CELL;
+    let (l00, h00) = lerp_cells(c, o00, o01, fj);
+    let (l01, h01) = lerp_cells(c, o10, o11, fj);
+    let (l10, h10) = lerp_cells(c, DA + o00, DA + o01, fj);
+    let (l11, h11) = lerp_cells(c, DA + o10, DA + o11, fj);
+    let (l0, h0) = (lerp(l00, l01, fi), lerp(h00, h01, fi));
+    let (l1, h1) = (lerp(l10, l11, fi), lerp(h10, h11, fi));
     let (lo, hi) = (lerp(l0, l1, fa), lerp(h0, h1, fa));
     // sum_k c_k cos(k phi): cos 2 phi = 2 c^2 - 1, cos 3 phi = (4 c^2 - 3) c.
     let c = cos_phi;
@@ -1245,6 +1278,83 @@ fn lookup_nodes(
     let f = lo.x + c * lo.y + (2.0 * c2 - 1.0) * lo.z + (4.0 * c2 - 3.0) * c * lo.w;
     (f, hi.x, [hi.y, hi.z, hi.w])
 }
+
+/// `a + (b - a) t`.
+#[inline(always)]
+fn lerp(a: Vec4, b: Vec4, t: f32) -> Vec4 {
+    a + (b - a) * t
+}
+
+/// The cells at floats `a` and `b` of a lookup chunk, linear between them
+/// with the weight `t` of `b`: the cosine terms and the peaked weight with
+/// the order fractions. Always inlined, so that the offsets' range (below
+/// [`LOOKUP_SPAN`] by a cell, from [`lookup_square`]) removes the reads'
+/// bounds checks.
+#[inline(always)]
+fn lerp_cells(c: &[f32; LOOKUP_SPAN], a: usize, b: usize, t: f32) -> (Vec4, Vec4) {
+    let v = |o: usize| Vec4::new(c[o], c[o + 1], c[o + 2], c[o + 3]);
+    (lerp(v(a), v(b), t), lerp(v(a + 4), v(b + 4), t))
+}
+
+/// Floats of the chunk [`lookup_nodes`] reads with one bounds check: the
+/// square's cells at two roughness nodes ([`lookup_square`]).
+const LOOKUP_SPAN: usize = R_PAIRS * CELL + (MU_N + 1) * CELL;
+
+/// The square of lower cosine nodes `i0 <= j0` (both at most `MU_N - 2`)
+/// in an `(ndf, alpha)` block: the first float of [`lookup_nodes`]'s chunk
+/// (relative to the block) and the offsets in it of the cells `(i0, j0)`,
+/// `(i0, j0 + 1)`, `(i0 + 1, j0)` and `(i0 + 1, j0 + 1)` (the upper
+/// roughness node's are [`R_PAIRS`] cells later). The chunk ends with the
+/// upper corner at the upper roughness node, [`LOOKUP_SPAN`] floats from
+/// `i0` cells before the lower corner (`MU_N - i0` cells separate the two
+/// corners), so it stays inside the lobe block for every square of the
+/// last block (checked below) and two of the four offsets are constants
+/// off the diagonal.
+#[inline(always)]
+const fn lookup_square(i0: usize, j0: usize) -> (usize, [usize; 4]) {
+    let mid = if i0 < j0 { MU_N - 1 } else { i0 + 1 };
+    (
+        (CHUNK_ROW[i0] as usize + j0) * CELL,
+        [i0 * CELL, (i0 + 1) * CELL, mid * CELL, MU_N * CELL],
+    )
+}
+
+/// `r_pair(i, j) - i - j` for any `j >= i` (a table: one read instead of
+/// the row sum's arithmetic): the first cell of [`lookup_square`]'s chunk
+/// less `j0`.
+const CHUNK_ROW: [u16; MU_N] = {
+    let mut t = [0u16; MU_N];
+    let mut i = 0;
+    while i < MU_N {
+        t[i] = (r_pair(i, i) - 2 * i) as u16;
+        i += 1;
+    }
+    t
+};
+
+const _: () = {
+    // Every square: the four corners are the cells lobe_index gives, and
+    // the chunk (whose last cell is the upper corner at the upper
+    // roughness node) ends inside the lobe block at the last lower
+    // roughness node.
+    let last = lobe_index(NDF_N - 1, ALPHA_N - 2, 0, 0);
+    let mut i0 = 0;
+    while i0 < MU_N - 1 {
+        let mut j0 = i0;
+        while j0 < MU_N - 1 {
+            let (start, o) = lookup_square(i0, j0);
+            assert!(start + o[0] == lobe_index(0, 0, i0, j0));
+            assert!(start + o[1] == lobe_index(0, 0, i0, j0 + 1));
+            assert!(start + o[2] == lobe_index(0, 0, i0 + 1, j0));
+            assert!(start + o[3] == lobe_index(0, 0, i0 + 1, j0 + 1));
+            assert!(o[3] + CELL + R_PAIRS * CELL == LOOKUP_SPAN);
+            assert!(o[0] < o[1] && o[1] <= o[2] && o[2] < o[3]);
+            assert!(last + start + LOOKUP_SPAN <= LOBE_LEN);
+            j0 += 1;
+        }
+        i0 += 1;
+    }
+};
 
 /// `H_j = int hat_j(mu) mu dmu` of the hat function of node `j` in the
 /// `sqrt(mu)` coordinate (midpoint rule over its support): the estimate of
@@ -1954,6 +2064,94 @@ pub(crate) fn tabulated_ndf(d: &MaterialDesc) -> Result<Ndf, Error> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The lobe block stores each pair of cosine nodes once: `(i, j)` and
+    /// `(j, i)` share a cell, and the cells of `i <= j` tile the block.
+    #[test]
+    fn lobe_index_stores_each_pair_once() {
+        let mut hits = vec![0u8; LOBE_LEN / CELL];
+        for ndf in 0..NDF_N {
+            for a in 0..ALPHA_N {
+                for i in 0..MU_N {
+                    for j in 0..MU_N {
+                        let b = lobe_index(ndf, a, i, j);
+                        assert_eq!(b, lobe_index(ndf, a, j, i), "({i}, {j})");
+                        assert_eq!(b % CELL, 0);
+                        if i <= j {
+                            hits[b / CELL] += 1;
+                        }
+                    }
+                }
+            }
+        }
+        assert!(hits.iter().all(|&h| h == 1));
+    }
+
+    /// `lookup` against the trilinear interpolation of the cells that
+    /// `lobe_index` gives (f64, in the order of the arguments), at random
+    /// points, the nodes and the diagonal squares (measured worst 3.1e-7
+    /// of the corners' largest magnitude; a lerp with the wrong weight
+    /// gives 0.97), and the same value to the bit with the two cosines
+    /// exchanged (which fails with the swap of the lower nodes alone: the
+    /// diagonal squares' two orders round differently).
+    #[test]
+    fn lookup_matches_the_cells_and_is_symmetric_to_the_bit() {
+        let mut rng = Rng::new(17, 1);
+        let m = (MU_N - 1) as f32;
+        let mut worst = 0.0f64;
+        for t in 0..200_000 {
+            let ndf = t % NDF_N;
+            let (a0, _, fa) = split(rng.next_f32() * (ALPHA_N - 1) as f32, ALPHA_N);
+            let r = |rng: &mut Rng| match t % 4 {
+                0 => (rng.next_f32() * m).floor() / m,
+                _ => rng.next_f32(),
+            };
+            let ri = r(&mut rng);
+            // Every third pair in the same cosine interval (a diagonal
+            // square when the interval is the same node pair).
+            let ro = if t % 3 == 0 {
+                (((ri * m).floor() + rng.next_f32()) / m).min(1.0)
+            } else {
+                r(&mut rng)
+            };
+            let c = 2.0 * rng.next_f32() - 1.0;
+            let (f, b, ord) = lookup(ndf, (a0, a0 + 1, fa), ri, ro, c);
+            let (g, bb, ord2) = lookup(ndf, (a0, a0 + 1, fa), ro, ri, c);
+            assert_eq!(
+                [f, b, ord[0], ord[1], ord[2]].map(f32::to_bits),
+                [g, bb, ord2[0], ord2[1], ord2[2]].map(f32::to_bits),
+                "{ri} {ro}"
+            );
+            let (i0, i1, fi) = split(ri * m, MU_N);
+            let (j0, j1, fj) = split(ro * m, MU_N);
+            // The interpolated cell and, per float, the corners' largest
+            // magnitude (the lerps' f32 rounding is relative to it).
+            let (mut cell, mut mag) = ([0.0f64; CELL], [0.0f64; CELL]);
+            for (a, wa) in [(a0, 1.0 - fa), (a0 + 1, fa)] {
+                for (i, wi) in [(i0, 1.0 - fi), (i1, fi)] {
+                    for (j, wj) in [(j0, 1.0 - fj), (j1, fj)] {
+                        let w = (wa * wi * wj) as f64;
+                        let at = lobe_index(ndf, a, i, j);
+                        for k in 0..CELL {
+                            cell[k] += w * LOBE[at + k] as f64;
+                            mag[k] = mag[k].max((LOBE[at + k] as f64).abs());
+                        }
+                    }
+                }
+            }
+            let c = c as f64;
+            let t = [1.0, c, 2.0 * c * c - 1.0, (4.0 * c * c - 3.0) * c];
+            let series: f64 = (0..4).map(|k| t[k] * cell[k]).sum();
+            let scale: f64 = (0..4).map(|k| t[k].abs() * mag[k]).sum();
+            worst = worst.max((f as f64 - series).abs() / scale.max(1e-12));
+            for (k, v) in [b, ord[0], ord[1], ord[2]].into_iter().enumerate() {
+                let x = cell[PEAK + k];
+                worst = worst.max((v as f64 - x).abs() / mag[PEAK + k].max(1e-12));
+            }
+        }
+        println!("worst deviation {worst:.2e} of the corners' largest magnitude");
+        assert!(worst < 1e-5, "{worst:e}");
+    }
 
     /// `split_root` picks the same interpolation as `split`: for every `r`
     /// in `[0, 1]` (a fine sweep plus every node coordinate, where the two
