@@ -1072,39 +1072,85 @@ fn pack(full: &[f32]) -> Vec<f32> {
 /// kept with a line saying how it was converted. Every stored value is
 /// version 1's, bit for bit; the albedo and Fresnel blocks are copied.
 fn conductor_pack_main(args: &[String], rest: &[String]) {
-    let out: String = arg(args, "--out", "data/tabulated_conductor.bin".to_string());
+    repack(
+        args,
+        rest,
+        &Repack {
+            flag: "--conductor-pack",
+            out: "data/tabulated_conductor.bin",
+            old_magic: b"MSBSDF-TABULATED-v1\n",
+            magic: MAGIC,
+            file_bytes: FILE_BYTES,
+            full_lobe_len: FULL_LOBE_LEN,
+            rest_len: ALBEDO_LEN + FRESNEL_LEN,
+            layout: PACKED,
+        },
+        pack,
+    );
+}
+
+/// A table file's conversion to a layout that stores a symmetric lobe's
+/// `i <= j` half only (`--conductor-pack`, `--dielectric-pack`).
+struct Repack<'a> {
+    /// The command-line flag (its usage line).
+    flag: &'a str,
+    /// Default `--out`.
+    out: &'a str,
+    /// Magic of the file read (every lobe cell stored).
+    old_magic: &'a [u8],
+    /// Magic and size of the file written.
+    magic: &'a [u8],
+    file_bytes: usize,
+    /// Floats of the lobe block read, and of the blocks after it (copied).
+    full_lobe_len: usize,
+    rest_len: usize,
+    /// The header line saying how the lobe is stored.
+    layout: &'a str,
+}
+
+/// Rewrites the table file named by `rest[0]` (`spec.old_magic`, the
+/// full lobe block then `spec.rest_len` floats) with its lobe block
+/// packed by `pack` into `--out`, its header kept (after the new magic)
+/// with a line saying how it was converted (command, commit) and
+/// `spec.layout`. Every value is the old file's, bit for bit.
+fn repack(args: &[String], rest: &[String], spec: &Repack, pack: fn(&[f32]) -> Vec<f32>) {
+    let out: String = arg(args, "--out", spec.out.to_string());
     let Some(path) = rest.first() else {
-        eprintln!("--conductor-pack PATH (a version-1 table file)");
+        eprintln!("{} PATH (a table file of the previous version)", spec.flag);
         std::process::exit(2);
     };
-    let raw = std::fs::read(path).expect("read the version-1 table");
-    let v1_magic = b"MSBSDF-TABULATED-v1\n";
-    assert!(raw.starts_with(v1_magic), "not a version-1 table");
+    let raw = std::fs::read(path).expect("read the table to convert");
+    assert!(
+        raw.starts_with(spec.old_magic),
+        "not a table of the previous version"
+    );
     assert_eq!(
         raw.len(),
-        HEADER_BYTES + 4 * (FULL_LOBE_LEN + ALBEDO_LEN + FRESNEL_LEN)
+        HEADER_BYTES + 4 * (spec.full_lobe_len + spec.rest_len)
     );
     let values: Vec<f32> = raw[HEADER_BYTES..]
         .chunks_exact(4)
         .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
         .collect();
-    let (full, rest) = values.split_at(FULL_LOBE_LEN);
-    let old = String::from_utf8_lossy(&raw[v1_magic.len()..HEADER_BYTES]);
+    let (full, kept) = values.split_at(spec.full_lobe_len);
+    let old = String::from_utf8_lossy(&raw[spec.old_magic.len()..HEADER_BYTES]);
     let header = format!(
-        "MSBSDF-TABULATED-v2\n{}\
-         converted from version 1 (the lines above) by: cargo run --release --example \
-         gen_tabulated -- {} (commit {})\n{PACKED}\n",
+        "{}{}converted from {} (the lines above) by: cargo run --release --example \
+         gen_tabulated -- {} (commit {})\n{}\n",
+        String::from_utf8_lossy(spec.magic),
         old.trim_end_matches('\0'),
+        String::from_utf8_lossy(spec.old_magic).trim_end(),
         args[1..].join(" "),
         git_commit(),
+        spec.layout,
     );
     write_table(
         &out,
         &header,
-        MAGIC,
+        spec.magic,
         HEADER_BYTES,
-        FILE_BYTES,
-        pack(full).into_iter().chain(rest.iter().copied()),
+        spec.file_bytes,
+        pack(full).into_iter().chain(kept.iter().copied()),
     );
 }
 
@@ -1876,36 +1922,20 @@ mod dielectric {
     /// its header kept with a line saying how it was converted. Every
     /// stored value is version 2's, bit for bit.
     pub fn pack_main(args: &[String], rest: &[String]) {
-        let out: String = arg(args, "--out", "data/tabulated_dielectric.bin".to_string());
-        let Some(path) = rest.first() else {
-            eprintln!("--dielectric-pack PATH (a version-2 table file)");
-            std::process::exit(2);
-        };
-        let raw = std::fs::read(path).expect("read the version-2 table");
-        let v2_magic = b"MSBSDF-TABULATED-DIELECTRIC-v2\n";
-        assert!(raw.starts_with(v2_magic), "not a version-2 table");
-        assert_eq!(raw.len(), HEADER_BYTES + 4 * (FULL_LOBE_LEN + ALBEDO_LEN));
-        let values: Vec<f32> = raw[HEADER_BYTES..]
-            .chunks_exact(4)
-            .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-            .collect();
-        let (full, albedo) = values.split_at(FULL_LOBE_LEN);
-        let old = String::from_utf8_lossy(&raw[v2_magic.len()..HEADER_BYTES]);
-        let header = format!(
-            "MSBSDF-TABULATED-DIELECTRIC-v3\n{}\
-             converted from version 2 (the lines above) by: cargo run --release --example \
-             gen_tabulated -- {} (commit {})\n{PACKED}\n",
-            old.trim_end_matches('\0'),
-            args[1..].join(" "),
-            git_commit(),
-        );
-        write_table(
-            &out,
-            &header,
-            MAGIC,
-            HEADER_BYTES,
-            FILE_BYTES,
-            pack(full).into_iter().chain(albedo.iter().copied()),
+        super::repack(
+            args,
+            rest,
+            &super::Repack {
+                flag: "--dielectric-pack",
+                out: "data/tabulated_dielectric.bin",
+                old_magic: b"MSBSDF-TABULATED-DIELECTRIC-v2\n",
+                magic: MAGIC,
+                file_bytes: FILE_BYTES,
+                full_lobe_len: FULL_LOBE_LEN,
+                rest_len: ALBEDO_LEN,
+                layout: PACKED,
+            },
+            pack,
         );
     }
 
