@@ -903,7 +903,7 @@ fn solve<R: AsRef<[f64]>>(m: &[R], target: &[f64]) -> (Vec<f32>, Stats) {
 /// (`DCORR_ETA_N`: the lobe table's 6, the midpoints in `ln E` of its
 /// intervals, the quarter points of the lowest, 1.107 and 1.229, and its
 /// first eighth point, 1.078) and
-/// side, on `AN_PHI` azimuths (`tabulated::dcorr_dir`) and
+/// side, on `DCORR_PHI` azimuths (`tabulated::dcorr_dir`) and
 /// ENERGY_COMPENSATED's cosine grid, factors
 /// `s` such that the lobe (read at the pair's effective roughness, with
 /// its isotropic furnace scales) scaled by `s(wi) s(wo)` has the multiply
@@ -911,7 +911,8 @@ fn solve<R: AsRef<[f64]>>(m: &[R], target: &[f64]) -> (Vec<f32>, Stats) {
 /// from both sides; solved per block like the conductor's (`block`).
 fn dielectric(args: &[String], quad: usize) {
     use msbsdf::multiple::tabulated_dielectric::{
-        ALPHA_N, DCORR_BLOCK, DCORR_ETA_N, DCORR_LEN, DCORR_MAGIC, ETA_MAX, ETA_MIN, dcorr_index,
+        ALPHA_N, DCORR_BLOCK, DCORR_ETA_N, DCORR_LEN, DCORR_MAGIC, DCORR_PHI, ETA_MAX, ETA_MIN,
+        dcorr_index,
     };
     let t0 = std::time::Instant::now();
     let only: Option<usize> = args
@@ -956,12 +957,12 @@ fn dielectric(args: &[String], quad: usize) {
     }
     let command: Vec<String> = args.iter().skip(1).cloned().collect();
     let header = format!(
-        "DIELECTRIC ANISO_CORRECTION v9 (MSBSDF_MODEL_TABULATED, dielectric facets): factors s \
+        "DIELECTRIC ANISO_CORRECTION v10 (MSBSDF_MODEL_TABULATED, dielectric facets): factors s \
          per [ndf: Beckmann, GGX][pair of the lobe table's roughness nodes 1 <= jx <= jy <= \
          {}][index node: {DCORR_ETA_N}, in ln E from {ETA_MIN} to {ETA_MAX}: the lobe \
          table's nodes, the midpoints of its intervals, the quarter points of the lowest and \
          its first eighth point (tabulated_dielectric::dcorr_grid_eta)][side: thin, \
-         dense][phi: {AN_PHI}][mu: {AN_MU}] \
+         dense][phi: {DCORR_PHI}][mu: {AN_MU}] \
          (azimuth: uniform nodes from 0 to 1 of u = c - 0.4637 c (1 - c) (1 - 2 c), c = rho \
          |y| / (|x| + rho |y|) the diamond angle stretched by the block's rho = sqrt(jy / jx) \
          (tabulated::dcorr_stretch), tabulated::dcorr_phi, within 0.35 degrees of phi / 90 \
@@ -982,7 +983,7 @@ fn dielectric(args: &[String], quad: usize) {
          Command: cargo run --release --example gen_tabulated_aniso{}{}\nCommit: {}\n\
          Time: {:.0} s\n",
         ALPHA_N - 1,
-        AN_PHI - 1,
+        DCORR_PHI - 1,
         2 * quad / 3,
         4 * quad / 3,
         stats.residual,

@@ -150,7 +150,8 @@
 //! density and the weight is `eval / pdf`.
 
 use super::compensation::{self, Aniso, AnisoDir};
-use super::compensation_aniso_tables::{AN_MU, AN_PHI};
+use super::compensation_aniso_tables::AN_MU;
+use super::tabulated_dielectric;
 use crate::bsdf::{Sample, ScatterModel};
 use crate::desc::MaterialDesc;
 use crate::facet::Facet;
@@ -243,7 +244,7 @@ pub const CORR_A: usize = 31;
 /// pi/2 - phi)`.
 pub const CORR_PAIRS: usize = CORR_A * (CORR_A + 1) / 2;
 /// Azimuth nodes of the conductor's correction (uniform in the diamond
-/// angle, `corr_dir`): 17. The albedo table's 7 (`AN_PHI`) left `E_ss`
+/// angle, `corr_dir`): 17. The albedo table's 7 (`compensation_aniso_tables::AN_PHI`) left `E_ss`
 /// interpolated between the nodes at 78.7 and 90 degrees 0.68% off at
 /// Beckmann (1.818, 0.482), 87.5 degrees; 9 (sessions 9-12) left the
 /// furnace 19% off near the smooth axis of the range's most anisotropic
@@ -777,8 +778,8 @@ const DCORR_PHI_A: f32 = -0.4637;
 /// The dielectric correction's azimuth coordinate of a diamond angle `c`:
 /// within 0.35 degrees of `phi / 90 degrees`, without an `atan2`; odd
 /// about `c = 1/2`, so the exchange of the axes maps it to `1 - u` (node
-/// `k` to `AN_PHI - 1 - k`), and increasing (slope `1 + A` at the ends).
-/// On the diamond angle itself the 7 nodes lie 11-18 degrees apart, and
+/// `k` to `DCORR_PHI - 1 - k`), and increasing (slope `1 + A` at the ends).
+/// On the diamond angle itself 7 nodes lay 11-18 degrees apart, and
 /// the correction's worst random furnace case (Beckmann (0.92, 0.11) glass
 /// 1.527 at 85 degrees, azimuth 39) went from 3.1% to 3.5%.
 #[inline(always)]
@@ -794,7 +795,7 @@ pub(crate) fn dcorr_phi4(c: Vec4) -> Vec4 {
 
 /// The dielectric anisotropic correction's nodes of a direction in a
 /// block of azimuth stretch `rho` (`tabulated_dielectric::dcorr_stretch`):
-/// `AN_PHI` uniform azimuth nodes of [`dcorr_phi`] of the diamond angle of
+/// `DCORR_PHI` uniform azimuth nodes of [`dcorr_phi`] of the diamond angle of
 /// `(x, rho y)` and the albedo table's cosines
 /// (`tabulated_dielectric::DCORR_BLOCK`). A strongly anisotropic block has
 /// them crowded towards its smoother axis, where its albedo changes
@@ -811,7 +812,11 @@ pub(crate) fn dcorr_phi4(c: Vec4) -> Vec4 {
 /// every block moved the suite's anisotropic GGX gold, `docs/tabulated.md`.)
 #[inline(always)]
 pub(crate) fn dcorr_dir(w: Vec3, rho: f32) -> AnisoDir {
-    grid_dir(dcorr_phi(diamond_xy(w.x.abs(), rho * w.y.abs())), w, AN_PHI)
+    grid_dir(
+        dcorr_phi(diamond_xy(w.x.abs(), rho * w.y.abs())),
+        w,
+        tabulated_dielectric::DCORR_PHI,
+    )
 }
 
 /// The incident direction of node `r = k * AN_MU + i` of the conductor's
@@ -843,9 +848,9 @@ pub fn corr_azimuth_dir(k: usize, mu: f32, rho: f32) -> Vec3 {
 /// The incident direction of node `r = k * AN_MU + i` of the dielectric's
 /// anisotropic correction in a block of azimuth stretch `rho`
 /// (`dcorr_dir`): the stretched diamond angle whose [`dcorr_phi`] is `k /
-/// (AN_PHI - 1)` (by bisection).
+/// (DCORR_PHI - 1)` (by bisection).
 pub fn dcorr_node_dir(r: usize, rho: f32) -> Vec3 {
-    let u = (r / AN_MU) as f64 / (AN_PHI - 1) as f64;
+    let u = (r / AN_MU) as f64 / (tabulated_dielectric::DCORR_PHI - 1) as f64;
     let c = crate::math::invert_increasing(|c| dcorr_phi(c as f32) as f64, u, 0.0, 1.0) as f32;
     // rho y / (x + rho y) = c  <=>  y / (x + y) = c / (c + rho (1 - c)).
     diamond_node(
@@ -2183,7 +2188,7 @@ mod tests {
     /// The dielectric correction's azimuth coordinate is within 0.004
     /// (0.36 degrees) of `phi / 90 degrees`, increasing, odd about the
     /// diagonal (`u(1 - c) = 1 - u(c)`: the axis exchange maps node `k`
-    /// to `AN_PHI - 1 - k`), and each node direction reads its own node.
+    /// to `DCORR_PHI - 1 - k`), and each node direction reads its own node.
     #[test]
     fn dielectric_azimuth_coordinate_follows_the_azimuth() {
         let mut last = -1.0f32;
@@ -2204,7 +2209,7 @@ mod tests {
             0.25,
             crate::multiple::tabulated_dielectric::dcorr_stretch(1, 8),
         ] {
-            for r in 0..AN_PHI * AN_MU {
+            for r in 0..crate::multiple::tabulated_dielectric::DCORR_PHI * AN_MU {
                 let (k, i) = (r / AN_MU, r % AN_MU);
                 let w = dcorr_node_dir(r, rho);
                 assert!((w.length() - 1.0).abs() < 1e-5, "node {r}: {w}");

@@ -131,7 +131,7 @@ use crate::desc::MaterialDesc;
 use crate::facet::Facet;
 use crate::frame::flip_z;
 use crate::multiple::compensation::AnisoDir;
-use crate::multiple::compensation_aniso_tables::{AN_MU, AN_PHI};
+use crate::multiple::compensation_aniso_tables::AN_MU;
 use crate::multiple::tabulated::{
     CORR_MAX, CORR_MIRROR, dcorr_phi4, diamond4, stored_pair, tabulated_ndf, triangle, u16x2x2,
 };
@@ -247,13 +247,20 @@ pub const fn scale_index(ndf: usize, a: usize, e: usize, side: usize, i: usize) 
 /// `jx > jy` through the symmetry `(alpha_x, alpha_y, phi) -> (alpha_y,
 /// alpha_x, pi/2 - phi)`).
 pub const DCORR_PAIRS: usize = (ALPHA_N - 1) * ALPHA_N / 2;
-/// Values per roughness pair and index node: `[side][phi][mu]` on `AN_PHI`
-/// azimuths uniform in `tabulated::dcorr_phi` (within 0.35 degrees of
+/// Azimuth nodes of the dielectric's anisotropic correction (uniform in
+/// `tabulated::dcorr_phi`): 10 since version 10 (session 18). With the
+/// albedo table's 7 (`AN_PHI`, versions 1-9) the linear interpolation
+/// between azimuth nodes left the furnace 3.4% off halfway between two of
+/// them at a node material (GGX (0.28, 1.125), `E` 1.598, from inside at
+/// 85 degrees, azimuth 45; 0.1% at the nodes beside it).
+pub const DCORR_PHI: usize = 10;
+/// Values per roughness pair and index node: `[side][phi][mu]` on
+/// [`DCORR_PHI`] azimuths uniform in `tabulated::dcorr_phi` (within 0.35 degrees of
 /// uniform in `phi` at `rho` = 1, from the diamond angle `rho |y| / (|x| +
 /// rho |y|)` without an `atan2`, `rho` the block's
 /// [`dcorr_stretch`]) and ENERGY_COMPENSATED's anisotropic cosine
 /// grid (side 0 thin, 1 dense).
-pub const DCORR_BLOCK: usize = 2 * AN_PHI * AN_MU;
+pub const DCORR_BLOCK: usize = 2 * DCORR_PHI * AN_MU;
 /// Relative index nodes of the anisotropic furnace correction: the lobe
 /// table's [`ETA_N`] (where the lobe's linear interpolation in `ln E` has
 /// its kinks) and the midpoints in `ln E` of its intervals, the quarter
@@ -273,7 +280,7 @@ pub const DCORR_LEN: usize = NDF_N * DCORR_PAIRS * DCORR_ETA_N * DCORR_BLOCK;
 /// [`DCORR_LEN`] little-endian `u16` (`tabulated::corr_encode`).
 pub const DCORR_FILE_BYTES: usize = HEADER_BYTES + 2 * DCORR_LEN;
 /// First bytes of the correction file.
-pub const DCORR_MAGIC: &[u8; 37] = b"MSBSDF-TABULATED-DIELECTRIC-ANISO-v8\n";
+pub const DCORR_MAGIC: &[u8; 38] = b"MSBSDF-TABULATED-DIELECTRIC-ANISO-v10\n";
 
 /// The anisotropic correction's index grid as knots of a piecewise
 /// linear map between its node coordinate ([`DCORR_KNOT_NODE`]) and the
@@ -362,10 +369,10 @@ pub const fn dcorr_index(
     let (lo, hi, k) = if jx <= jy {
         (jx, jy, k)
     } else {
-        (jy, jx, AN_PHI - 1 - k)
+        (jy, jx, DCORR_PHI - 1 - k)
     };
     ((ndf * DCORR_PAIRS + dcorr_pair(lo, hi)) * DCORR_ETA_N + e) * DCORR_BLOCK
-        + (side * AN_PHI + k) * AN_MU
+        + (side * DCORR_PHI + k) * AN_MU
         + i
 }
 
@@ -510,7 +517,7 @@ fn dcorr_corners(ndf: usize, ax: f32, ay: f32, eta: (usize, usize, f32)) -> DCor
 /// once, the three azimuth coordinates in SIMD lanes).
 #[inline]
 fn dcorr_dirs(rho: Vec4, w: Vec3) -> [AnisoDir; 3] {
-    grid_dirs3(dcorr_phi4(diamond4(w, rho)), w, AN_PHI)
+    grid_dirs3(dcorr_phi4(diamond4(w, rho)), w, DCORR_PHI)
 }
 
 /// The correction `s` of a direction on `side` (0 thin, 1 dense) at its
@@ -528,13 +535,13 @@ fn dcorr_at(c: &DCorr, side: usize, d: &[AnisoDir; 3]) -> f32 {
     for (&(b, w), d) in c.corners.iter().zip(d) {
         // Lanes [a0, a1, b0, b1]: rows k and k + 1 of the read, weights
         // 1 - g and g. Mirrored (m = 1) the row read first is the
-        // direction's upper one: row AN_PHI - 2 - k0, g = 1 - fk; else
+        // direction's upper one: row DCORR_PHI - 2 - k0, g = 1 - fk; else
         // row k0, g = fk (without branches).
         let m = (b >> 31) as usize;
-        let k = (m * (AN_PHI - 2)).abs_diff(d.k0);
+        let k = (m * (DCORR_PHI - 2)).abs_diff(d.k0);
         let g = (m as f32 - d.fk).abs();
         let lanes = Vec4::new(1.0 - g, 1.0 - g, g, g);
-        let at = (b & !CORR_MIRROR) as usize + 2 * (side * AN_PHI * AN_MU + k * AN_MU + d.i0);
+        let at = (b & !CORR_MIRROR) as usize + 2 * (side * DCORR_PHI * AN_MU + k * AN_MU + d.i0);
         // The lower index node's block at `at`, the upper one's
         // `DCORR_BLOCK` values on.
         let Some(r) = RAW_DCORR
@@ -1450,11 +1457,11 @@ mod tests {
                 for e in [0, 3, DCORR_ETA_N - 2] {
                     let c = dcorr_corners(ndf, grid_alpha(jx), grid_alpha(jy), (e, e + 1, 0.0));
                     for side in 0..2 {
-                        for k in 0..AN_PHI {
+                        for k in 0..DCORR_PHI {
                             for i in [0, 5, 11, AN_MU - 1] {
                                 // The node as the lower one of its cell, or
                                 // the upper one of the last cell.
-                                let (k0, fk) = if k + 1 < AN_PHI {
+                                let (k0, fk) = if k + 1 < DCORR_PHI {
                                     (k, 0.0)
                                 } else {
                                     (k - 1, 1.0)
@@ -1499,7 +1506,7 @@ mod tests {
                 }
             }
         }
-        assert_eq!(checked, NDF_N * 6 * 3 * 2 * AN_PHI * 4);
+        assert_eq!(checked, NDF_N * 6 * 3 * 2 * DCORR_PHI * 4);
     }
 
     /// The peaked part's `f_ss1 |wo.z|` that eval takes from SINGLE
