@@ -98,7 +98,7 @@
 //! --dielectric`): per NDF, pair of the lobe table's roughness nodes,
 //! index node of its own ([`DCORR_ETA_N`]: the lobe table's index nodes,
 //! the midpoints of its intervals, the quarter points of the lowest and
-//! its first eighth point) and side, on 7 azimuths
+//! its first eighth point) and side, on [`DCORR_PHI`] (10) azimuths
 //! (uniform in `tabulated::dcorr_phi` of the diamond angle, stretched per
 //! block towards its smoother axis by [`dcorr_stretch`]: no
 //! `atan2`)
