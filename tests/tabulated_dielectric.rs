@@ -233,8 +233,9 @@ fn anisotropic_furnace_between_index_nodes() {
 /// the axes, which are azimuth nodes. With the albedo table's 7 azimuths
 /// (versions 1-9) the worst was 0.0335 (GGX (0.28, 1.125) from inside at
 /// 85.4 degrees, azimuth 43.2; 12 of the 96 directions over 1%, 22 over
-/// 0.5%); with 10
-/// (version 10, session 18) it is measured below.
+/// 0.5%). With 10 (version 10, session 18): 0.0170 (the same material
+/// and direction, azimuth 45.7; 2 of 144 over 1%, 17 over 0.5%), bounded
+/// at [`ANISO_BETWEEN_AZIMUTHS`].
 #[test]
 fn anisotropic_furnace_between_azimuth_nodes() {
     use msbsdf::multiple::compensation_aniso_tables::AN_MU;
@@ -276,9 +277,9 @@ fn anisotropic_furnace_between_azimuth_nodes() {
     assert!(worst < ANISO_BETWEEN_AZIMUTHS, "{report}");
 }
 
-/// Bound of `anisotropic_furnace_between_azimuth_nodes` (set from the
-/// measurement, see there).
-const ANISO_BETWEEN_AZIMUTHS: f64 = 1.0;
+/// Bound of `anisotropic_furnace_between_azimuth_nodes`: measured 0.0170
+/// with 10 azimuth nodes; version 9's 7 fail it (0.0335).
+const ANISO_BETWEEN_AZIMUTHS: f64 = 0.02;
 
 /// The furnace at the corners of the anisotropic range (one axis near the
 /// smoothest node, the other at 1.9-2; index 1.05 from both sides, where
@@ -295,7 +296,9 @@ const ANISO_BETWEEN_AZIMUTHS: f64 = 1.0;
 /// per block uniform in the diamond angle stretched by `(alpha_y /
 /// alpha_x)^(1/4)`, `tabulated_dielectric::dcorr_stretch`): worst 0.1233 (GGX (0.05,
 /// 1.9) from the dense side at 89 degrees, azimuth 45), that band 0.0868.
-/// Bounded at 0.15 everywhere (it was 0.25, and 1.25 in that band).
+/// Version 10 (10 azimuth nodes instead of 7, session 18): 0.0803, the
+/// same direction. Bounded at 0.1 everywhere (0.15 until version 10; it
+/// was 0.25, and 1.25 in that band, before).
 #[test]
 fn anisotropic_furnace_at_the_range_corners() {
     let mut report = String::new();
@@ -318,7 +321,7 @@ fn anisotropic_furnace_at_the_range_corners() {
         }
     }
     println!("{report}worst |albedo - 1| = {worst:.4}");
-    assert!(worst < 0.15, "{report}");
+    assert!(worst < 0.1, "{report}");
 }
 
 /// Bound on the anisotropic furnace error (see `white_furnace_anisotropic`):
