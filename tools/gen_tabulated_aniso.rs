@@ -278,14 +278,10 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
         for r in 0..CORR_BLOCK {
             let (k, i) = (r / AN_MU, r % AN_MU);
             // Midpoint j (of AN_MU - 2 per azimuth node) lies between
-            // cosine nodes j + 1 and j + 2; none below node 1.
-            let mut adj = Vec::new();
-            if i > 1 {
-                adj.push(e[k * (AN_MU - 2) + i - 2]);
-            }
-            if i >= 1 && i + 1 < AN_MU {
-                adj.push(e[k * (AN_MU - 2) + i - 1]);
-            }
+            // cosine nodes j + 1 and j + 2; none below node 1: node i's
+            // adjacent midpoints are i - 2 and i - 1 where they exist.
+            let row = &e[k * (AN_MU - 2)..(k + 1) * (AN_MU - 2)];
+            let adj = &row[i.saturating_sub(2)..i.min(AN_MU - 2)];
             // The last cosine node is the normal, the same direction
             // for every azimuth node: its target moves by the mean of
             // the last midpoints' errors over all azimuth nodes, so

@@ -244,9 +244,10 @@ pub const CORR_A: usize = 31;
 /// pi/2 - phi)`.
 pub const CORR_PAIRS: usize = CORR_A * (CORR_A + 1) / 2;
 /// Azimuth nodes of the conductor's correction (uniform in the diamond
-/// angle, `corr_dir`): 17. The albedo table's 7 (`compensation_aniso_tables::AN_PHI`) left `E_ss`
-/// interpolated between the nodes at 78.7 and 90 degrees 0.68% off at
-/// Beckmann (1.818, 0.482), 87.5 degrees; 9 (sessions 9-12) left the
+/// angle, `corr_dir`): 17. The albedo table's 7
+/// (`compensation_aniso_tables::AN_PHI`) left `E_ss` interpolated between
+/// the nodes at 78.7 and 90 degrees 0.68% off at Beckmann (1.818, 0.482),
+/// 87.5 degrees; 9 (sessions 9-12) left the
 /// furnace 19% off near the smooth axis of the range's most anisotropic
 /// corner (Beckmann (0.05, 1.9), 89 degrees, azimuth 2.8; 5.4% with 17).
 pub const CORR_PHI: usize = 17;
