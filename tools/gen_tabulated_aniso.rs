@@ -437,6 +437,18 @@ fn main() {
         .flat_map(|n| (0..CORR_A).flat_map(move |jx| (jx..CORR_A).map(move |jy| (n, jx, jy))))
         .collect();
     jobs.sort_by_key(|&(_, jx, _)| usize::MAX - jx);
+    // Experiments: `PAIRS=n:jx:jy,...` solves those blocks only (the
+    // others are left at 0: not a table to commit).
+    if let Ok(p) = std::env::var("PAIRS") {
+        let keep: Vec<(usize, usize, usize)> = p
+            .split(',')
+            .filter_map(|t| {
+                let v: Vec<usize> = t.split(':').filter_map(|x| x.parse().ok()).collect();
+                (v.len() == 3).then(|| (v[0], v[1], v[2]))
+            })
+            .collect();
+        jobs.retain(|j| keep.contains(j));
+    }
     let threads: usize = std::env::var("THREADS")
         .ok()
         .and_then(|v| v.parse().ok())

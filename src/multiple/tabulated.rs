@@ -257,7 +257,7 @@ pub const CORR_PHI: usize = 17;
 pub const CORR_MU_FINE_FROM: usize = 1;
 /// Intervals of ENERGY_COMPENSATED's anisotropic cosine grid, from
 /// [`CORR_MU_FINE_FROM`] on, that the conductor's correction halves.
-pub const CORR_MU_FINE: usize = 0;
+pub const CORR_MU_FINE: usize = 2;
 /// Cosine nodes of the conductor's correction ([`corr_mu_coord`]):
 /// ENERGY_COMPENSATED's 16 anisotropic cosines and the midpoints of
 /// [`CORR_MU_FINE`] of their intervals near grazing.
