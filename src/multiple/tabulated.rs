@@ -734,7 +734,7 @@ fn corr_dirs([r0, r1, r2]: [f32; 3], w: Vec3) -> [AnisoDir; 3] {
 /// cosine coordinate `c` (16 nodes uniform in `sqrt((mu - 0.01) / 0.99)`,
 /// `compensation::aniso_grid_mu_at`) with its intervals from
 /// [`CORR_MU_FINE_FROM`] to `CORR_MU_FINE_FROM + CORR_MU_FINE` halved: `c +
-/// clamp(c - CORR_MU_FINE_FROM, 0, CORR_MU_FINE)`. A NaN gives 0.
+/// clamp(c - CORR_MU_FINE_FROM, 0, CORR_MU_FINE)`.
 #[inline(always)]
 pub fn corr_mu_coord(mu: f32) -> f32 {
     let c = compensation::aniso_mu_root(mu) * (AN_MU - 1) as f32;
@@ -2296,6 +2296,40 @@ mod tests {
                 assert!((ii - i as f32).abs() < 1e-3, "node {r}: cosine {ii}");
             }
         }
+    }
+
+    /// The conductor correction's cosine grid ([`corr_grid_mu_at`],
+    /// [`corr_mu_coord`]): ENERGY_COMPENSATED's anisotropic cosines with
+    /// the midpoints of the intervals from node [`CORR_MU_FINE_FROM`] on
+    /// inserted ([`CORR_MU_FINE`] of them), decreasing in angle from
+    /// grazing to the normal, and eval's coordinate inverts it at every
+    /// quarter node (within 1e-3 of a node step).
+    #[test]
+    fn conductor_cosine_grid() {
+        use crate::multiple::compensation::{aniso_grid_mu, aniso_grid_mu_at};
+        let (from, fine) = (CORR_MU_FINE_FROM, CORR_MU_FINE);
+        for i in 0..CORR_MU {
+            let want = if i <= from {
+                aniso_grid_mu(i)
+            } else if i <= from + 2 * fine {
+                aniso_grid_mu_at(from as f32 + 0.5 * (i - from) as f32)
+            } else {
+                aniso_grid_mu(i - fine)
+            };
+            assert_eq!(corr_grid_mu_at(i as f32), want, "node {i}");
+        }
+        assert_eq!(corr_grid_mu_at((CORR_MU - 1) as f32), 1.0);
+        let mut last = 0.0;
+        for q in 0..=4 * (CORR_MU - 1) {
+            let x = q as f32 / 4.0;
+            let mu = corr_grid_mu_at(x);
+            assert!(mu > last, "x {x}: {mu} after {last}");
+            last = mu;
+            let back = corr_mu_coord(mu);
+            assert!((back - x).abs() < 1e-3, "x {x}: mu {mu} reads {back}");
+        }
+        // Below the first node: node 0.
+        assert_eq!(corr_mu_coord(0.0), 0.0);
     }
 
     /// The conductor correction's azimuth stretch ([`corr_stretch`]) is 1
