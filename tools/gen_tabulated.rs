@@ -370,8 +370,13 @@ fn write_table(
     file_bytes: usize,
     values: impl IntoIterator<Item = f32>,
 ) {
-    let payload: Vec<u8> = values.into_iter().flat_map(f32::to_le_bytes).collect();
+    let payload = f32_bytes(values);
     write_bytes(out, header, magic, header_bytes, file_bytes, &payload);
+}
+
+/// `values` as little-endian f32 bytes.
+fn f32_bytes(values: impl IntoIterator<Item = f32>) -> Vec<u8> {
+    values.into_iter().flat_map(f32::to_le_bytes).collect()
 }
 
 /// Writes `header` (padded with zeros to `header_bytes`) and `payload`.
@@ -1081,39 +1086,41 @@ fn conductor_pack_main(args: &[String], rest: &[String]) {
             old_magic: b"MSBSDF-TABULATED-v1\n",
             magic: MAGIC,
             file_bytes: FILE_BYTES,
-            full_lobe_len: FULL_LOBE_LEN,
+            block_len: FULL_LOBE_LEN,
             rest_len: ALBEDO_LEN + FRESNEL_LEN,
             layout: PACKED,
         },
-        pack,
+        |full| f32_bytes(pack(full)),
     );
 }
 
-/// A table file's conversion to a layout that stores a symmetric lobe's
-/// `i <= j` half only (`--conductor-pack`, `--dielectric-pack`).
+/// A table file's conversion to its next version, which stores its first
+/// block another way: a symmetric lobe's `i <= j` half only
+/// (`--conductor-pack`, `--dielectric-pack`).
 struct Repack<'a> {
     /// The command-line flag (its usage line).
     flag: &'a str,
     /// Default `--out`.
     out: &'a str,
-    /// Magic of the file read (every lobe cell stored).
+    /// Magic of the file read.
     old_magic: &'a [u8],
     /// Magic and size of the file written.
     magic: &'a [u8],
     file_bytes: usize,
-    /// Floats of the lobe block read, and of the blocks after it (copied).
-    full_lobe_len: usize,
+    /// Floats of the block converted, and of the blocks after it (copied).
+    block_len: usize,
     rest_len: usize,
-    /// The header line saying how the lobe is stored.
+    /// The header line saying how the new version stores the block.
     layout: &'a str,
 }
 
-/// Rewrites the table file named by `rest[0]` (`spec.old_magic`, the
-/// full lobe block then `spec.rest_len` floats) with its lobe block
-/// packed by `pack` into `--out`, its header kept (after the new magic)
-/// with a line saying how it was converted (command, commit) and
-/// `spec.layout`. Every value is the old file's, bit for bit.
-fn repack(args: &[String], rest: &[String], spec: &Repack, pack: fn(&[f32]) -> Vec<f32>) {
+/// Rewrites the table file named by `rest[0]` (`spec.old_magic`, a block
+/// of `spec.block_len` floats then `spec.rest_len` floats) with its first
+/// block converted by `pack` (to the bytes stored) into `--out`, its
+/// header kept (after the new magic) with a line saying how it was
+/// converted (command, commit) and `spec.layout`. The blocks after it are
+/// copied bit for bit.
+fn repack(args: &[String], rest: &[String], spec: &Repack, pack: fn(&[f32]) -> Vec<u8>) {
     let out: String = arg(args, "--out", spec.out.to_string());
     let Some(path) = rest.first() else {
         eprintln!("{} PATH (a table file of the previous version)", spec.flag);
@@ -1126,13 +1133,13 @@ fn repack(args: &[String], rest: &[String], spec: &Repack, pack: fn(&[f32]) -> V
     );
     assert_eq!(
         raw.len(),
-        HEADER_BYTES + 4 * (spec.full_lobe_len + spec.rest_len)
+        HEADER_BYTES + 4 * (spec.block_len + spec.rest_len)
     );
     let values: Vec<f32> = raw[HEADER_BYTES..]
         .chunks_exact(4)
         .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
         .collect();
-    let (full, kept) = values.split_at(spec.full_lobe_len);
+    let (block, kept) = values.split_at(spec.block_len);
     let old = String::from_utf8_lossy(&raw[spec.old_magic.len()..HEADER_BYTES]);
     let header = format!(
         "{}{}converted from {} (the lines above) by: cargo run --release --example \
@@ -1144,13 +1151,15 @@ fn repack(args: &[String], rest: &[String], spec: &Repack, pack: fn(&[f32]) -> V
         git_commit(),
         spec.layout,
     );
-    write_table(
+    let mut payload = pack(block);
+    payload.extend(f32_bytes(kept.iter().copied()));
+    write_bytes(
         &out,
         &header,
         spec.magic,
         HEADER_BYTES,
         spec.file_bytes,
-        pack(full).into_iter().chain(kept.iter().copied()),
+        &payload,
     );
 }
 
@@ -1931,11 +1940,11 @@ mod dielectric {
                 old_magic: b"MSBSDF-TABULATED-DIELECTRIC-v2\n",
                 magic: MAGIC,
                 file_bytes: FILE_BYTES,
-                full_lobe_len: FULL_LOBE_LEN,
+                block_len: FULL_LOBE_LEN,
                 rest_len: ALBEDO_LEN,
                 layout: PACKED,
             },
-            pack,
+            |full| super::f32_bytes(pack(full)),
         );
     }
 
