@@ -661,6 +661,10 @@ fn main() {
         dielectric::ir(&args);
         return;
     }
+    if let Some(p) = args.iter().position(|a| a == "--dielectric-scale-pack") {
+        dielectric::scale_pack_main(&args, &args[p + 1..]);
+        return;
+    }
     if args.iter().any(|a| a == "--dielectric-scale") {
         dielectric::scale_main(&args);
         return;
@@ -1096,7 +1100,8 @@ fn conductor_pack_main(args: &[String], rest: &[String]) {
 
 /// A table file's conversion to its next version, which stores its first
 /// block another way: a symmetric lobe's `i <= j` half only
-/// (`--conductor-pack`, `--dielectric-pack`).
+/// (`--conductor-pack`, `--dielectric-pack`) or 16-bit scales
+/// (`--dielectric-scale-pack`).
 struct Repack<'a> {
     /// The command-line flag (its usage line).
     flag: &'a str,
@@ -1186,8 +1191,8 @@ mod dielectric {
     use msbsdf::multiple::tabulated::{MU_N, hat_moment, project_exit};
     use msbsdf::multiple::tabulated_dielectric::{
         ALBEDO_LEN, ALPHA_N, ETA_N, FILE_BYTES, HEADER_BYTES, K, LOBE_LEN, MAGIC, NDF_N, NODES,
-        PEAK, R_CELL, R_DENSE, R_TERMS, R_THIN, T_THIN, albedo_index, grid_alpha, grid_eta,
-        lobe_index, node,
+        PEAK, R_CELL, R_DENSE, R_TERMS, R_THIN, SCALE_FILE_BYTES, SCALE_LEN, SCALE_MAGIC,
+        SCALE_STEP, T_THIN, albedo_index, grid_alpha, grid_eta, lobe_index, node,
     };
     use msbsdf::ndf::Ndf;
     use msbsdf::single::{G2Form, Single};
@@ -1425,12 +1430,12 @@ mod dielectric {
     /// `s_x sum_y M(x, y) s_y = 1 - E_ss(x)` (Sinkhorn), and eval multiplies
     /// the lobe by `s(wi) s(wo)` interpolated linearly in `sqrt(mu)`, so the
     /// scaled albedo is the target at every node; a product keeps both
-    /// reciprocity rules.
+    /// reciprocity rules. The scales are written as 16-bit steps
+    /// ([`scale_steps`]).
     pub fn scale_main(args: &[String]) {
         use msbsdf::multiple::tabulated_dielectric::{
-            SCALE_ALPHA_N, SCALE_ETA_N, SCALE_FILE_BYTES, SCALE_LEN, SCALE_MAGIC, SCALE_MU_N,
-            TabulatedDielectric, header, scale_grid_alpha, scale_grid_eta, scale_grid_mu,
-            scale_index,
+            SCALE_ALPHA_N, SCALE_ETA_N, SCALE_MU_N, TabulatedDielectric, header, scale_grid_alpha,
+            scale_grid_eta, scale_grid_mu, scale_index,
         };
         let quad: usize = arg(args, "--quad", 128);
         let threads: usize = arg(args, "--threads", 2);
@@ -1549,7 +1554,8 @@ mod dielectric {
                 .fold(0.0f64, f64::max);
             (sc, before, after)
         });
-        let mut scale = vec![1.0f32; SCALE_LEN];
+        // Roughness node 0 (no multiple scattering) keeps 1.
+        let mut scale = vec![scale_steps(1.0); SCALE_LEN];
         let (mut before, mut after) = (0.0f64, 0.0f64);
         let (mut smin, mut smax) = (f64::INFINITY, 0.0f64);
         for (&(n, a, e), (sc, b, af)) in jobs.iter().zip(&res) {
@@ -1560,7 +1566,7 @@ mod dielectric {
                     let v = sc[sd * fm + i];
                     smin = smin.min(v);
                     smax = smax.max(v);
-                    scale[scale_index(n, a, e, sd, i)] = v as f32;
+                    scale[scale_index(n, a, e, sd, i)] = scale_steps(v);
                 }
             }
         }
@@ -1570,7 +1576,7 @@ mod dielectric {
             .unwrap_or("commit: ?")
             .to_string();
         let head = format!(
-            "MSBSDF-TABULATED-DIELECTRIC-SCALE-v1\n\
+            "{}\
              MSBSDF_MODEL_TABULATED dielectric furnace scales (layout: src/multiple/tabulated_dielectric.rs)\n\
              command: cargo run --release --example gen_tabulated -- {}\n\
              commit: {}\n\
@@ -1580,18 +1586,89 @@ mod dielectric {
              albedo of the unscaled lobe vs 1 - E_ss: worst relative deviation {before:.3e} (targets > 1e-3); after scaling: {after:.3e} (targets > 1e-4, rows not empty; scales clamped to [0.25, 4])\n\
              scales between {smin:.4} and {smax:.4}\n\
              grid: ndf {NDF_N} x alpha {SCALE_ALPHA_N} x eta {SCALE_ETA_N} x side 2 x mu {SCALE_MU_N}\n\
-             wall time: {:.0} s on {threads} threads\n",
+             wall time: {:.0} s on {threads} threads\n\
+             {SCALE_STORAGE}\n",
+            String::from_utf8_lossy(SCALE_MAGIC),
             args[1..].join(" "),
             git_commit(),
             t0.elapsed().as_secs_f64(),
         );
-        write_table(
+        let payload: Vec<u8> = scale.iter().flat_map(|q| q.to_le_bytes()).collect();
+        super::write_bytes(
             &out,
             &head,
             SCALE_MAGIC,
             HEADER_BYTES,
             SCALE_FILE_BYTES,
-            scale.iter().copied(),
+            &payload,
+        );
+    }
+
+    /// How version 2 of the scale table stores the scales (a header line).
+    const SCALE_STORAGE: &str = "storage: little-endian u16 q per scale, s = q * SCALE_STEP \
+        (4 / 65535; s / SCALE_STEP rounded to nearest)";
+
+    /// The stored 16-bit value of a furnace scale `s` in `[0, SCALE_MAX]`:
+    /// `s / SCALE_STEP` rounded to the nearest integer (within half a step,
+    /// 3.1e-5).
+    fn scale_steps(s: f64) -> u16 {
+        let q = (s / SCALE_STEP as f64).round();
+        assert!((0.0..=65535.0).contains(&q), "scale {s} outside [0, 4]");
+        q as u16
+    }
+
+    /// The 16-bit values ([`scale_steps`]) of version 1's f32 scales;
+    /// panics unless every one is within half a step of the f32 (the worst
+    /// difference is printed, with the library's f32 product `q
+    /// SCALE_STEP`).
+    fn pack_scales(v1: &[f32]) -> Vec<u8> {
+        let step = SCALE_STEP as f64;
+        // Worst |q step - s| (exact), as the library computes it (f32),
+        // and relative to s.
+        let (mut exact, mut lib, mut rel, mut at) = (0.0f64, 0.0f64, 0.0f64, 0);
+        let mut out = Vec::with_capacity(2 * v1.len());
+        for (i, &s) in v1.iter().enumerate() {
+            let q = scale_steps(s as f64);
+            let d = (q as f64 * step - s as f64).abs();
+            if d > exact {
+                (exact, at) = (d, i);
+            }
+            let dl = ((q as f32 * SCALE_STEP) as f64 - s as f64).abs();
+            lib = lib.max(dl);
+            if s > 0.0 {
+                rel = rel.max(dl / s as f64);
+            }
+            out.extend(q.to_le_bytes());
+        }
+        eprintln!(
+            "worst |q SCALE_STEP - s| {exact:.4e} ({:.4} steps; value {at}, s = {}); \
+             as f32 q * SCALE_STEP: {lib:.4e} ({:.4} steps), relative {rel:.4e}",
+            exact / step,
+            v1[at],
+            lib / step,
+        );
+        assert!(exact <= 0.5 * step, "a value off by more than half a step");
+        out
+    }
+
+    /// `--dielectric-scale-pack PATH`: rewrites a version-1 scale table
+    /// (f32 scales) as version 2 (16-bit steps, [`pack_scales`]) into
+    /// `--out`, its header kept with a line saying how it was converted.
+    pub fn scale_pack_main(args: &[String], rest: &[String]) {
+        super::repack(
+            args,
+            rest,
+            &super::Repack {
+                flag: "--dielectric-scale-pack",
+                out: "data/tabulated_dielectric_scale.bin",
+                old_magic: b"MSBSDF-TABULATED-DIELECTRIC-SCALE-v1\n",
+                magic: SCALE_MAGIC,
+                file_bytes: SCALE_FILE_BYTES,
+                block_len: SCALE_LEN,
+                rest_len: 0,
+                layout: SCALE_STORAGE,
+            },
+            pack_scales,
         );
     }
 
