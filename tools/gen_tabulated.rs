@@ -370,8 +370,13 @@ fn write_table(
     file_bytes: usize,
     values: impl IntoIterator<Item = f32>,
 ) {
-    let payload: Vec<u8> = values.into_iter().flat_map(f32::to_le_bytes).collect();
+    let payload = f32_bytes(values);
     write_bytes(out, header, magic, header_bytes, file_bytes, &payload);
+}
+
+/// `values` as little-endian f32 bytes.
+fn f32_bytes(values: impl IntoIterator<Item = f32>) -> Vec<u8> {
+    values.into_iter().flat_map(f32::to_le_bytes).collect()
 }
 
 /// Writes `header` (padded with zeros to `header_bytes`) and `payload`.
@@ -654,6 +659,10 @@ fn main() {
     let args: Vec<String> = std::env::args().collect();
     if args.iter().any(|a| a == "--dielectric-ir") {
         dielectric::ir(&args);
+        return;
+    }
+    if let Some(p) = args.iter().position(|a| a == "--dielectric-scale-pack") {
+        dielectric::scale_pack_main(&args, &args[p + 1..]);
         return;
     }
     if args.iter().any(|a| a == "--dielectric-scale") {
@@ -1081,39 +1090,42 @@ fn conductor_pack_main(args: &[String], rest: &[String]) {
             old_magic: b"MSBSDF-TABULATED-v1\n",
             magic: MAGIC,
             file_bytes: FILE_BYTES,
-            full_lobe_len: FULL_LOBE_LEN,
+            block_len: FULL_LOBE_LEN,
             rest_len: ALBEDO_LEN + FRESNEL_LEN,
             layout: PACKED,
         },
-        pack,
+        |full| f32_bytes(pack(full)),
     );
 }
 
-/// A table file's conversion to a layout that stores a symmetric lobe's
-/// `i <= j` half only (`--conductor-pack`, `--dielectric-pack`).
+/// A table file's conversion to its next version, which stores its first
+/// block another way: a symmetric lobe's `i <= j` half only
+/// (`--conductor-pack`, `--dielectric-pack`) or 16-bit scales
+/// (`--dielectric-scale-pack`).
 struct Repack<'a> {
     /// The command-line flag (its usage line).
     flag: &'a str,
     /// Default `--out`.
     out: &'a str,
-    /// Magic of the file read (every lobe cell stored).
+    /// Magic of the file read.
     old_magic: &'a [u8],
     /// Magic and size of the file written.
     magic: &'a [u8],
     file_bytes: usize,
-    /// Floats of the lobe block read, and of the blocks after it (copied).
-    full_lobe_len: usize,
+    /// Floats of the block converted, and of the blocks after it (copied).
+    block_len: usize,
     rest_len: usize,
-    /// The header line saying how the lobe is stored.
+    /// The header line saying how the new version stores the block.
     layout: &'a str,
 }
 
-/// Rewrites the table file named by `rest[0]` (`spec.old_magic`, the
-/// full lobe block then `spec.rest_len` floats) with its lobe block
-/// packed by `pack` into `--out`, its header kept (after the new magic)
-/// with a line saying how it was converted (command, commit) and
-/// `spec.layout`. Every value is the old file's, bit for bit.
-fn repack(args: &[String], rest: &[String], spec: &Repack, pack: fn(&[f32]) -> Vec<f32>) {
+/// Rewrites the table file named by `rest[0]` (`spec.old_magic`, a block
+/// of `spec.block_len` floats then `spec.rest_len` floats) with its first
+/// block converted by `pack` (to the bytes stored) into `--out`, its
+/// header kept (after the new magic) with a line saying how it was
+/// converted (command, commit) and `spec.layout`. The blocks after it are
+/// copied bit for bit.
+fn repack(args: &[String], rest: &[String], spec: &Repack, pack: fn(&[f32]) -> Vec<u8>) {
     let out: String = arg(args, "--out", spec.out.to_string());
     let Some(path) = rest.first() else {
         eprintln!("{} PATH (a table file of the previous version)", spec.flag);
@@ -1126,13 +1138,13 @@ fn repack(args: &[String], rest: &[String], spec: &Repack, pack: fn(&[f32]) -> V
     );
     assert_eq!(
         raw.len(),
-        HEADER_BYTES + 4 * (spec.full_lobe_len + spec.rest_len)
+        HEADER_BYTES + 4 * (spec.block_len + spec.rest_len)
     );
     let values: Vec<f32> = raw[HEADER_BYTES..]
         .chunks_exact(4)
         .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
         .collect();
-    let (full, kept) = values.split_at(spec.full_lobe_len);
+    let (block, kept) = values.split_at(spec.block_len);
     let old = String::from_utf8_lossy(&raw[spec.old_magic.len()..HEADER_BYTES]);
     let header = format!(
         "{}{}converted from {} (the lines above) by: cargo run --release --example \
@@ -1144,13 +1156,15 @@ fn repack(args: &[String], rest: &[String], spec: &Repack, pack: fn(&[f32]) -> V
         git_commit(),
         spec.layout,
     );
-    write_table(
+    let mut payload = pack(block);
+    payload.extend(f32_bytes(kept.iter().copied()));
+    write_bytes(
         &out,
         &header,
         spec.magic,
         HEADER_BYTES,
         spec.file_bytes,
-        pack(full).into_iter().chain(kept.iter().copied()),
+        &payload,
     );
 }
 
@@ -1177,8 +1191,8 @@ mod dielectric {
     use msbsdf::multiple::tabulated::{MU_N, hat_moment, project_exit};
     use msbsdf::multiple::tabulated_dielectric::{
         ALBEDO_LEN, ALPHA_N, ETA_N, FILE_BYTES, HEADER_BYTES, K, LOBE_LEN, MAGIC, NDF_N, NODES,
-        PEAK, R_CELL, R_DENSE, R_TERMS, R_THIN, T_THIN, albedo_index, grid_alpha, grid_eta,
-        lobe_index, node,
+        PEAK, R_CELL, R_DENSE, R_TERMS, R_THIN, SCALE_FILE_BYTES, SCALE_LEN, SCALE_MAGIC,
+        SCALE_STEP, T_THIN, albedo_index, grid_alpha, grid_eta, lobe_index, node,
     };
     use msbsdf::ndf::Ndf;
     use msbsdf::single::{G2Form, Single};
@@ -1416,12 +1430,12 @@ mod dielectric {
     /// `s_x sum_y M(x, y) s_y = 1 - E_ss(x)` (Sinkhorn), and eval multiplies
     /// the lobe by `s(wi) s(wo)` interpolated linearly in `sqrt(mu)`, so the
     /// scaled albedo is the target at every node; a product keeps both
-    /// reciprocity rules.
+    /// reciprocity rules. The scales are written as 16-bit steps
+    /// ([`scale_steps`]).
     pub fn scale_main(args: &[String]) {
         use msbsdf::multiple::tabulated_dielectric::{
-            SCALE_ALPHA_N, SCALE_ETA_N, SCALE_FILE_BYTES, SCALE_LEN, SCALE_MAGIC, SCALE_MU_N,
-            TabulatedDielectric, header, scale_grid_alpha, scale_grid_eta, scale_grid_mu,
-            scale_index,
+            SCALE_ALPHA_N, SCALE_ETA_N, SCALE_MU_N, TabulatedDielectric, header, scale_grid_alpha,
+            scale_grid_eta, scale_grid_mu, scale_index,
         };
         let quad: usize = arg(args, "--quad", 128);
         let threads: usize = arg(args, "--threads", 2);
@@ -1540,7 +1554,8 @@ mod dielectric {
                 .fold(0.0f64, f64::max);
             (sc, before, after)
         });
-        let mut scale = vec![1.0f32; SCALE_LEN];
+        // Roughness node 0 (no multiple scattering) keeps 1.
+        let mut scale = vec![scale_steps(1.0); SCALE_LEN];
         let (mut before, mut after) = (0.0f64, 0.0f64);
         let (mut smin, mut smax) = (f64::INFINITY, 0.0f64);
         for (&(n, a, e), (sc, b, af)) in jobs.iter().zip(&res) {
@@ -1551,7 +1566,7 @@ mod dielectric {
                     let v = sc[sd * fm + i];
                     smin = smin.min(v);
                     smax = smax.max(v);
-                    scale[scale_index(n, a, e, sd, i)] = v as f32;
+                    scale[scale_index(n, a, e, sd, i)] = scale_steps(v);
                 }
             }
         }
@@ -1561,7 +1576,7 @@ mod dielectric {
             .unwrap_or("commit: ?")
             .to_string();
         let head = format!(
-            "MSBSDF-TABULATED-DIELECTRIC-SCALE-v1\n\
+            "{}\
              MSBSDF_MODEL_TABULATED dielectric furnace scales (layout: src/multiple/tabulated_dielectric.rs)\n\
              command: cargo run --release --example gen_tabulated -- {}\n\
              commit: {}\n\
@@ -1571,18 +1586,89 @@ mod dielectric {
              albedo of the unscaled lobe vs 1 - E_ss: worst relative deviation {before:.3e} (targets > 1e-3); after scaling: {after:.3e} (targets > 1e-4, rows not empty; scales clamped to [0.25, 4])\n\
              scales between {smin:.4} and {smax:.4}\n\
              grid: ndf {NDF_N} x alpha {SCALE_ALPHA_N} x eta {SCALE_ETA_N} x side 2 x mu {SCALE_MU_N}\n\
-             wall time: {:.0} s on {threads} threads\n",
+             wall time: {:.0} s on {threads} threads\n\
+             {SCALE_STORAGE}\n",
+            String::from_utf8_lossy(SCALE_MAGIC),
             args[1..].join(" "),
             git_commit(),
             t0.elapsed().as_secs_f64(),
         );
-        write_table(
+        let payload: Vec<u8> = scale.iter().flat_map(|q| q.to_le_bytes()).collect();
+        super::write_bytes(
             &out,
             &head,
             SCALE_MAGIC,
             HEADER_BYTES,
             SCALE_FILE_BYTES,
-            scale.iter().copied(),
+            &payload,
+        );
+    }
+
+    /// How version 2 of the scale table stores the scales (a header line).
+    const SCALE_STORAGE: &str = "storage: little-endian u16 q per scale, s = q * SCALE_STEP \
+        (4 / 65535; s / SCALE_STEP rounded to nearest)";
+
+    /// The stored 16-bit value of a furnace scale `s` in `[0, SCALE_MAX]`:
+    /// `s / SCALE_STEP` rounded to the nearest integer (within half a step,
+    /// 3.1e-5).
+    fn scale_steps(s: f64) -> u16 {
+        let q = (s / SCALE_STEP as f64).round();
+        assert!((0.0..=65535.0).contains(&q), "scale {s} outside [0, 4]");
+        q as u16
+    }
+
+    /// The 16-bit values ([`scale_steps`]) of version 1's f32 scales;
+    /// panics unless every one is within half a step of the f32 (the worst
+    /// difference is printed, with the library's f32 product `q
+    /// SCALE_STEP`).
+    fn pack_scales(v1: &[f32]) -> Vec<u8> {
+        let step = SCALE_STEP as f64;
+        // Worst |q step - s| (exact), as the library computes it (f32),
+        // and relative to s.
+        let (mut exact, mut lib, mut rel, mut at) = (0.0f64, 0.0f64, 0.0f64, 0);
+        let mut out = Vec::with_capacity(2 * v1.len());
+        for (i, &s) in v1.iter().enumerate() {
+            let q = scale_steps(s as f64);
+            let d = (q as f64 * step - s as f64).abs();
+            if d > exact {
+                (exact, at) = (d, i);
+            }
+            let dl = ((q as f32 * SCALE_STEP) as f64 - s as f64).abs();
+            lib = lib.max(dl);
+            if s > 0.0 {
+                rel = rel.max(dl / s as f64);
+            }
+            out.extend(q.to_le_bytes());
+        }
+        eprintln!(
+            "worst |q SCALE_STEP - s| {exact:.4e} ({:.4} steps; value {at}, s = {}); \
+             as f32 q * SCALE_STEP: {lib:.4e} ({:.4} steps), relative {rel:.4e}",
+            exact / step,
+            v1[at],
+            lib / step,
+        );
+        assert!(exact <= 0.5 * step, "a value off by more than half a step");
+        out
+    }
+
+    /// `--dielectric-scale-pack PATH`: rewrites a version-1 scale table
+    /// (f32 scales) as version 2 (16-bit steps, [`pack_scales`]) into
+    /// `--out`, its header kept with a line saying how it was converted.
+    pub fn scale_pack_main(args: &[String], rest: &[String]) {
+        super::repack(
+            args,
+            rest,
+            &super::Repack {
+                flag: "--dielectric-scale-pack",
+                out: "data/tabulated_dielectric_scale.bin",
+                old_magic: b"MSBSDF-TABULATED-DIELECTRIC-SCALE-v1\n",
+                magic: SCALE_MAGIC,
+                file_bytes: SCALE_FILE_BYTES,
+                block_len: SCALE_LEN,
+                rest_len: 0,
+                layout: SCALE_STORAGE,
+            },
+            pack_scales,
         );
     }
 
@@ -1931,11 +2017,11 @@ mod dielectric {
                 old_magic: b"MSBSDF-TABULATED-DIELECTRIC-v2\n",
                 magic: MAGIC,
                 file_bytes: FILE_BYTES,
-                full_lobe_len: FULL_LOBE_LEN,
+                block_len: FULL_LOBE_LEN,
                 rest_len: ALBEDO_LEN,
                 layout: PACKED,
             },
-            pack,
+            |full| super::f32_bytes(pack(full)),
         );
     }
 

@@ -54,7 +54,8 @@
 //! `data/tabulated_dielectric_scale.bin`
 //! (`gen_tabulated -- --dielectric-scale`): factors `s(side, mu)` on a
 //! finer grid ([`SCALE_ALPHA_N`] roughness values, [`SCALE_ETA_N`] indices,
-//! [`SCALE_MU_N`] cosines per side) such that `f_ms(wi, wo) s(wi) s(wo)` has
+//! [`SCALE_MU_N`] cosines per side; 16-bit multiples of [`SCALE_STEP`],
+//! 6.1e-5, read in place) such that `f_ms(wi, wo) s(wi) s(wo)` has
 //! the multiply scattered albedo `1 - E_ss(mu_i)` at every node (`E_ss` =
 //! SINGLE's reflected plus transmitted albedo by deterministic quadrature):
 //! a symmetric (Sinkhorn) scaling of the interpolated, clamped lobes exactly
@@ -138,7 +139,7 @@ use crate::multiple::tabulated::{
 };
 use crate::multiple::tabulated::{
     DIELECTRIC_BLEND_S2, MAX_ALPHA, MU_N, albedo_mu_split, alpha_proj2, cos_phi, cosine_sample,
-    decode, grid_dirs3, ndf_index, split, split_root, text_header,
+    grid_dirs3, ndf_index, split, split_root, text_header,
 };
 use crate::ndf::Ndf;
 use crate::rng::Rng;
@@ -211,13 +212,14 @@ pub const SCALE_ALPHA_N: usize = 25;
 pub const SCALE_ETA_N: usize = 21;
 /// Cosine nodes of the furnace scale table (uniform in `sqrt(mu)`).
 pub const SCALE_MU_N: usize = 32;
-/// Floats of the furnace scale table `[ndf][alpha][eta][side][mu]`
-/// (side 0 thin, 1 dense).
+/// Values of the furnace scale table `[ndf][alpha][eta][side][mu]`
+/// (side 0 thin, 1 dense), each a little-endian `u16` `q` for the scale
+/// `q SCALE_STEP` (see [`SCALE_STEP`]).
 pub const SCALE_LEN: usize = NDF_N * SCALE_ALPHA_N * SCALE_ETA_N * 2 * SCALE_MU_N;
-/// First bytes of the scale table file.
-pub const SCALE_MAGIC: &[u8; 37] = b"MSBSDF-TABULATED-DIELECTRIC-SCALE-v1\n";
+/// First bytes of the scale table file (version 1 stored f32 scales).
+pub const SCALE_MAGIC: &[u8; 37] = b"MSBSDF-TABULATED-DIELECTRIC-SCALE-v2\n";
 /// Total size of the scale table file in bytes.
-pub const SCALE_FILE_BYTES: usize = HEADER_BYTES + 4 * SCALE_LEN;
+pub const SCALE_FILE_BYTES: usize = HEADER_BYTES + 2 * SCALE_LEN;
 
 /// Roughness of node `a` of the scale table.
 pub fn scale_grid_alpha(a: usize) -> f32 {
@@ -678,25 +680,12 @@ const _: () = {
     }
 };
 
-/// The committed furnace scale table file, used at compile time only: it
-/// is decoded into [`SCALE`] and [`SCALE_HEADER`] (f32 values, which init
-/// and eval read with vector loads; the library holds them once).
-const RAW_SCALE: &[u8; SCALE_FILE_BYTES] =
+/// The committed furnace scale table file (see [`scale_index`]): its
+/// little-endian `u16` steps of [`SCALE_STEP`] are read in place by init
+/// (`node_scales`) and by anisotropic eval (`scale_pair`), not decoded
+/// into a second copy.
+static RAW_SCALE: &[u8; SCALE_FILE_BYTES] =
     include_bytes!("../../data/tabulated_dielectric_scale.bin");
-
-/// The furnace scale table (see [`scale_index`]).
-static SCALE: [f32; SCALE_LEN] = decode(RAW_SCALE, HEADER_BYTES);
-
-/// The text header of the furnace scale table file.
-static SCALE_HEADER: [u8; HEADER_BYTES] = {
-    let mut h = [0u8; HEADER_BYTES];
-    let mut i = 0;
-    while i < HEADER_BYTES {
-        h[i] = RAW_SCALE[i];
-        i += 1;
-    }
-    h
-};
 
 const _: () = {
     let mut i = 0;
@@ -730,15 +719,25 @@ fn floats<const N: usize, const B: usize>(raw: &[u8], i: usize) -> [f32; N] {
     }
 }
 
-/// Entry `i` of the furnace scale table (see [`scale_index`]).
+/// Entry `i` of the furnace scale table (see [`scale_index`]): the
+/// stored step count times [`SCALE_STEP`]; 0 outside the table.
 #[inline]
 pub fn scale_value(i: usize) -> f32 {
-    SCALE.get(i).copied().unwrap_or(0.0)
+    if i >= SCALE_LEN {
+        return 0.0;
+    }
+    match RAW_SCALE
+        .get(HEADER_BYTES + 2 * i..)
+        .and_then(|s| s.first_chunk::<2>())
+    {
+        Some(&q) => f32::from(u16::from_le_bytes(q)) * SCALE_STEP,
+        None => 0.0,
+    }
 }
 
 /// The text header of the scale table file.
 pub fn scale_header() -> &'static str {
-    text_header(&SCALE_HEADER)
+    text_header(RAW_SCALE)
 }
 
 /// Entry `i` of the lobe block (see [`LOBE_LEN`], [`lobe_index`]).
@@ -806,8 +805,11 @@ fn scale_tri(ndf: usize, root: f32, eta_r: f32) -> Tri {
 /// The product `s(side_i, mu_i) s(side_o, mu_o)` of the furnace scales of
 /// a pair's directions at the scale triangle `t` (each linear in
 /// `sqrt(mu)`), from the sides and `sqrt(mu)` of each: per corner the two
-/// directions' node pairs in SIMD lanes `[x_i, y_i, x_o, y_o]`, summed
-/// over the corners and interpolated once (the interpolation is linear).
+/// directions' stored node pairs in SIMD lanes `[x_i, y_i, x_o, y_o]`
+/// (`tabulated::u16x2x2`: two 4-byte reads), summed over the corners and
+/// interpolated once (the interpolation is linear), the two factors of
+/// [`SCALE_STEP`] applied once to the product. A corner outside the file
+/// reads 0.
 #[inline(always)]
 fn scale_pair(t: &Tri, (dense_i, root_i): (bool, f32), (dense_o, root_o): (bool, f32)) -> f32 {
     let (i0, fi) = split_root(root_i, SCALE_MU_N);
@@ -817,90 +819,130 @@ fn scale_pair(t: &Tri, (dense_i, root_i): (bool, f32), (dense_o, root_o): (bool,
         dense_o as usize * SCALE_MU_N + o0,
     );
     let pair = |at: usize| {
-        SCALE
-            .get(at..)
-            .and_then(|s| s.first_chunk::<2>())
-            .copied()
-            .unwrap_or([0.0; 2])
+        RAW_SCALE
+            .get(HEADER_BYTES + 2 * at..)
+            .and_then(|s| s.first_chunk::<4>())
+            .unwrap_or(&[0; 4])
     };
     let mut acc = Vec4::ZERO;
     for &(b, w) in t {
-        let ([xi, yi], [xo, yo]) = (pair(b as usize + off_i), pair(b as usize + off_o));
-        acc += Vec4::new(xi, yi, xo, yo) * w;
+        acc += u16x2x2(pair(b as usize + off_i), pair(b as usize + off_o)) * w;
     }
-    (acc.x + (acc.y - acc.x) * fi) * (acc.z + (acc.w - acc.z) * fo)
+    (acc.x + (acc.y - acc.x) * fi) * (acc.z + (acc.w - acc.z) * fo) * (SCALE_STEP * SCALE_STEP)
 }
 
 /// Largest furnace scale (the generator clamps the scales to `[0.25, 4]`).
 pub const SCALE_MAX: f32 = 4.0;
 
-/// Step of the 16-bit furnace scales an isotropic material keeps: `s =
-/// q SCALE_STEP` (6.1e-5, 2.4e-4 of the smallest scale 0.25).
-const SCALE_STEP: f32 = SCALE_MAX / 65535.0;
+/// Step of the 16-bit furnace scales, those of the table file and those
+/// an isotropic material keeps: `s = q SCALE_STEP` (6.1e-5, 2.4e-4 of the
+/// smallest scale 0.25).
+pub const SCALE_STEP: f32 = SCALE_MAX / 65535.0;
 
 /// The furnace scales of one scale triangle at every cosine node of both
 /// sides, `[side][mu]` (what eval interpolates linearly in `sqrt(mu)`),
 /// rounded to multiples of [`SCALE_STEP`] (16 bits: as f32 they would add
-/// 128 bytes to every material, of any model).
+/// 128 bytes to every material, of any model): the corners' stored steps
+/// interpolated and rounded eight at a time ([`interp_u16x8`]), the eight
+/// rows written out (as a loop, the rows went through the stack: 28
+/// instructions more per init). A corner outside the file reads 0.
 #[inline]
-fn node_scales(t: &Tri) -> [u16; 2 * SCALE_MU_N] {
-    // The sums in units of SCALE_STEP.
-    let mut sum = [0.0f32; 2 * SCALE_MU_N];
-    for &(b, w) in t {
-        let w = w * (1.0 / SCALE_STEP);
-        if let Some(row) = SCALE
-            .get(b as usize..)
-            .and_then(|s| s.first_chunk::<{ 2 * SCALE_MU_N }>())
-        {
-            for (s, x) in sum.iter_mut().zip(row) {
-                *s += x * w;
-            }
-        }
-    }
-    // Rounded to the nearest integer (the scales are in [0.25, 4], the
-    // sums in [0, 65535]).
-    let mut out = [0u16; 2 * SCALE_MU_N];
-    const { assert!((2 * SCALE_MU_N).is_multiple_of(8)) };
-    for (o, s) in out
-        .as_chunks_mut::<8>()
-        .0
-        .iter_mut()
-        .zip(sum.as_chunks::<8>().0)
-    {
-        round_u16x8(s, o);
-    }
-    out
+fn node_scales(t: &Tri) -> NodeScales {
+    const ROW: usize = 4 * SCALE_MU_N;
+    let rows = t.map(|(b, _)| {
+        RAW_SCALE
+            .get(HEADER_BYTES + 2 * b as usize..)
+            .and_then(|s| s.first_chunk::<ROW>())
+            .unwrap_or(&[0; ROW])
+    });
+    let row = |k: usize| {
+        let [a, b, c] = rows.map(|r| r.as_chunks::<16>().0.get(k).unwrap_or(&[0; 16]));
+        interp_u16x8([a, b, c], t[1].1, t[2].1)
+    };
+    [
+        row(0),
+        row(1),
+        row(2),
+        row(3),
+        row(4),
+        row(5),
+        row(6),
+        row(7),
+    ]
 }
 
-/// Eight values in `[0, 65535]` rounded to the nearest integers as `u16`.
-/// On x86-64 in SIMD lanes: converted to i32 (rounding to nearest), offset
-/// by -32768 into i16's range, packed with signed saturation (exact there)
-/// and offset back by flipping the top bit; 9 instructions where the
-/// scalar form took about 20.
+/// The furnace scales of an isotropic material at the cosine nodes
+/// `[side][mu]` ([`node_scales`]), in eight rows of eight.
+type NodeScales = [[u16; 8]; 8];
+const _: () = assert!(2 * SCALE_MU_N == 64, "node_scales writes 8 rows of 8");
+
+/// Eight scales of a scale triangle from its corners' rows of eight
+/// stored steps `q_k` (little-endian `u16`) and the weights `w1`, `w2` of
+/// corners 1 and 2 (corner 0's is `1 - w1 - w2`): `q_0 + w1 (q_1 - q_0) +
+/// w2 (q_2 - q_0)` rounded to the nearest integer, ties to even, and
+/// saturated to 65535 (the sums are in `[0, 65535]`: the weights are
+/// barycentric). Each `q` is read as the f32 `2^23 + q` (its bits:
+/// `0x4B00` above the `u16`), the differences are exact, and the sum with
+/// `2^23 + q_0` rounds to an integer (the spacing of f32 in `[2^23,
+/// 2^24)` is 1): no conversions either way. On x86-64 in SIMD lanes, the
+/// result's bits offset by -32768 into i16's range, packed with signed
+/// saturation and offset back by flipping the top bit. Converting the
+/// steps to f32, summing them corner by corner and rounding the sums by
+/// conversion cost TABULATED dielectric's init 90 instructions more than
+/// the f32 table (1,343 against 1,253; AUTO dielectric 2.02x SINGLE's
+/// against 1.89x); with this form, 31 (1,284; AUTO dielectric 1.94x).
 #[inline(always)]
-fn round_u16x8(s: &[f32; 8], o: &mut [u16; 8]) {
+fn interp_u16x8(rows: [&[u8; 16]; 3], w1: f32, w2: f32) -> [u16; 8] {
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::x86_64::{
-            _mm_add_epi32, _mm_cvtps_epi32, _mm_loadu_ps, _mm_packs_epi32, _mm_set1_epi16,
-            _mm_set1_epi32, _mm_storeu_si128, _mm_xor_si128,
+            __m128, _mm_add_ps, _mm_castps_si128, _mm_castsi128_ps, _mm_loadu_si128, _mm_mul_ps,
+            _mm_packs_epi32, _mm_set1_epi16, _mm_set1_epi32, _mm_set1_ps, _mm_storeu_si128,
+            _mm_sub_epi32, _mm_sub_ps, _mm_unpackhi_epi16, _mm_unpacklo_epi16, _mm_xor_si128,
         };
-        // SAFETY: `s` is 8 readable f32 (two unaligned 16-byte loads) and
-        // `o` 8 writable u16 (one unaligned 16-byte store); SSE2 is part of
-        // the x86-64 baseline.
+        let mut o = [0u16; 8];
+        // SAFETY: each row is 16 readable bytes (one unaligned 16-byte
+        // load) and `o` 8 writable u16 (one unaligned 16-byte store); SSE2
+        // is part of the x86-64 baseline.
         unsafe {
-            let bias = _mm_set1_epi32(-32768);
-            let lo = _mm_add_epi32(_mm_cvtps_epi32(_mm_loadu_ps(s.as_ptr())), bias);
-            let hi = _mm_add_epi32(_mm_cvtps_epi32(_mm_loadu_ps(s.as_ptr().add(4))), bias);
-            let packed = _mm_xor_si128(_mm_packs_epi32(lo, hi), _mm_set1_epi16(i16::MIN));
+            let high = _mm_set1_epi16(0x4B00);
+            let steps = |r: &[u8; 16]| -> (__m128, __m128) {
+                let v = _mm_loadu_si128(r.as_ptr().cast());
+                (
+                    _mm_castsi128_ps(_mm_unpacklo_epi16(v, high)),
+                    _mm_castsi128_ps(_mm_unpackhi_epi16(v, high)),
+                )
+            };
+            let (a, b, c) = (steps(rows[0]), steps(rows[1]), steps(rows[2]));
+            let (w1, w2) = (_mm_set1_ps(w1), _mm_set1_ps(w2));
+            let sum = |a, b, c| {
+                let t = _mm_add_ps(
+                    _mm_mul_ps(_mm_sub_ps(b, a), w1),
+                    _mm_mul_ps(_mm_sub_ps(c, a), w2),
+                );
+                _mm_sub_epi32(
+                    _mm_castps_si128(_mm_add_ps(a, t)),
+                    _mm_set1_epi32(0x4B00_8000),
+                )
+            };
+            let packed = _mm_xor_si128(
+                _mm_packs_epi32(sum(a.0, b.0, c.0), sum(a.1, b.1, c.1)),
+                _mm_set1_epi16(i16::MIN),
+            );
             _mm_storeu_si128(o.as_mut_ptr().cast(), packed);
         }
+        o
     }
-    // Rounded to the nearest integer by the addition of 2^23: the low 16
-    // bits of the result are that integer.
     #[cfg(not(target_arch = "x86_64"))]
-    for (o, s) in o.iter_mut().zip(s) {
-        *o = (s + 8_388_608.0).to_bits() as u16;
+    {
+        std::array::from_fn(|k| {
+            let q = |r: &[u8; 16]| {
+                8_388_608.0 + f32::from(u16::from_le_bytes([r[2 * k], r[2 * k + 1]]))
+            };
+            let (a, b, c) = (q(rows[0]), q(rows[1]), q(rows[2]));
+            let s = a + ((b - a) * w1 + (c - a) * w2);
+            s.to_bits().saturating_sub(0x4B00_0000).min(65535) as u16
+        })
     }
 }
 
@@ -1052,7 +1094,7 @@ pub struct TabulatedDielectric {
     /// The furnace scales of an isotropic material at the cosine nodes
     /// `[side][mu]` in units of [`SCALE_STEP`] (the scale table's plane
     /// read once, at construction; zeros for an anisotropic one).
-    scale: [u16; 2 * SCALE_MU_N],
+    scale: NodeScales,
     /// The index's coordinate on the scale table's grid, in `[0, 1]`
     /// (node `e` at `e / (SCALE_ETA_N - 1)`).
     scale_eta: f32,
@@ -1089,7 +1131,7 @@ impl TabulatedDielectric {
             // An anisotropic material reads the scales at each pair's
             // effective roughness (`multiple_with`), never these.
             scale: if ndf.alpha_x != ndf.alpha_y {
-                [0; 2 * SCALE_MU_N]
+                [[0; 8]; 8]
             } else {
                 node_scales(&scale_tri(ndf_index, alpha_root(alpha_rms), scale_eta))
             },
@@ -1221,6 +1263,7 @@ impl TabulatedDielectric {
         let (i0, f) = split_root(root_mu, SCALE_MU_N);
         match self
             .scale
+            .as_flattened()
             .get(dense as usize * SCALE_MU_N + i0..)
             .and_then(|s| s.first_chunk::<2>())
         {
@@ -1358,27 +1401,108 @@ mod tests {
         Vec3::new(r * c, r * s, z)
     }
 
-    /// The furnace scales' rounding to 16 bits (`round_u16x8`, SIMD lanes
-    /// on x86-64) gives the nearest integer, ties to even as the scalar
-    /// form (`x + 2^23`), over [0, 65535]: every integer, every half
-    /// integer and quarter steps between.
+    /// Init's and eval's reads of the 16-bit scale table (`node_scales`,
+    /// `scale_pair`) against the scales `scale_value` returns, at the
+    /// scale triangle's corners: `node_scales` within half a step (and
+    /// f32's rounding) of the weighted steps, `scale_pair` within 1e-5
+    /// relative of the product of the interpolated scales, both NDFs,
+    /// roughness and index coordinates on and between nodes (and at the
+    /// ends), every cosine node and midpoints of both sides.
     #[test]
-    fn scale_rounding_matches_the_scalar_form() {
-        let mut checked = 0;
-        let mut v = 0.0f32;
-        while v <= 65535.0 {
-            let s = [v, v + 0.25, v + 0.5, v + 0.75, v, v + 0.5, v + 0.25, v];
-            let s = s.map(|x| x.min(65535.0));
-            let mut o = [0u16; 8];
-            round_u16x8(&s, &mut o);
-            for (x, got) in s.iter().zip(o) {
-                let want = (x + 8_388_608.0).to_bits() as u16;
-                assert_eq!(got, want, "{x}");
-                checked += 1;
+    fn scale_reads_match_the_stored_values() {
+        let coords = [0.0, 0.013, 0.25, 0.5, 0.61, 0.999, 1.0];
+        for ndf in 0..NDF_N {
+            for &root in &coords {
+                for &eta_r in &coords {
+                    let t = scale_tri(ndf, root, eta_r);
+                    let value = |j: usize| -> f64 {
+                        t.iter()
+                            .map(|&(b, w)| w as f64 * scale_value(b as usize + j) as f64)
+                            .sum()
+                    };
+                    let nodes = node_scales(&t);
+                    for (j, &q) in nodes.as_flattened().iter().enumerate() {
+                        let want = value(j) / SCALE_STEP as f64;
+                        assert!(
+                            (q as f64 - want).abs() <= 0.51,
+                            "{ndf} {root} {eta_r} {j}: {q} {want}"
+                        );
+                    }
+                    let at = |dense: bool, r: f32| -> f64 {
+                        let (i0, f) = split_root(r, SCALE_MU_N);
+                        let j = dense as usize * SCALE_MU_N + i0;
+                        value(j) + (value(j + 1) - value(j)) * f as f64
+                    };
+                    for k in 0..2 * SCALE_MU_N {
+                        let r = (k as f32 * 0.5 / (SCALE_MU_N - 1) as f32).min(1.0);
+                        for (di, dn) in [(false, false), (false, true), (true, false), (true, true)]
+                        {
+                            let r_o = 1.0 - 0.7 * r;
+                            let got = scale_pair(&t, (di, r), (dn, r_o)) as f64;
+                            let want = at(di, r) * at(dn, r_o);
+                            assert!(
+                                (got / want - 1.0).abs() < 1e-5,
+                                "{ndf} {root} {eta_r} {r}: {got} {want}"
+                            );
+                        }
+                    }
+                }
             }
-            v += 1.0;
         }
-        assert_eq!(checked, 8 * 65536);
+    }
+
+    /// The furnace scales' interpolation and rounding to 16 bits
+    /// (`interp_u16x8`, SIMD lanes on x86-64) is the scalar form's,
+    /// `(2^23 + q_0) + (w1 (q_1 - q_0) + w2 (q_2 - q_0))` read back from its
+    /// bits, and within half a step (and f32's rounding of the weighted
+    /// sum) of the exact interpolation: every integer at the corners
+    /// (with weights that make half steps and ties), and corners far apart.
+    #[test]
+    fn scale_interpolation_matches_the_scalar_form() {
+        let weights = [
+            (0.0, 0.0),
+            (1.0, 0.0),
+            (0.0, 1.0),
+            (0.5, 0.0),
+            (0.5, 0.5),
+            (0.25, 0.5),
+            (0.125, 0.375),
+            (0.3, 0.6),
+            (0.7, 0.1),
+            (0.999, 0.0005),
+        ];
+        let mut checked = 0;
+        for q in 0..=65535u32 {
+            // Corner 0 at q, the others at eight values spread over the
+            // range (and q itself, a constant row).
+            let rows: [[u16; 8]; 3] = [
+                [q as u16; 8],
+                std::array::from_fn(|k| ((q + 8191 * k as u32) % 65536) as u16),
+                std::array::from_fn(|k| ((q * 7 + 9973 * k as u32) % 65536) as u16),
+            ];
+            let bytes = rows.map(|r| {
+                let mut b = [0u8; 16];
+                for (c, v) in b.as_chunks_mut::<2>().0.iter_mut().zip(r) {
+                    *c = v.to_le_bytes();
+                }
+                b
+            });
+            for &(w1, w2) in &weights {
+                let o = interp_u16x8([&bytes[0], &bytes[1], &bytes[2]], w1, w2);
+                for k in 0..8 {
+                    let [a, b, c] = rows.map(|r| f32::from(r[k]));
+                    let s = (8_388_608.0 + a) + ((b - a) * w1 + (c - a) * w2);
+                    let want = s.to_bits().saturating_sub(0x4B00_0000).min(65535) as u16;
+                    assert_eq!(o[k], want, "{q} {k} {w1} {w2}");
+                    let exact = (1.0 - w1 as f64 - w2 as f64) * a as f64
+                        + w1 as f64 * b as f64
+                        + w2 as f64 * c as f64;
+                    assert!((o[k] as f64 - exact).abs() <= 0.5 + 0.01, "{q} {k} {exact}");
+                    checked += 1;
+                }
+            }
+        }
+        assert_eq!(checked, 65536 * 8 * weights.len());
     }
 
     /// The roughness nodes' square roots are f32's `sqrt` of each, and
