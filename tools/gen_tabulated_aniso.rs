@@ -480,7 +480,7 @@ fn main() {
     }
     let command: Vec<String> = args.iter().skip(1).cloned().collect();
     let header = format!(
-        "ANISO_CORRECTION v11 (MSBSDF_MODEL_TABULATED): per [ndf: Beckmann, GGX][roughness \
+        "ANISO_CORRECTION v12 (MSBSDF_MODEL_TABULATED): per [ndf: Beckmann, GGX][roughness \
          pair (jx <= jy) of {CORR_A} x {CORR_A}: alpha = 2 (j / {})^2][azimuth: {CORR_PHI} \
          nodes of the diamond angle rho |y| / (|x| + rho |y|) from 0 to 1, rho the block's \
          stretch (tabulated::corr_stretch: 1 up to alpha_y / alpha_x = {CORR_STRETCH_RATIO}, \
