@@ -46,14 +46,15 @@ use glam::Vec3;
 use msbsdf::bsdf::ScatterModel;
 use msbsdf::facet::Facet;
 use msbsdf::multiple::compensation::{
-    aniso_grid_mu, aniso_grid_mu_at, broad_reflection_nodes, lower_hemisphere_nodes, single_albedo,
+    aniso_grid_mu, broad_reflection_nodes, lower_hemisphere_nodes, single_albedo,
 };
 use msbsdf::multiple::compensation_aniso_tables::{AN_A, AN_MU, AN_PHI, CONDUCTOR_E_ANISO};
 use msbsdf::multiple::tabulated::{
-    CORR_A, CORR_BLOCK, CORR_LEN, CORR_MAGIC, CORR_MAX, CORR_PAIR_MAX, CORR_PHI, CORR_PROXY_V,
-    CORR_STRETCH_POW, CORR_STRETCH_RATIO, CORR_VALUES, HEADER_BYTES, Tabulated, corr_azimuth_dir,
-    corr_decode, corr_dir_weights, corr_encode, corr_grid_alpha, corr_index, corr_node_dir,
-    corr_proxy, corr_stretch, dcorr_dir_weights, dcorr_node_dir,
+    CORR_A, CORR_BLOCK, CORR_LEN, CORR_MAGIC, CORR_MAX, CORR_MU, CORR_MU_FINE, CORR_MU_FINE_FROM,
+    CORR_PAIR_MAX, CORR_PHI, CORR_PROXY_V, CORR_STRETCH_POW, CORR_STRETCH_RATIO, CORR_VALUES,
+    HEADER_BYTES, Tabulated, corr_azimuth_dir, corr_decode, corr_dir_weights, corr_encode,
+    corr_grid_alpha, corr_grid_mu_at, corr_index, corr_node_dir, corr_proxy, corr_stretch,
+    dcorr_dir_weights, dcorr_node_dir,
 };
 use msbsdf::ndf::{Ndf, NdfKind};
 use msbsdf::rng::Rng;
@@ -229,9 +230,9 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
     // and in the wide last interval next to the normal): their
     // directions, targets, rows and eval's interpolation weights.
     let mids: Vec<_> = (0..CORR_PHI)
-        .flat_map(|k| (1..AN_MU - 1).map(move |i| (k, i)))
+        .flat_map(|k| (1..CORR_MU - 1).map(move |i| (k, i)))
         .map(|(k, i)| {
-            let w = corr_azimuth_dir(k, aniso_grid_mu_at(i as f32 + 0.5), rho);
+            let w = corr_azimuth_dir(k, corr_grid_mu_at(i as f32 + 0.5), rho);
             let (t, a, b) = rows(w);
             Mid {
                 w,
@@ -276,19 +277,19 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
     for _ in 0..3 {
         let e: Vec<f64> = mids.iter().map(|q| mid_error(&s, q)).collect();
         for r in 0..CORR_BLOCK {
-            let (k, i) = (r / AN_MU, r % AN_MU);
-            // Midpoint j (of AN_MU - 2 per azimuth node) lies between
+            let (k, i) = (r / CORR_MU, r % CORR_MU);
+            // Midpoint j (of CORR_MU - 2 per azimuth node) lies between
             // cosine nodes j + 1 and j + 2; none below node 1: node i's
             // adjacent midpoints are i - 2 and i - 1 where they exist.
-            let row = &e[k * (AN_MU - 2)..(k + 1) * (AN_MU - 2)];
-            let adj = &row[i.saturating_sub(2)..i.min(AN_MU - 2)];
+            let row = &e[k * (CORR_MU - 2)..(k + 1) * (CORR_MU - 2)];
+            let adj = &row[i.saturating_sub(2)..i.min(CORR_MU - 2)];
             // The last cosine node is the normal, the same direction
             // for every azimuth node: its target moves by the mean of
             // the last midpoints' errors over all azimuth nodes, so
             // that its factors stay equal across the azimuth nodes.
-            let em = if i + 1 == AN_MU {
+            let em = if i + 1 == CORR_MU {
                 (0..CORR_PHI)
-                    .map(|kk| e[kk * (AN_MU - 2) + AN_MU - 3])
+                    .map(|kk| e[kk * (CORR_MU - 2) + CORR_MU - 3])
                     .sum::<f64>()
                     / CORR_PHI as f64
             } else if adj.is_empty() {
@@ -436,6 +437,18 @@ fn main() {
         .flat_map(|n| (0..CORR_A).flat_map(move |jx| (jx..CORR_A).map(move |jy| (n, jx, jy))))
         .collect();
     jobs.sort_by_key(|&(_, jx, _)| usize::MAX - jx);
+    // Experiments: `PAIRS=n:jx:jy,...` solves those blocks only (the
+    // others are left at 0: not a table to commit).
+    if let Ok(p) = std::env::var("PAIRS") {
+        let keep: Vec<(usize, usize, usize)> = p
+            .split(',')
+            .filter_map(|t| {
+                let v: Vec<usize> = t.split(':').filter_map(|x| x.parse().ok()).collect();
+                (v.len() == 3).then(|| (v[0], v[1], v[2]))
+            })
+            .collect();
+        jobs.retain(|j| keep.contains(j));
+    }
     let threads: usize = std::env::var("THREADS")
         .ok()
         .and_then(|v| v.parse().ok())
@@ -455,9 +468,9 @@ fn main() {
         stats.mid = stats.mid.max(st.mid);
         stats.node = stats.node.max(st.node);
         for k in 0..CORR_PHI {
-            for i in 0..AN_MU {
+            for i in 0..CORR_MU {
                 let at = corr_index(n, jx, jy, k, i);
-                for (c, &v) in block[k * AN_MU + i].iter().enumerate() {
+                for (c, &v) in block[k * CORR_MU + i].iter().enumerate() {
                     lo[c] = lo[c].min(v);
                     hi[c] = hi[c].max(v);
                     table[CORR_VALUES * at + c] = corr_encode(v, CORR_PAIR_MAX);
@@ -467,12 +480,13 @@ fn main() {
     }
     let command: Vec<String> = args.iter().skip(1).cloned().collect();
     let header = format!(
-        "ANISO_CORRECTION v11 (MSBSDF_MODEL_TABULATED): per [ndf: Beckmann, GGX][roughness \
+        "ANISO_CORRECTION v12 (MSBSDF_MODEL_TABULATED): per [ndf: Beckmann, GGX][roughness \
          pair (jx <= jy) of {CORR_A} x {CORR_A}: alpha = 2 (j / {})^2][azimuth: {CORR_PHI} \
          nodes of the diamond angle rho |y| / (|x| + rho |y|) from 0 to 1, rho the block's \
          stretch (tabulated::corr_stretch: 1 up to alpha_y / alpha_x = {CORR_STRETCH_RATIO}, \
          above it (alpha_y / alpha_x)^{CORR_STRETCH_POW}; tabulated::corr_dirs)][mu: \
-         {AN_MU}] (ENERGY_COMPENSATED's anisotropic cosine grid) the two factors \
+         {CORR_MU}] (tabulated::corr_grid_mu_at: ENERGY_COMPENSATED's anisotropic cosine grid \
+         with its intervals {} to {} halved) the two factors \
          u = s sqrt(t), v = s sqrt(b) of the lobe's table and peaked parts \
          (Tabulated::aniso_parts, aniso_factors), Beckmann's v times the node's proxy \
          exp({} L), L = (1 - cos theta) ln(proj / mean) (tabulated::corr_proxy_ln; eval \
@@ -497,6 +511,8 @@ fn main() {
          Command: cargo run --release --example gen_tabulated_aniso{}{}\nCommit: {}\n\
          Time: {:.0} s\n",
         CORR_A - 1,
+        CORR_MU_FINE_FROM,
+        CORR_MU_FINE_FROM + CORR_MU_FINE,
         CORR_PROXY_V[0],
         CORR_PHI - 1,
         stats.mid,
@@ -593,8 +609,8 @@ fn check(quad: usize) {
         }
         nodes += 1;
         let k = (pick.next_u32() % CORR_PHI as u32) as usize;
-        let i = (pick.next_u32() % AN_MU as u32) as usize;
-        let w = corr_node_dir(k * AN_MU + i, corr_stretch(jx, jy));
+        let i = (pick.next_u32() % CORR_MU as u32) as usize;
+        let w = corr_node_dir(k * CORR_MU + i, corr_stretch(jx, jy));
         cases.push((n, ax, ay, w.z.acos(), w.y.atan2(w.x)));
     }
     // Random materials and directions (between nodes in general).

@@ -251,10 +251,20 @@ pub const CORR_PAIRS: usize = CORR_A * (CORR_A + 1) / 2;
 /// furnace 19% off near the smooth axis of the range's most anisotropic
 /// corner (Beckmann (0.05, 1.9), 89 degrees, azimuth 2.8; 5.4% with 17).
 pub const CORR_PHI: usize = 17;
-/// Values per roughness pair: the diamond-angle azimuth and
-/// ENERGY_COMPENSATED's cosine grid
-/// (`[phi: CORR_PHI][mu: AN_MU]`).
-pub const CORR_BLOCK: usize = CORR_PHI * AN_MU;
+/// First node coordinate of ENERGY_COMPENSATED's anisotropic cosine grid
+/// (`compensation::aniso_grid_mu_at`) from which the conductor's
+/// correction halves the grid's intervals ([`corr_mu_coord`]).
+pub const CORR_MU_FINE_FROM: usize = 1;
+/// Intervals of ENERGY_COMPENSATED's anisotropic cosine grid, from
+/// [`CORR_MU_FINE_FROM`] on, that the conductor's correction halves.
+pub const CORR_MU_FINE: usize = 2;
+/// Cosine nodes of the conductor's correction ([`corr_mu_coord`]):
+/// ENERGY_COMPENSATED's 16 anisotropic cosines and the midpoints of
+/// [`CORR_MU_FINE`] of their intervals near grazing.
+pub const CORR_MU: usize = AN_MU + CORR_MU_FINE;
+/// Values per roughness pair: the diamond-angle azimuth and the cosine
+/// grid (`[phi: CORR_PHI][mu: CORR_MU]`).
+pub const CORR_BLOCK: usize = CORR_PHI * CORR_MU;
 /// Nodes of the correction table `[ndf][pair][phi][mu]`.
 pub const CORR_LEN: usize = NDF_N * CORR_PAIRS * CORR_BLOCK;
 /// Stored values per node of the conductor's correction table: the
@@ -266,7 +276,7 @@ pub const CORR_VALUES: usize = 2;
 /// [`CORR_LEN`].
 pub const CORR_FILE_BYTES: usize = HEADER_BYTES + 2 * CORR_VALUES * CORR_LEN;
 /// First bytes of the correction table file.
-pub const CORR_MAGIC: &[u8; 29] = b"MSBSDF-TABULATED-ANISO-F-v11\n";
+pub const CORR_MAGIC: &[u8; 29] = b"MSBSDF-TABULATED-ANISO-F-v12\n";
 
 /// Exponent of the peaked part's proxy ([`corr_proxy_ln`]) per NDF index
 /// (Beckmann, GGX): the correction table stores `v exp(CORR_PROXY_V L)`
@@ -430,7 +440,7 @@ pub const fn corr_index(ndf: usize, jx: usize, jy: usize, k: usize, i: usize) ->
     } else {
         (jy, jx, CORR_PHI - 1 - k)
     };
-    (ndf * CORR_PAIRS + corr_pair(lo, hi)) * CORR_BLOCK + k * AN_MU + i
+    (ndf * CORR_PAIRS + corr_pair(lo, hi)) * CORR_BLOCK + k * CORR_MU + i
 }
 
 /// The stored `u16` of a factor `s` in `[0, max]`: `s = max (v /
@@ -563,7 +573,7 @@ fn corr_at(corners: &CorrCorners, d: &AnisoDir) -> [f32; 2] {
     // Per direction, once for the three corners: the byte offset of its
     // lower azimuth row in a block, plain and mirrored (node `CORR_PHI - 2
     // - k0`, weight `1 - fk`), and the lane weights of the two rows.
-    let row = |k: usize| 2 * CORR_VALUES * (k * AN_MU + d.i0);
+    let row = |k: usize| 2 * CORR_VALUES * (k * CORR_MU + d.i0);
     let (plain, mirrored) = (row(d.k0), row(CORR_PHI - 2 - d.k0));
     let lanes = Vec4::new(1.0 - d.fi, 1.0 - d.fi, d.fi, d.fi);
     let (w_lo, w_hi) = (lanes * (1.0 - d.fk), lanes * d.fk);
@@ -599,7 +609,7 @@ fn corr_at_stretched(corners: &CorrCorners, d: &[AnisoDir; 3]) -> [f32; 2] {
         } else {
             (d.k0, d.fk)
         };
-        let at = (b & !CORR_MIRROR) as usize + 2 * CORR_VALUES * (k * AN_MU + d.i0);
+        let at = (b & !CORR_MIRROR) as usize + 2 * CORR_VALUES * (k * CORR_MU + d.i0);
         let Some((lo, hi)) = corr_rows(at) else {
             return [1.0; 2];
         };
@@ -618,9 +628,9 @@ fn corr_at_stretched(corners: &CorrCorners, d: &[AnisoDir; 3]) -> [f32; 2] {
 fn corr_rows(at: usize) -> Option<(Vec4, Vec4)> {
     let r = RAW_CORR
         .get(at..)
-        .and_then(|r| r.first_chunk::<{ 2 * CORR_VALUES * (AN_MU + 2) }>())?;
+        .and_then(|r| r.first_chunk::<{ 2 * CORR_VALUES * (CORR_MU + 2) }>())?;
     // The chunk ends with the upper row's two nodes.
-    const _: () = assert!(2 * CORR_VALUES * AN_MU + 8 == 2 * CORR_VALUES * (AN_MU + 2));
+    const _: () = assert!(2 * CORR_VALUES * CORR_MU + 8 == 2 * CORR_VALUES * (CORR_MU + 2));
     let (lo, hi) = (u16x4(r.first_chunk::<8>()), u16x4(r.last_chunk::<8>()));
     Some((lo * lo, hi * hi))
 }
@@ -702,7 +712,7 @@ pub(crate) fn u16x2x2(lo: &[u8; 4], hi: &[u8; 4]) -> Vec4 {
 /// roughness blend [`alpha_proj2`] has a limit at the normal).
 #[inline]
 pub(crate) fn corr_dir(w: Vec3) -> AnisoDir {
-    grid_dir(diamond(w), w, CORR_PHI)
+    grid_dir(diamond(w), corr_mu_split(w), CORR_PHI)
 }
 
 /// A direction's nodes in the conductor correction's blocks of a
@@ -712,16 +722,55 @@ pub(crate) fn corr_dir(w: Vec3) -> AnisoDir {
 /// azimuth coordinates in SIMD lanes).
 #[inline]
 fn corr_dirs([r0, r1, r2]: [f32; 3], w: Vec3) -> [AnisoDir; 3] {
-    grid_dirs3(diamond4(w, Vec4::new(r0, r1, r2, 1.0)), w, CORR_PHI)
+    grid_dirs3(
+        diamond4(w, Vec4::new(r0, r1, r2, 1.0)),
+        corr_mu_split(w),
+        CORR_PHI,
+    )
+}
+
+/// The conductor correction's continuous cosine node coordinate of a
+/// cosine `mu` (in `[0, CORR_MU - 1]`): ENERGY_COMPENSATED's anisotropic
+/// cosine coordinate `c` (16 nodes uniform in `sqrt((mu - 0.01) / 0.99)`,
+/// `compensation::aniso_grid_mu_at`) with its intervals from
+/// [`CORR_MU_FINE_FROM`] to `CORR_MU_FINE_FROM + CORR_MU_FINE` halved: `c +
+/// clamp(c - CORR_MU_FINE_FROM, 0, CORR_MU_FINE)`.
+#[inline(always)]
+pub fn corr_mu_coord(mu: f32) -> f32 {
+    let c = compensation::aniso_mu_root(mu) * (AN_MU - 1) as f32;
+    c + (c - CORR_MU_FINE_FROM as f32)
+        .max(0.0)
+        .min(CORR_MU_FINE as f32)
+}
+
+/// The cosine of the conductor correction's node coordinate `x` (the
+/// inverse of [`corr_mu_coord`]; `x = i` the cosine node `i`, `i + 0.5`
+/// the cosine midpoint between nodes `i` and `i + 1`).
+pub fn corr_grid_mu_at(x: f32) -> f32 {
+    let (from, fine) = (CORR_MU_FINE_FROM as f32, CORR_MU_FINE as f32);
+    let c = if x <= from {
+        x
+    } else if x <= from + 2.0 * fine {
+        from + 0.5 * (x - from)
+    } else {
+        x - fine
+    };
+    compensation::aniso_grid_mu_at(c)
+}
+
+/// A direction's lower cosine node on the conductor correction's grid
+/// ([`corr_mu_coord`]) and the weight of the upper one.
+#[inline(always)]
+fn corr_mu_split(w: Vec3) -> (usize, f32) {
+    split_at(corr_mu_coord(w.z.abs()), CORR_MU)
 }
 
 /// A direction's nodes in three blocks of an anisotropic correction: the
 /// blocks' azimuth coordinates `c` (first three lanes, each in `[0, 1]`)
-/// on `n_phi` uniform nodes, the albedo table's cosine node once for the
-/// three ([`grid_dir`] per lane).
+/// on `n_phi` uniform nodes, the direction's cosine split `(i0, fi)` once
+/// for the three ([`grid_dir`] per lane).
 #[inline(always)]
-pub(crate) fn grid_dirs3(c: Vec4, w: Vec3, n_phi: usize) -> [AnisoDir; 3] {
-    let (i0, fi) = split_root(compensation::aniso_mu_root(w.z.abs()), AN_MU);
+pub(crate) fn grid_dirs3(c: Vec4, (i0, fi): (usize, f32), n_phi: usize) -> [AnisoDir; 3] {
     let (k, fk) = split_root4(c, n_phi);
     [0, 1, 2].map(|j| AnisoDir {
         k0: k[j],
@@ -762,13 +811,21 @@ pub(crate) fn diamond4(w: Vec3, rho: Vec4) -> Vec4 {
 }
 
 /// A direction's nodes on a grid of `n_phi` uniform values of the azimuth
-/// coordinate `c` (in [0, 1]) and the albedo table's cosines.
+/// coordinate `c` (in [0, 1]) and its cosine split `(i0, fi)`
+/// ([`corr_mu_split`], [`albedo_mu_split`]).
 #[inline(always)]
-fn grid_dir(c: f32, w: Vec3, n_phi: usize) -> AnisoDir {
-    // Both coordinates are in [0, 1]: `split_root` needs no clamp.
+fn grid_dir(c: f32, (i0, fi): (usize, f32), n_phi: usize) -> AnisoDir {
+    // The coordinate is in [0, 1]: `split_root` needs no clamp.
     let (k0, fk) = split_root(c, n_phi);
-    let (i0, fi) = split_root(compensation::aniso_mu_root(w.z.abs()), AN_MU);
     AnisoDir { k0, fk, i0, fi }
+}
+
+/// A direction's lower cosine node on ENERGY_COMPENSATED's anisotropic
+/// cosine grid (the dielectric correction's) and the weight of the upper
+/// one.
+#[inline(always)]
+pub(crate) fn albedo_mu_split(w: Vec3) -> (usize, f32) {
+    split_root(compensation::aniso_mu_root(w.z.abs()), AN_MU)
 }
 
 /// Coefficient of the dielectric correction's azimuth coordinate
@@ -815,22 +872,22 @@ pub(crate) fn dcorr_phi4(c: Vec4) -> Vec4 {
 pub(crate) fn dcorr_dir(w: Vec3, rho: f32) -> AnisoDir {
     grid_dir(
         dcorr_phi(diamond_xy(w.x.abs(), rho * w.y.abs())),
-        w,
+        albedo_mu_split(w),
         tabulated_dielectric::DCORR_PHI,
     )
 }
 
-/// The incident direction of node `r = k * AN_MU + i` of the conductor's
-/// correction (`corr_dir`: diamond angle `k / (CORR_PHI - 1)`, the albedo
-/// table's cosine node `i`).
+/// The incident direction of node `r = k * CORR_MU + i` of the conductor's
+/// correction (`corr_dir`: diamond angle `k / (CORR_PHI - 1)`, cosine node
+/// `i` of [`corr_grid_mu_at`]).
 pub fn corr_node_dir(r: usize, rho: f32) -> Vec3 {
-    corr_azimuth_dir(r / AN_MU, compensation::aniso_grid_mu(r % AN_MU), rho)
+    corr_azimuth_dir(r / CORR_MU, corr_grid_mu_at((r % CORR_MU) as f32), rho)
 }
 
 /// The direction of cosine `mu` at azimuth node `k` of the conductor
 /// correction in a block of azimuth stretch `rho` ([`corr_node_dir`] at
 /// the cosine nodes; the generator and the tests also take the cosine
-/// midpoints, [`compensation::aniso_grid_mu_at`]).
+/// midpoints, [`corr_grid_mu_at`]).
 pub fn corr_azimuth_dir(k: usize, mu: f32, rho: f32) -> Vec3 {
     let c = k as f32 / (CORR_PHI - 1) as f32;
     // rho y / (x + rho y) = c  <=>  y / (x + y) = c / (c + rho (1 - c));
@@ -869,33 +926,36 @@ fn diamond_node(mu: f32, c: f32) -> Vec3 {
 }
 
 /// The conductor correction's azimuth-cosine nodes of a direction and
-/// their bilinear weights, as eval reads them (`corr_dir`; `k * AN_MU +
+/// their bilinear weights, as eval reads them (`corr_dir`; `k * CORR_MU +
 /// i` in a roughness pair's block; generator).
 pub fn corr_dir_weights(w: Vec3, rho: f32) -> [(usize, f32); 4] {
     // With rho = 1 the same operations as `corr_dir` (rho |y| = |y|).
-    dir_weights(&grid_dir(
-        diamond_xy(w.x.abs(), rho * w.y.abs()),
-        w,
-        CORR_PHI,
-    ))
+    dir_weights(
+        &grid_dir(
+            diamond_xy(w.x.abs(), rho * w.y.abs()),
+            corr_mu_split(w),
+            CORR_PHI,
+        ),
+        CORR_MU,
+    )
 }
 
 /// The dielectric correction's azimuth-cosine nodes of a direction in a
 /// block of azimuth stretch `rho` and their bilinear weights, as eval
 /// reads them (`dcorr_dir`; generator).
 pub fn dcorr_dir_weights(w: Vec3, rho: f32) -> [(usize, f32); 4] {
-    dir_weights(&dcorr_dir(w, rho))
+    dir_weights(&dcorr_dir(w, rho), AN_MU)
 }
 
-/// The four nodes `k * AN_MU + i` of a direction's cell and their
-/// bilinear weights.
-fn dir_weights(d: &AnisoDir) -> [(usize, f32); 4] {
-    let n = d.k0 * AN_MU + d.i0;
+/// The four nodes `k * n_mu + i` of a direction's cell on a grid of `n_mu`
+/// cosines and their bilinear weights.
+fn dir_weights(d: &AnisoDir, n_mu: usize) -> [(usize, f32); 4] {
+    let n = d.k0 * n_mu + d.i0;
     [
         (n, (1.0 - d.fk) * (1.0 - d.fi)),
         (n + 1, (1.0 - d.fk) * d.fi),
-        (n + AN_MU, d.fk * (1.0 - d.fi)),
-        (n + AN_MU + 1, d.fk * d.fi),
+        (n + n_mu, d.fk * (1.0 - d.fi)),
+        (n + n_mu + 1, d.fk * d.fi),
     ]
 }
 
@@ -1003,7 +1063,12 @@ const ROUND: f32 = 12_582_912.0;
 /// linear interpolation).
 #[inline(always)]
 pub(crate) fn split_root(r: f32, n: usize) -> (usize, f32) {
-    let x = r * (n - 1) as f32;
+    split_at(r * (n - 1) as f32, n)
+}
+
+/// [`split_root`] of a node coordinate `x` in `[0, n - 1]` itself.
+#[inline(always)]
+pub(crate) fn split_at(x: f32, n: usize) -> (usize, f32) {
     let t = (x - 0.5) + ROUND;
     // t >= ROUND for x >= 0; a NaN gives some index, clamped.
     let i = (t.to_bits().wrapping_sub(ROUND.to_bits()) as usize).min(n - 2);
@@ -2233,6 +2298,40 @@ mod tests {
         }
     }
 
+    /// The conductor correction's cosine grid ([`corr_grid_mu_at`],
+    /// [`corr_mu_coord`]): ENERGY_COMPENSATED's anisotropic cosines with
+    /// the midpoints of the intervals from node [`CORR_MU_FINE_FROM`] on
+    /// inserted ([`CORR_MU_FINE`] of them), decreasing in angle from
+    /// grazing to the normal, and eval's coordinate inverts it at every
+    /// quarter node (within 1e-3 of a node step).
+    #[test]
+    fn conductor_cosine_grid() {
+        use crate::multiple::compensation::{aniso_grid_mu, aniso_grid_mu_at};
+        let (from, fine) = (CORR_MU_FINE_FROM, CORR_MU_FINE);
+        for i in 0..CORR_MU {
+            let want = if i <= from {
+                aniso_grid_mu(i)
+            } else if i <= from + 2 * fine {
+                aniso_grid_mu_at(from as f32 + 0.5 * (i - from) as f32)
+            } else {
+                aniso_grid_mu(i - fine)
+            };
+            assert_eq!(corr_grid_mu_at(i as f32), want, "node {i}");
+        }
+        assert_eq!(corr_grid_mu_at((CORR_MU - 1) as f32), 1.0);
+        let mut last = 0.0;
+        for q in 0..=4 * (CORR_MU - 1) {
+            let x = q as f32 / 4.0;
+            let mu = corr_grid_mu_at(x);
+            assert!(mu > last, "x {x}: {mu} after {last}");
+            last = mu;
+            let back = corr_mu_coord(mu);
+            assert!((back - x).abs() < 1e-3, "x {x}: mu {mu} reads {back}");
+        }
+        // Below the first node: node 0.
+        assert_eq!(corr_mu_coord(0.0), 0.0);
+    }
+
     /// The conductor correction's azimuth stretch ([`corr_stretch`]) is 1
     /// up to the anisotropy ratio [`CORR_STRETCH_RATIO`] and for an axis at
     /// node 0, `ratio^CORR_STRETCH_POW` above it, inverted by the exchange
@@ -2276,11 +2375,11 @@ mod tests {
                 assert!((w.length() - 1.0).abs() < 1e-5, "node {r}: {w}");
                 // At the normal (the last cosine node) every azimuth is the
                 // same direction: only the cosine is checked there.
-                let top = r % AN_MU == AN_MU - 1;
+                let top = r % CORR_MU == CORR_MU - 1;
                 let weights = corr_dir_weights(w, rho);
                 let at_node: f32 = weights
                     .iter()
-                    .filter(|&&(n, _)| n == r || (top && n % AN_MU == AN_MU - 1))
+                    .filter(|&&(n, _)| n == r || (top && n % CORR_MU == CORR_MU - 1))
                     .map(|&(_, v)| v)
                     .sum();
                 assert!(at_node > 0.999, "({jx}, {jy}) node {r}: {weights:?}");
@@ -2295,11 +2394,11 @@ mod tests {
                 let (kk, ii) = (d.k0 as f32 + d.fk, d.i0 as f32 + d.fi);
                 if !top {
                     assert!(
-                        (kk - (r / AN_MU) as f32).abs() < 1e-3,
+                        (kk - (r / CORR_MU) as f32).abs() < 1e-3,
                         "({jx}, {jy}) node {r}: {kk}"
                     );
                 }
-                assert!((ii - (r % AN_MU) as f32).abs() < 1e-3, "node {r}: {ii}");
+                assert!((ii - (r % CORR_MU) as f32).abs() < 1e-3, "node {r}: {ii}");
             }
         }
     }
@@ -2343,9 +2442,9 @@ mod tests {
         for ndf in 0..NDF_N {
             for jx in 0..CORR_A {
                 for jy in jx..CORR_A {
-                    let first = corr_values(corr_index(ndf, jx, jy, 0, AN_MU - 1));
+                    let first = corr_values(corr_index(ndf, jx, jy, 0, CORR_MU - 1));
                     for k in 1..CORR_PHI {
-                        let v = corr_values(corr_index(ndf, jx, jy, k, AN_MU - 1));
+                        let v = corr_values(corr_index(ndf, jx, jy, k, CORR_MU - 1));
                         for c in 0..2 {
                             // One u16 step of `16 (x / 65535)^2` at value v
                             // is about 2 sqrt(16 v) / 65535.
@@ -2380,8 +2479,8 @@ mod tests {
                 let blocks = corr_corners(ndf, ax, ay);
                 let rho = corr_stretch(jx, jy);
                 for k in 0..CORR_PHI {
-                    for i in [0, 3, 7, 12, AN_MU - 1] {
-                        let w = corr_node_dir(k * AN_MU + i, rho);
+                    for i in [0, 3, 7, 12, CORR_MU - 1] {
+                        let w = corr_node_dir(k * CORR_MU + i, rho);
                         let got = match blocks.stretch {
                             Some(rho) => corr_at_stretched(&blocks.corners, &corr_dirs(rho, w)),
                             None => corr_at(&blocks.corners, &corr_dir(w)),

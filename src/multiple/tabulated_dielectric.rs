@@ -138,8 +138,8 @@ use crate::multiple::tabulated::{
     CORR_MAX, CORR_MIRROR, dcorr_phi4, diamond4, stored_pair, tabulated_ndf, triangle, u16x2x2,
 };
 use crate::multiple::tabulated::{
-    DIELECTRIC_BLEND_S2, MAX_ALPHA, MU_N, alpha_proj2, cos_phi, cosine_sample, grid_dirs3,
-    ndf_index, split, split_root, text_header,
+    DIELECTRIC_BLEND_S2, MAX_ALPHA, MU_N, albedo_mu_split, alpha_proj2, cos_phi, cosine_sample,
+    grid_dirs3, ndf_index, split, split_root, text_header,
 };
 use crate::ndf::Ndf;
 use crate::rng::Rng;
@@ -520,7 +520,7 @@ fn dcorr_corners(ndf: usize, ax: f32, ay: f32, eta: (usize, usize, f32)) -> DCor
 /// once, the three azimuth coordinates in SIMD lanes).
 #[inline]
 fn dcorr_dirs(rho: Vec4, w: Vec3) -> [AnisoDir; 3] {
-    grid_dirs3(dcorr_phi4(diamond4(w, rho)), w, DCORR_PHI)
+    grid_dirs3(dcorr_phi4(diamond4(w, rho)), albedo_mu_split(w), DCORR_PHI)
 }
 
 /// The correction `s` of a direction on `side` (0 thin, 1 dense) at its
