@@ -737,7 +737,7 @@ fn corr_dirs([r0, r1, r2]: [f32; 3], w: Vec3) -> [AnisoDir; 3] {
 /// clamp(c - CORR_MU_FINE_FROM, 0, CORR_MU_FINE)`.
 #[inline(always)]
 pub fn corr_mu_coord(mu: f32) -> f32 {
-    let c = compensation::aniso_mu_root(mu) * (AN_MU - 1) as f32;
+    let c = compensation::aniso_mu_coord(mu);
     c + (c - CORR_MU_FINE_FROM as f32)
         .max(0.0)
         .min(CORR_MU_FINE as f32)
