@@ -438,8 +438,11 @@ fn main() {
         .collect();
     jobs.sort_by_key(|&(_, jx, _)| usize::MAX - jx);
     // Experiments: `PAIRS=n:jx:jy,...` solves those blocks only (the
-    // others are left at 0: not a table to commit).
-    if let Ok(p) = std::env::var("PAIRS") {
+    // others are left at 0: not a table to commit; the header's command
+    // line says so).
+    let pairs = std::env::var("PAIRS").ok();
+    if let Some(p) = &pairs {
+        eprintln!("PAIRS={p}: an experiment's table, the other blocks are 0");
         let keep: Vec<(usize, usize, usize)> = p
             .split(',')
             .filter_map(|t| {
@@ -508,7 +511,7 @@ fn main() {
          {:.4} - {:.4}, v {:.4} - {:.4}; worst |albedo - (1 - E_ss)| at the nodes with the \
          stored values {:.2e}; {} clamped factors s, {} stored values at the top of the \
          range; at most {} Sinkhorn steps.\n\
-         Command: cargo run --release --example gen_tabulated_aniso{}{}\nCommit: {}\n\
+         Command: {}cargo run --release --example gen_tabulated_aniso{}{}\nCommit: {}\n\
          Time: {:.0} s\n",
         CORR_A - 1,
         CORR_MU_FINE_FROM,
@@ -527,6 +530,7 @@ fn main() {
         stats.clamped,
         stats.pair_clamped,
         stats.steps,
+        pairs.map_or(String::new(), |p| format!("PAIRS={p} ")),
         if command.is_empty() { "" } else { " -- " },
         command.join(" "),
         git::commit(),
