@@ -4,9 +4,11 @@
 //! `(alpha_x, alpha_y)` on the grid `tabulated::corr_grid_alpha` (31 nodes
 //! per axis: ENERGY_COMPENSATED's 16 and the midpoints between them) and
 //! direction node (`tabulated::corr_node_dir`: the albedo table's 16
-//! cosines and two midpoints near grazing, `tabulated::CORR_PHI` = 17 diamond-angle azimuths,
-//! `tabulated::CORR_PHI_STRETCHED` = 33 in the stretched blocks), the two factors `u = s sqrt(t)`,
-//! `v = s sqrt(b)` of the lobe `T u(wi) u(wo) + P v(wi) v(wo)`
+//! cosines and the midpoints of two intervals near grazing,
+//! `tabulated::CORR_MU` = 18, and `tabulated::CORR_PHI` = 17
+//! diamond-angle azimuths; in the stretched blocks four midpoints,
+//! `CORR_MU_STRETCHED` = 20, and `CORR_PHI_STRETCHED` = 25 azimuths),
+//! the two factors `u = s sqrt(t)`, `v = s sqrt(b)` of the lobe `T u(wi) u(wo) + P v(wi) v(wo)`
 //! (`Tabulated::aniso_parts`; `t`, `b` from `Tabulated::aniso_factors`),
 //! with `s` such that the lobe has the multiply scattered albedo
 //! `1 - E_ss(wi)` at every node, `E_ss` SINGLE's albedo with F = 1. No
@@ -28,7 +30,13 @@
 //! records the residual of the stored values, the clamp hits and the time.
 //! (The dielectric's correction, below, stores `s` alone.)
 //!
-//! `cargo run --release --example gen_tabulated_aniso [-- --quad N]`;
+//! `cargo run --release --example gen_tabulated_aniso [-- --quad N]`
+//! (every block; about 80 minutes on 2 threads). Environment switches:
+//! `PAIRS=n:jx:jy,...` solves the listed blocks only (experiments: the
+//! others are 0, and the header's command line says so);
+//! `REUSE=PATH` copies the plain blocks from a version-12 table, which
+//! this code computes bit for bit, and solves the 300 stretched ones (the
+//! committed version 13 was made so: its header names both runs);
 //! `-- --dielectric [--quad N]` writes the dielectric tier's
 //! `data/tabulated_aniso_dielectric.bin` the same way ([`dielectric`]);
 //! `-- --dielectric-random [COUNT]` measures anisotropic glass's furnace

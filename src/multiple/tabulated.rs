@@ -252,10 +252,15 @@ pub const CORR_PAIRS: usize = CORR_A * (CORR_A + 1) / 2;
 /// corner (Beckmann (0.05, 1.9), 89 degrees, azimuth 2.8; 5.4% with 17).
 pub const CORR_PHI: usize = 17;
 /// Azimuth nodes of the conductor correction's stretched blocks
-/// ([`corr_stretch`] not 1): twice [`CORR_PHI`]'s intervals. With 17, the
-/// factors near the smooth axis of GGX (0.05, 1.9) at 88 degrees dipped
-/// between the stretched nodes 1.3 and 2.9 degrees from the axis: furnace
-/// -1.84% at azimuth 2 (-0.73% with 33, `docs/tabulated.md`).
+/// ([`corr_stretch`] not 1; version 13). With 17 (and the stretch
+/// `ratio^0.3`), the factors near the smooth axis of GGX (0.05, 1.9) at
+/// 88 degrees dipped between the stretched nodes 1.3 and 2.9 degrees from
+/// the axis: furnace -1.84% at azimuth 2. Measured on the four blocks
+/// around it (0.25-degree azimuth steps near the axis, with
+/// [`CORR_MU_STRETCHED`] cosines and the stretch `ratio^0.5`): worst
+/// -0.69% with 25 nodes, -0.61% with 29, -0.59% with 33; at a node
+/// material (0.056, 1.87) 25 give 0.41%: what is left between nodes is
+/// the interpolation in roughness (`docs/tabulated.md`).
 pub const CORR_PHI_STRETCHED: usize = 25;
 /// First node coordinate of ENERGY_COMPENSATED's anisotropic cosine grid
 /// (`compensation::aniso_grid_mu_at`) from which the conductor's
@@ -270,9 +275,10 @@ pub const CORR_MU_FINE: usize = 2;
 pub const CORR_MU: usize = AN_MU + CORR_MU_FINE;
 /// Intervals of ENERGY_COMPENSATED's anisotropic cosine grid, from
 /// [`CORR_MU_FINE_FROM`] on, that the conductor correction's stretched
-/// blocks halve (89.17 to 83.11 degrees): near the smooth axis of GGX
-/// (0.05, 1.9) the plain grid's interval from 87.16 to 85.39 degrees left
-/// the furnace -0.93% at 86 degrees (`docs/tabulated.md`).
+/// blocks halve (89.17 to 83.11 degrees; version 13): near the smooth axis
+/// of GGX (0.05, 1.9) the plain grid's interval from 87.16 to 85.39
+/// degrees left the furnace -0.93% at 86 degrees with 33 azimuth nodes
+/// (-0.58% with this grid, `docs/tabulated.md`).
 pub const CORR_MU_FINE_STRETCHED: usize = 4;
 /// Cosine nodes of the conductor correction's stretched blocks.
 pub const CORR_MU_STRETCHED: usize = AN_MU + CORR_MU_FINE_STRETCHED;
@@ -374,7 +380,11 @@ pub fn corr_grid_alpha(j: usize) -> f32 {
 /// smoother axis ([`corr_stretch`]).
 pub const CORR_STRETCH_RATIO: f32 = 8.0;
 
-/// Power of the anisotropy ratio in [`corr_stretch`].
+/// Power of the anisotropy ratio in [`corr_stretch`]: 0.5 since version 13
+/// (0.3 with 17 azimuth nodes, versions 9-12). On the four blocks around
+/// GGX (0.05, 1.9) with 33 azimuth nodes: worst -0.72% with 0.3, -0.64%
+/// with 0.4, -0.59% with 0.5 and 0.56% with 0.6, but +1.06% at 70 degrees
+/// on the rough side with 0.7 (its nodes there too sparse).
 pub const CORR_STRETCH_POW: f32 = 0.5;
 
 /// The azimuth stretch of the conductor correction's block at roughness
@@ -389,8 +399,9 @@ pub const CORR_STRETCH_POW: f32 = 0.5;
 /// incidence the factors fall steeply with the azimuth (GGX (0.056, 1.87)
 /// at 89 degrees: `v` 0.81 on the axis, 0.43 at the plain grid's next
 /// node 3.8 degrees away, 0.22 at 8.1 degrees), faster than linear
-/// interpolation between plain nodes follows. At that block `rho` = 2.9
-/// puts the first nodes 1.3, 2.8 and 4.6 degrees from the axis. Only
+/// interpolation between plain nodes follows. At that block `rho` = 5.8
+/// puts the first of its [`CORR_PHI_STRETCHED`] nodes 0.43, 0.90, 1.41
+/// and 1.97 degrees from the axis. Only
 /// blocks above the ratio 8 are stretched: the suite's (0.1, 0.6)
 /// materials read blocks of ratio 5.2-7.1 and keep the plain nodes (when
 /// every block was stretched, session 12, their anisotropic GGX gold moved
@@ -1010,7 +1021,7 @@ pub(crate) fn dcorr_phi4(c: Vec4) -> Vec4 {
 /// into `1 / rho` and the coordinate `c` into `1 - c`, so a transposed
 /// block is read with the corner's own stretch and its nodes mirrored.
 /// (The conductor's correction stretches only its blocks of anisotropy
-/// ratio above 8, by `ratio^0.3` on 17 nodes, [`corr_stretch`]: stretching
+/// ratio above 8, by `ratio^0.5` on 25 nodes, [`corr_stretch`]: stretching
 /// every block moved the suite's anisotropic GGX gold, `docs/tabulated.md`.)
 #[inline(always)]
 pub(crate) fn dcorr_dir(w: Vec3, rho: f32) -> AnisoDir {
