@@ -581,7 +581,7 @@ fn suite_error_against_reference_values() {
 #[test]
 fn table_cells_reestimated_with_the_library_walk() {
     let header = tabulated_dielectric::header();
-    assert!(header.starts_with("MSBSDF-TABULATED-DIELECTRIC-v3"));
+    assert!(header.starts_with("MSBSDF-TABULATED-DIELECTRIC-v4"));
     let walks_table: f64 = header
         .lines()
         .find_map(|l| l.strip_prefix("walks: "))

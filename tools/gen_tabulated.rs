@@ -673,6 +673,10 @@ fn main() {
         dielectric::pack_main(&args, &args[p + 1..]);
         return;
     }
+    if let Some(p) = args.iter().position(|a| a == "--dielectric-lobe-pack") {
+        dielectric::lobe_pack_main(&args, &args[p + 1..]);
+        return;
+    }
     if let Some(p) = args.iter().position(|a| a == "--conductor-pack") {
         conductor_pack_main(&args, &args[p + 1..]);
         return;
@@ -1100,8 +1104,9 @@ fn conductor_pack_main(args: &[String], rest: &[String]) {
 
 /// A table file's conversion to its next version, which stores its first
 /// block another way: a symmetric lobe's `i <= j` half only
-/// (`--conductor-pack`, `--dielectric-pack`) or 16-bit scales
-/// (`--dielectric-scale-pack`).
+/// (`--conductor-pack`, `--dielectric-pack`), 16-bit scales
+/// (`--dielectric-scale-pack`) or 24-bit lobe values
+/// (`--dielectric-lobe-pack`, and `--dielectric-pack` after the half).
 struct Repack<'a> {
     /// The command-line flag (its usage line).
     flag: &'a str,
@@ -1177,7 +1182,6 @@ fn repack(args: &[String], rest: &[String], spec: &Repack, pack: fn(&[f32]) -> V
 /// (`project_exit`) per lobe (reflection, transmission). SINGLE's reflected
 /// plus transmitted albedo `E_ss` by quadrature gives the furnace targets.
 mod dielectric {
-    use super::write_table;
     use super::{
         CONDUCTOR_F1, K_FIT, NDFS, RIDGE, arg, dir, fit_node, git_commit, gram_entries, node_mu,
         parallel, sinkhorn,
@@ -1190,9 +1194,10 @@ mod dielectric {
     use msbsdf::multiple::heitz::Heitz;
     use msbsdf::multiple::tabulated::{MU_N, hat_moment, project_exit};
     use msbsdf::multiple::tabulated_dielectric::{
-        ALBEDO_LEN, ALPHA_N, ETA_N, FILE_BYTES, HEADER_BYTES, K, LOBE_LEN, MAGIC, NDF_N, NODES,
-        PEAK, R_CELL, R_DENSE, R_TERMS, R_THIN, SCALE_FILE_BYTES, SCALE_LEN, SCALE_MAGIC,
-        SCALE_STEP, T_THIN, albedo_index, grid_alpha, grid_eta, lobe_index, node,
+        ALBEDO_LEN, ALPHA_N, ETA_N, FILE_BYTES, HEADER_BYTES, K, LOBE_BYTES, LOBE_LEN, MAGIC,
+        NDF_N, NODES, PEAK, R_CELL, R_DENSE, R_TERMS, R_THIN, SCALE_FILE_BYTES, SCALE_LEN,
+        SCALE_MAGIC, SCALE_STEP, T_THIN, albedo_index, grid_alpha, grid_eta, lobe_decode,
+        lobe_encode, lobe_index, node,
     };
     use msbsdf::ndf::Ndf;
     use msbsdf::single::{G2Form, Single};
@@ -1910,7 +1915,7 @@ mod dielectric {
             }
         }
         let header = format!(
-            "MSBSDF-TABULATED-DIELECTRIC-v3\n\
+            "{}\
              MSBSDF_MODEL_TABULATED dielectric table (layout: src/multiple/tabulated_dielectric.rs)\n\
              command: cargo run --release --example gen_tabulated -- {}\n\
              commit: {}\n\
@@ -1923,6 +1928,7 @@ mod dielectric {
              peaked part of the reflection lobes: Gram entries by {gram} SINGLE (F = 1) samples per node (seed Rng::new({SEED_GRAM}, stream = job index)), ridge {RIDGE} x G_BB\n\
              {}grid: ndf {NDF_N} x alpha nodes 1 to {} of {ALPHA_N} (node 0, a smooth surface, is 0 and not stored) x eta {ETA_N} x lobe 3 x mu_i {MU_N} x mu_o {MU_N} (reflection: {R_TERMS} cosine terms of a {K_FIT}-term fit and the peaked weight; transmission: {K} cosine terms); albedos ndf x alpha x eta x side 2 x mu_i x lobe 2\n\
              wall time: {:.0} s on {threads} threads\n",
+            String::from_utf8_lossy(MAGIC),
             args[1..].join(" "),
             git_commit(),
             (sym_num / sym_den.max(1e-300)).sqrt(),
@@ -1937,16 +1943,57 @@ mod dielectric {
             t0.elapsed().as_secs_f64(),
         );
         let lobe: Vec<f32> = lobe.iter().map(|v| *v as f32).collect();
-        write_table(
+        let mut payload = lobe_bytes(&pack(&lobe));
+        payload.extend(super::f32_bytes(albedo.iter().map(|v| *v as f32)));
+        super::write_bytes(
             &out,
-            &format!("{header}{PACKED}\n"),
+            &format!("{header}{PACKED}\n{LOBE_STORAGE}\n"),
             MAGIC,
             HEADER_BYTES,
             FILE_BYTES,
-            pack(&lobe)
-                .into_iter()
-                .chain(albedo.iter().map(|v| *v as f32)),
+            &payload,
         );
+    }
+
+    /// How version 4 stores the lobe values (a header line).
+    const LOBE_STORAGE: &str = "storage: lobe values as 24-bit floats, 3 little-endian bytes \
+        each (the f32 bits rounded to nearest at the 16-bit significand, (bits + 0x80) >> 8, \
+        tabulated_dielectric::lobe_encode; read as the little-endian u32 at the value's byte \
+        shifted left by 8 bits, lobe_decode), albedos little-endian f32";
+
+    /// The stored bytes of the lobe block `values` (`lobe_encode`,
+    /// [`LOBE_BYTES`] each); panics on a value that is not finite or
+    /// rounds to infinity, and unless every stored value is within half
+    /// its step of the f32 (below 2^-16 relative; the worst difference is
+    /// printed).
+    fn lobe_bytes(values: &[f32]) -> Vec<u8> {
+        let (mut worst, mut at) = (0.0f64, 0);
+        let mut out = Vec::with_capacity(LOBE_BYTES * values.len());
+        for (i, &v) in values.iter().enumerate() {
+            let b = lobe_encode(v)
+                .unwrap_or_else(|| panic!("lobe value {i} ({v:e}) is not finite as 24 bits"));
+            let d = lobe_decode([b[0], b[1], b[2], 0]) as f64;
+            let (v, tiny) = (v as f64, v.abs() < f32::MIN_POSITIVE);
+            // Half a step: 2^-16 of the value's power of two, 2^-142 for
+            // subnormals.
+            if tiny {
+                assert!(
+                    (d - v).abs() <= 2f64.powi(-142),
+                    "value {i}: {v:e} -> {d:e}"
+                );
+            } else if (d / v - 1.0).abs() > worst {
+                (worst, at) = ((d / v - 1.0).abs(), i);
+            }
+            out.extend(b);
+        }
+        eprintln!(
+            "24-bit lobe values: worst relative difference from the f32 {worst:.4e} \
+             ({:.5} x 2^-16; value {at}, {:e})",
+            worst * 65536.0,
+            values.get(at).copied().unwrap_or(0.0),
+        );
+        assert!(worst < 2f64.powi(-16), "a value off by half a step or more");
+        out
     }
 
     /// Floats of a node in the generator's lobe layout: every `(mu_i,
@@ -2004,9 +2051,10 @@ mod dielectric {
     }
 
     /// `--dielectric-pack PATH`: rewrites a version-2 table (every cell of
-    /// the reflection lobes stored) as version 3 (`pack`) into `--out`,
-    /// its header kept with a line saying how it was converted. Every
-    /// stored value is version 2's, bit for bit.
+    /// the reflection lobes stored) as the current version into `--out`:
+    /// the reflection lobes' `i <= j` half (`pack`, version 3; every value
+    /// version 2's, bit for bit) as 24-bit values ([`lobe_bytes`], version
+    /// 4), its header kept with a line saying how it was converted.
     pub fn pack_main(args: &[String], rest: &[String]) {
         super::repack(
             args,
@@ -2019,9 +2067,31 @@ mod dielectric {
                 file_bytes: FILE_BYTES,
                 block_len: FULL_LOBE_LEN,
                 rest_len: ALBEDO_LEN,
-                layout: PACKED,
+                layout: &format!("{PACKED}\n{LOBE_STORAGE}"),
             },
-            |full| super::f32_bytes(pack(full)),
+            |full| lobe_bytes(&pack(full)),
+        );
+    }
+
+    /// `--dielectric-lobe-pack PATH`: rewrites a version-3 table (f32 lobe
+    /// values) as version 4 (24-bit lobe values, [`lobe_bytes`]) into
+    /// `--out`, its header kept with a line saying how it was converted;
+    /// the albedos are copied bit for bit.
+    pub fn lobe_pack_main(args: &[String], rest: &[String]) {
+        super::repack(
+            args,
+            rest,
+            &super::Repack {
+                flag: "--dielectric-lobe-pack",
+                out: "data/tabulated_dielectric.bin",
+                old_magic: b"MSBSDF-TABULATED-DIELECTRIC-v3\n",
+                magic: MAGIC,
+                file_bytes: FILE_BYTES,
+                block_len: LOBE_LEN,
+                rest_len: ALBEDO_LEN,
+                layout: LOBE_STORAGE,
+            },
+            lobe_bytes,
         );
     }
 

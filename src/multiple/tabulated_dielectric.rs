@@ -35,6 +35,14 @@
 //!   generator estimates the lobe from both sides' walks and averages the two
 //!   estimates through that rule.
 //!
+//! The lobe values are stored as 24-bit floats ([`LOBE_BYTES`], file
+//! version 4; f32 until version 3): each f32 rounded to nearest at its
+//! 16-bit significand, relative error below 2^-16 (1.5e-5, far below the
+//! Monte Carlo noise of the walks behind them), 355,200 bytes less in the
+//! library. Eval reads
+//! them in place, a cell's four cosine terms with four 8-byte reads and a
+//! shift in SIMD lanes ([`lobe_decode`] is the one-value form).
+//!
 //! The cosine coefficients are the projections of the exit directions of
 //! the walks that scattered twice or more onto hat functions in `sqrt(mu_o)`
 //! times `cos(k phi)` (the conductor table's
@@ -145,7 +153,7 @@ use crate::ndf::Ndf;
 use crate::rng::Rng;
 use crate::single::{G2Form, Single};
 use crate::status::Error;
-use glam::{Vec3, Vec4};
+use glam::{Vec3, Vec4, Vec4Swizzles};
 use std::f32::consts::PI;
 
 /// Number of NDFs in the table (Beckmann, GGX).
@@ -192,18 +200,29 @@ pub const R_DENSE: usize = 1;
 pub const T_THIN: usize = 2;
 /// Bytes of the text header at the start of the table file.
 pub const HEADER_BYTES: usize = 4096;
-/// First bytes of the table file.
-pub const MAGIC: &[u8; 31] = b"MSBSDF-TABULATED-DIELECTRIC-v3\n";
+/// First bytes of the table file (version 3 stored the lobe values as
+/// f32, version 4 as 24-bit floats: [`LOBE_BYTES`]).
+pub const MAGIC: &[u8; 31] = b"MSBSDF-TABULATED-DIELECTRIC-v4\n";
 
 /// Stored `(ndf, alpha, eta)` nodes (roughness nodes 1 to `ALPHA_N - 1`).
 pub const NODES: usize = NDF_N * (ALPHA_N - 1) * ETA_N;
-/// Floats of the lobe block `[ndf][alpha >= 1][eta]` of [`NODE_LEN`] each.
+/// Values of the lobe block `[ndf][alpha >= 1][eta]` of [`NODE_LEN`] each.
 pub const LOBE_LEN: usize = NODES * NODE_LEN;
-/// Floats of the albedo block `[ndf][alpha >= 1][eta]` of
+/// Bytes of a stored lobe value: a 24-bit float (sign, 8-bit exponent,
+/// 15 mantissa bits), the f32 rounded to nearest at its 16-bit
+/// significand ([`lobe_encode`], relative error below 2^-16 = 1.5e-5),
+/// value `i` at byte `3 i` of the lobe block, read as the 4 bytes there
+/// shifted left by 8 bits ([`lobe_decode`]: the fourth byte, the next
+/// value's, is shifted out).
+pub const LOBE_BYTES: usize = 3;
+/// Values (f32) of the albedo block `[ndf][alpha >= 1][eta]` of
 /// [`NODE_ALBEDO_LEN`] each.
 pub const ALBEDO_LEN: usize = NODES * NODE_ALBEDO_LEN;
+/// Byte offset in the table file of the albedo block, which follows the
+/// lobe block (the 4-byte read of the last lobe value ends in it).
+pub const ALBEDO_AT: usize = HEADER_BYTES + LOBE_BYTES * LOBE_LEN;
 /// Total size of the table file in bytes.
-pub const FILE_BYTES: usize = HEADER_BYTES + 4 * (LOBE_LEN + ALBEDO_LEN);
+pub const FILE_BYTES: usize = ALBEDO_AT + 4 * ALBEDO_LEN;
 
 /// Roughness nodes of the furnace scale table (uniform in
 /// `sqrt(alpha / MAX_ALPHA)`, the first is 0).
@@ -667,10 +686,16 @@ pub const fn albedo_index(
     node(ndf, a, e) * NODE_ALBEDO_LEN + (side * MU_N + i) * 2 + lobe
 }
 
-/// The committed table file. It is read in place (little-endian f32 at
-/// run time: a plain load on little-endian machines), not decoded into a
-/// second copy, which keeps the 2 MB table once in the library.
+/// The committed table file. It is read in place (the lobe block's 24-bit
+/// values by [`lobe_decode`], the albedo block's little-endian f32 by a
+/// plain load on little-endian machines), not decoded into a second copy,
+/// which keeps the 1.1 MB table once in the library.
 static RAW: &[u8; FILE_BYTES] = include_bytes!("../../data/tabulated_dielectric.bin");
+
+const _: () = assert!(
+    ALBEDO_LEN > 0,
+    "the 4-byte read of the last lobe value ends in the albedo block"
+);
 
 const _: () = {
     let mut i = 0;
@@ -698,14 +723,14 @@ const _: () = {
     }
 };
 
-/// `N` consecutive floats from float `i` of a table file's value blocks
-/// (`B` must be `4 N`), with one bounds check; zeros outside the file,
-/// which the grid splits never reach.
+/// `N` consecutive floats from entry `i` of the albedo block (`B` must be
+/// `4 N`), with one bounds check; zeros outside the file, which the grid
+/// splits never reach.
 #[inline(always)]
-fn floats<const N: usize, const B: usize>(raw: &[u8], i: usize) -> [f32; N] {
+fn albedo_floats<const N: usize, const B: usize>(i: usize) -> [f32; N] {
     const { assert!(B == 4 * N) };
-    match raw
-        .get(HEADER_BYTES + 4 * i..)
+    match RAW
+        .get(ALBEDO_AT + 4 * i..)
         .and_then(|s| s.first_chunk::<B>())
     {
         Some(b) => {
@@ -718,6 +743,114 @@ fn floats<const N: usize, const B: usize>(raw: &[u8], i: usize) -> [f32; N] {
         None => [0.0; N],
     }
 }
+
+/// The stored form of a lobe value `v` ([`LOBE_BYTES`]): its f32 bits
+/// rounded to nearest at the 16-bit mantissa, `(bits + 0x80) >> 8` (ties
+/// away from zero; a carry out of the mantissa goes into the exponent), as
+/// 3 little-endian bytes. `None` when `v` or the rounded value is not
+/// finite (f32 within 2^-17 of `f32::MAX` rounds to infinity).
+pub fn lobe_encode(v: f32) -> Option<[u8; 3]> {
+    if !v.is_finite() {
+        return None;
+    }
+    // A finite f32's bits are at most 0xFF7F_FFFF: no overflow.
+    let [b0, b1, b2, _] = ((v.to_bits() + 0x80) >> 8).to_le_bytes();
+    lobe_decode([b0, b1, b2, 0])
+        .is_finite()
+        .then_some([b0, b1, b2])
+}
+
+/// A lobe value from the 4 bytes at its position (byte `3 i` of the lobe
+/// block): their little-endian `u32` shifted left by 8 bits, the f32 of
+/// those bits. The fourth byte (the next value's, or the albedo block's
+/// after the last value) is shifted out.
+#[inline(always)]
+pub fn lobe_decode(b: [u8; 4]) -> f32 {
+    f32::from_bits(u32::from_le_bytes(b) << 8)
+}
+
+/// [`lobe_decode`] in SIMD lanes: each 32-bit lane of `x` (the
+/// little-endian `u32` read at a value's position) shifted left by 8 bits,
+/// the f32 of those bits.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn decode_lanes(x: std::arch::x86_64::__m128i) -> Vec4 {
+    use std::arch::x86_64::{_mm_castsi128_ps, _mm_slli_epi32};
+    // SAFETY: register operations only; SSE2 is part of the x86-64
+    // baseline.
+    Vec4::from(unsafe { _mm_castsi128_ps(_mm_slli_epi32::<8>(x)) })
+}
+
+/// Four lobe values from the little-endian `u32` read at each value's
+/// position ([`lobe_decode`] of each).
+#[inline(always)]
+fn lobe_lanes(u: [u32; 4]) -> Vec4 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let [a, b, c, d] = u.map(|x| x as i32);
+        // SAFETY: register operations only; SSE2 is part of the x86-64
+        // baseline.
+        decode_lanes(unsafe { std::arch::x86_64::_mm_set_epi32(d, c, b, a) })
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        Vec4::from_array(u.map(|x| lobe_decode(x.to_le_bytes())))
+    }
+}
+
+/// The four cosine terms of a lobe cell from its bytes (the values at
+/// bytes 0, 3, 6 and 9, each read as [`lobe_decode`] does) in the lanes
+/// `[c_0, c_2, c_1, c_3]`: the order in which four 8-byte reads give them
+/// at least cost on x86-64. There, the 64-bit reads at bytes 0 and 2 make
+/// 32-bit lanes at bytes `[0, 4, 2, 6]`, those at bytes 3 and 5 lanes at
+/// `[3, 7, 5, 9]`, and one shuffle keeps lanes 0 and 3 of each: 6
+/// instructions with the shift (`movsd`, `movhps` twice, `shufps`,
+/// `pslld`). Four 4-byte reads in order took 8 (anisotropic GGX glass
+/// eval 1,692 instructions against 1,647 this way, `gen_tabulated_aniso
+/// --ir`), the same 8-byte reads as `i64` were not folded into `movhps`
+/// (1,668).
+#[inline(always)]
+fn lobe_terms(b: &[u8; CELL_BYTES]) -> Vec4 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_mm_castpd_ps, _mm_castps_si128, _mm_set_pd, _mm_shuffle_ps};
+        // The 64 bits at byte `o` carried as an f64: only moved, never
+        // computed with, so every bit is kept (as f64, not i64, the
+        // second read is folded into a `movhps`).
+        let q = |o: usize| match b.get(o..).and_then(|s| s.first_chunk::<8>()) {
+            Some(&x) => f64::from_le_bytes(x),
+            None => 0.0,
+        };
+        let (even, odd) = ([q(0), q(2)], [q(3), q(5)]);
+        // SAFETY: register operations only; SSE2 is part of the x86-64
+        // baseline.
+        decode_lanes(unsafe {
+            _mm_castps_si128(_mm_shuffle_ps::<0b11_00_11_00>(
+                _mm_castpd_ps(_mm_set_pd(even[1], even[0])),
+                _mm_castpd_ps(_mm_set_pd(odd[1], odd[0])),
+            ))
+        })
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        lobe_lanes([0, 6, 3, 9].map(|k| u32_at(b, k)))
+    }
+}
+
+/// The little-endian `u32` at byte `o` of `b` (0 past its end).
+#[inline(always)]
+fn u32_at<const N: usize>(b: &[u8; N], o: usize) -> u32 {
+    match b.get(o..).and_then(|s| s.first_chunk::<4>()) {
+        Some(&x) => u32::from_le_bytes(x),
+        None => 0,
+    }
+}
+
+/// Bytes read per lobe cell: a reflection cell's [`R_CELL`] values and
+/// the byte after them (a transmission cell's [`K`] values take the first
+/// 13).
+const CELL_BYTES: usize = LOBE_BYTES * R_CELL + 1;
+const _: () = assert!(CELL_BYTES == 16 && K < R_CELL);
 
 /// Entry `i` of the furnace scale table (see [`scale_index`]): the
 /// stored step count times [`SCALE_STEP`]; 0 outside the table.
@@ -740,19 +873,25 @@ pub fn scale_header() -> &'static str {
     text_header(RAW_SCALE)
 }
 
-/// Entry `i` of the lobe block (see [`LOBE_LEN`], [`lobe_index`]).
+/// Entry `i` of the lobe block (see [`LOBE_LEN`], [`lobe_index`]): the
+/// stored 24-bit value ([`lobe_decode`]); 0 outside the block.
 pub fn lobe_value(i: usize) -> f32 {
-    if i < LOBE_LEN {
-        floats::<1, 4>(RAW, i)[0]
-    } else {
-        0.0
+    if i >= LOBE_LEN {
+        return 0.0;
+    }
+    match RAW
+        .get(HEADER_BYTES + LOBE_BYTES * i..)
+        .and_then(|s| s.first_chunk::<4>())
+    {
+        Some(&b) => lobe_decode(b),
+        None => 0.0,
     }
 }
 
 /// Entry `i` of the albedo block (see [`ALBEDO_LEN`], [`albedo_index`]).
 pub fn albedo_value(i: usize) -> f32 {
     if i < ALBEDO_LEN {
-        floats::<1, 4>(RAW, LOBE_LEN + i)[0]
+        albedo_floats::<1, 4>(i)[0]
     } else {
         0.0
     }
@@ -772,24 +911,31 @@ pub fn covers_eta(eta: f32) -> bool {
 
 /// A point of a table's `(alpha, eta)` plane: the three vertices of the
 /// triangle of the grid square holding it (the square is cut along its
-/// diagonal), each as the index of its first float (`u32`: it keeps the
-/// material small) and its barycentric weight. Linear on each triangle,
+/// diagonal), each as the position of its first value (`u32`: it keeps
+/// the material small; see [`lobe_tri`], [`scale_tri`]) and its
+/// barycentric weight. Linear on each triangle,
 /// continuous, exact at the nodes, and three table reads where bilinear
 /// interpolation needs four; decided once, at construction.
 type Tri = [(u32, f32); 3];
 
 /// The lobe table's triangle of a roughness and index (their splits):
-/// indices of node starts in the lobe block. Roughness node 0 is not
-/// stored (its lobes are 0): its vertices take node 1 with weight 0.
+/// byte offsets of node starts in the lobe block ([`NODE_BYTES`] per
+/// node: eval adds them to a cell's offset as they are). Roughness node 0
+/// is not stored (its lobes are 0): its vertices take node 1 with weight
+/// 0.
 #[inline]
 fn lobe_tri(ndf: usize, alpha: (usize, usize, f32), eta: (usize, usize, f32)) -> Tri {
     let ((a0, _, fa), (e0, _, fe)) = (alpha, eta);
     triangle(fa, fe).map(|((da, de), w)| {
         let a = a0 + da;
         let (a, w) = if a == 0 { (1, 0.0) } else { (a, w) };
-        ((node(ndf, a, e0 + de) * NODE_LEN) as u32, w)
+        ((node(ndf, a, e0 + de) * NODE_BYTES) as u32, w)
     })
 }
+
+/// Bytes of a node's lobes in the lobe block.
+const NODE_BYTES: usize = LOBE_BYTES * NODE_LEN;
+const _: () = assert!(LOBE_BYTES * LOBE_LEN <= u32::MAX as usize);
 
 /// The scale table's triangle of a roughness's coordinate `root`
 /// ([`alpha_root`]) and an index coordinate `eta_r` in `[0, 1]`
@@ -961,7 +1107,7 @@ fn lobe_cell(t: &Tri, lobe: usize, (i0, fi): (usize, f32), (j0, fj): (usize, f32
         // (i0 + 1, j0 + 1).
         let mid = if fi >= fj { MU_N } else { 1 };
         let first = lobe_offset(T_THIN) + (i0 * MU_N + j0) * K;
-        lobe_cells::<K, { MU_N + 1 }, { 4 * ((MU_N + 1) * K + R_CELL) }>(
+        lobe_cells::<K, { MU_N + 1 }, { LOBE_BYTES * ((MU_N + 1) * K + R_CELL) + 1 }>(
             t,
             first,
             mid,
@@ -984,17 +1130,23 @@ fn lobe_cell(t: &Tri, lobe: usize, (i0, fi): (usize, f32), (j0, fj): (usize, f32
         let row = MU_N - i0;
         let mid = if fi >= fj && i0 < j0 { row - 1 } else { 1 };
         let first = lobe_offset(lobe) + r_pair(i0, j0) * R_CELL;
-        lobe_cells::<R_CELL, MU_N, { 4 * (MU_N + 1) * R_CELL }>(t, first, mid, row, fi, fj)
+        lobe_cells::<R_CELL, MU_N, { LOBE_BYTES * (MU_N + 1) * R_CELL + 1 }>(
+            t, first, mid, row, fi, fj,
+        )
     }
 }
 
-/// [`lobe_cell`] for cells of `W` floats, the cosine triangle's corners
-/// `mid` and `up` cells on from the node's float `first` (`mid < up <=
-/// UP`): per vertex of the lobe triangle `t`, the three cells lie in the
-/// `SPAN` bytes from the lower corner, read with one bounds check (`4 (UP
-/// W + R_CELL)`, checked at compile time: each cell is read as `R_CELL`
-/// floats; a transmission cell's fifth, from the next cell or the albedo
-/// block that follows the lobes, is not used).
+/// [`lobe_cell`] for cells of `W` values, the cosine triangle's corners
+/// `mid` and `up` cells on from the node's value `first` (`mid < up <=
+/// UP`): per vertex of the lobe triangle `t` (byte offsets of nodes,
+/// [`lobe_tri`]), the three cells lie in the `SPAN` bytes from the lower
+/// corner, read with one bounds check (`LOBE_BYTES (UP W + R_CELL) + 1`,
+/// checked at compile time: each cell is read as [`CELL_BYTES`], a
+/// reflection cell's `R_CELL` values and the byte after them; a
+/// transmission cell's last 3, from the next cell or the albedo block that
+/// follows the lobes, are not used). The cosine terms are summed in
+/// [`lobe_terms`]' lane order and put back in order once; a reflection
+/// vertex's three peak weights `B` are decoded together, in SIMD lanes.
 #[inline(always)]
 fn lobe_cells<const W: usize, const UP: usize, const SPAN: usize>(
     t: &Tri,
@@ -1004,9 +1156,9 @@ fn lobe_cells<const W: usize, const UP: usize, const SPAN: usize>(
     fi: f32,
     fj: f32,
 ) -> (Vec4, f32) {
-    const { assert!(SPAN == 4 * (UP * W + R_CELL) && (W == K || W == R_CELL)) };
+    const { assert!(SPAN == LOBE_BYTES * (UP * W + R_CELL) + 1 && (W == K || W == R_CELL)) };
     debug_assert!(mid < up && up <= UP);
-    let at = HEADER_BYTES + 4 * first;
+    let at = HEADER_BYTES + LOBE_BYTES * first;
     // The cosine triangle (see `triangle`): corners (0, 0), (1, 1) and
     // (1, 0) or (0, 1).
     let [w0, wm, w1] = if fi >= fj {
@@ -1014,33 +1166,46 @@ fn lobe_cells<const W: usize, const UP: usize, const SPAN: usize>(
     } else {
         [1.0 - fj, fj - fi, fi]
     };
-    let cell = |c: &[u8; SPAN], o: usize| -> (Vec4, f32) {
-        match c.get(4 * o..).and_then(|s| s.first_chunk::<20>()) {
-            Some(b) => {
-                let f = |k: usize| {
-                    f32::from_le_bytes([b[4 * k], b[4 * k + 1], b[4 * k + 2], b[4 * k + 3]])
-                };
-                (
-                    Vec4::new(f(0), f(1), f(2), f(3)),
-                    if W == K { 0.0 } else { f(PEAK) },
-                )
-            }
-            None => (Vec4::ZERO, 0.0),
+    let (wv, wb) = (
+        [Vec4::splat(w0), Vec4::splat(wm), Vec4::splat(w1)],
+        Vec4::new(w0, wm, w1, 0.0),
+    );
+    // The cosine terms of the cell `o` values on and the `u32` read at its
+    // peak weight.
+    let cell = |c: &[u8; SPAN], o: usize| -> (Vec4, u32) {
+        match c
+            .get(LOBE_BYTES * o..)
+            .and_then(|s| s.first_chunk::<CELL_BYTES>())
+        {
+            Some(b) => (
+                lobe_terms(b),
+                if W == K {
+                    0
+                } else {
+                    u32_at(b, LOBE_BYTES * PEAK)
+                },
+            ),
+            None => (Vec4::ZERO, 0),
         }
     };
-    let (mut v, mut b) = (Vec4::ZERO, 0.0);
+    let (mut v, mut b) = (Vec4::ZERO, Vec4::ZERO);
     for &(n, w) in t {
         let Some(c) = RAW
-            .get(at + 4 * n as usize..)
+            .get(at + n as usize..)
             .and_then(|s| s.first_chunk::<SPAN>())
         else {
             continue;
         };
         let ((v0, b0), (vm, bm), (v1, b1)) = (cell(c, 0), cell(c, mid * W), cell(c, up * W));
-        v += (v0 * w0 + vm * wm + v1 * w1) * w;
-        b += (b0 * w0 + bm * wm + b1 * w1) * w;
+        let w = Vec4::splat(w);
+        v += (v0 * wv[0] + vm * wv[1] + v1 * wv[2]) * w;
+        if W != K {
+            // The three peak weights in lanes.
+            b += lobe_lanes([b0, bm, b1, 0]) * wb * w;
+        }
     }
-    (v, b)
+    // `lobe_terms`' lanes [c_0, c_2, c_1, c_3] in order.
+    (v.xzyw(), b.x + b.y + b.z)
 }
 
 /// Lower node and weight of the upper one of `sqrt(mu)` on the lobe
@@ -1064,14 +1229,14 @@ fn series(v: Vec4, c: f32) -> f32 {
 #[inline]
 fn ms_albedo(t: &Tri, dense: bool, mu_i: f32) -> (f32, f32) {
     let (i0, f) = split_root(mu_i.clamp(0.0, 1.0).sqrt(), MU_N);
-    let at = LOBE_LEN + (dense as usize * MU_N + i0) * 2;
+    let at = (dense as usize * MU_N + i0) * 2;
     // Lanes [r0, t0, r1, t1] summed over the corners, then interpolated
     // in the cosine once (the interpolation is linear).
     let mut acc = Vec4::ZERO;
     for &(n, w) in t {
         // Node start in the albedo block from its start in the lobe block.
-        let b = n as usize / NODE_LEN * NODE_ALBEDO_LEN + at;
-        acc += Vec4::from_array(floats::<4, 16>(RAW, b)) * w;
+        let b = n as usize / NODE_BYTES * NODE_ALBEDO_LEN + at;
+        acc += Vec4::from_array(albedo_floats::<4, 16>(b)) * w;
     }
     (acc.x + (acc.z - acc.x) * f, acc.y + (acc.w - acc.y) * f)
 }
@@ -1399,6 +1564,168 @@ mod tests {
         let r = (1.0 - z * z).max(0.0).sqrt();
         let (s, c) = (2.0 * PI * v).sin_cos();
         Vec3::new(r * c, r * s, z)
+    }
+
+    /// The 24-bit lobe values: `lobe_encode` rounds to the nearest value
+    /// `lobe_decode` can give (within half its step, `2^(e - 16)` for
+    /// the exponent `e`, `2^-142` for subnormals: relative error below
+    /// 2^-16), keeps signs and zeros, and refuses what is not finite or
+    /// rounds to infinity; on every 97th bit pattern and on chosen ones
+    /// (signs, tiny, huge, the carry into the exponent). Fails when the
+    /// rounding or the byte order is changed.
+    #[test]
+    fn lobe_codec_rounds_to_nearest() {
+        let check = |bits: u32| -> bool {
+            let v = f32::from_bits(bits);
+            let Some([b0, b1, b2]) = lobe_encode(v) else {
+                assert!(
+                    !v.is_finite() || v.abs() > f32::MAX * (1.0 - 1e-5),
+                    "{v:e} ({bits:#010x}) refused"
+                );
+                return false;
+            };
+            // The bytes after the value (the next value's) do not matter.
+            let d = lobe_decode([b0, b1, b2, 0xA5]);
+            assert_eq!(d.to_bits(), lobe_decode([b0, b1, b2, 0]).to_bits());
+            assert!(d.is_finite(), "{v:e}");
+            let e = (bits >> 23) & 0xFF;
+            let half_step = 2f64.powi(e.max(1) as i32 - 127 - 16);
+            let err = (d as f64 - v as f64).abs();
+            assert!(err <= half_step, "{v:e} -> {d:e}: {err:e} > {half_step:e}");
+            if e > 0 {
+                assert!(err < 2f64.powi(-16) * (v as f64).abs(), "{v:e} -> {d:e}");
+            }
+            assert_eq!(d.is_sign_negative(), v.is_sign_negative(), "{v:e} -> {d:e}");
+            true
+        };
+        let mut encoded = 0u32;
+        for bits in (0..=u32::MAX).step_by(97) {
+            encoded += check(bits) as u32;
+        }
+        for v in [
+            0.0f32,
+            -0.0,
+            1.0,
+            -1.0,
+            1.0 + 2f32.powi(-16),
+            1.0 + 3.0 * 2f32.powi(-17),
+            2.0 - 2f32.powi(-23),
+            -(2.0 - 2f32.powi(-23)),
+            0.123_456_79,
+            -7.654_321e-3,
+            3.3e-9,
+            1e-39,
+            -1e-45,
+            f32::MIN_POSITIVE,
+            6.5e4,
+            -1.0e30,
+        ] {
+            assert!(check(v.to_bits()), "{v:e} refused");
+        }
+        // Ties and carries: 1 + 2^-16 (half a step) rounds away from zero,
+        // to 1 + 2^-15; just below 2 rounds up into the exponent, to 2.
+        let round = |v: f32| lobe_encode(v).map(|[a, b, c]| lobe_decode([a, b, c, 0]));
+        assert_eq!(round(1.0 + 2f32.powi(-16)), Some(1.0 + 2f32.powi(-15)));
+        assert_eq!(round(-(2.0 - 2f32.powi(-23))), Some(-2.0));
+        assert_eq!(round(0.0).map(f32::to_bits), Some(0));
+        assert_eq!(round(-0.0).map(f32::to_bits), Some(0x8000_0000));
+        for v in [
+            f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::MAX,
+            -f32::MAX,
+        ] {
+            assert_eq!(lobe_encode(v), None, "{v:e}");
+        }
+        // Finite except the top 2^-16 of the range and NaN / infinity.
+        assert!(encoded > 44_000_000, "{encoded} patterns encoded");
+    }
+
+    /// The file as its layout describes it, from its own numbers rather
+    /// than the constants: 4096 header bytes, 355,200 lobe values of 3
+    /// bytes (`lobe_value(i)` is the f32 of the bytes `b0 b1 b2` at
+    /// `4096 + 3 i` placed above 8 zero bits), then 7,680 little-endian
+    /// f32 albedos: 1,100,416 bytes.
+    #[test]
+    fn lobe_values_are_the_file_bytes() {
+        assert_eq!(
+            (LOBE_LEN, ALBEDO_LEN, FILE_BYTES),
+            (355_200, 7_680, 1_100_416)
+        );
+        let mut pick = Rng::new(24, 24);
+        let mut at = vec![
+            0,
+            1,
+            2,
+            PEAK,
+            lobe_index(1, 4, 3, R_DENSE, 7, 2),
+            lobe_index(0, 8, 5, T_THIN, 19, 19) + 3,
+            LOBE_LEN - 1,
+        ];
+        at.extend((0..200).map(|_| (pick.next_u32() as usize) % LOBE_LEN));
+        let mut nonzero = 0;
+        for i in at {
+            let o = 4096 + 3 * i;
+            let bits = (RAW[o] as u32) << 8 | (RAW[o + 1] as u32) << 16 | (RAW[o + 2] as u32) << 24;
+            assert_eq!(lobe_value(i).to_bits(), bits, "value {i}");
+            nonzero += (bits != 0) as usize;
+        }
+        assert!(nonzero > 100, "{nonzero} values not 0");
+        for i in [0, 1, 4_001, ALBEDO_LEN - 1] {
+            let o = 4096 + 3 * 355_200 + 4 * i;
+            let want = f32::from_le_bytes([RAW[o], RAW[o + 1], RAW[o + 2], RAW[o + 3]]);
+            assert_eq!(albedo_value(i).to_bits(), want.to_bits(), "albedo {i}");
+        }
+        assert_eq!((lobe_value(LOBE_LEN), albedo_value(ALBEDO_LEN)), (0.0, 0.0));
+    }
+
+    /// Eval's read of the lobe cells (`lobe_cell`: three 24-bit cells per
+    /// vertex decoded in SIMD lanes, summed in `lobe_terms`' lane order
+    /// and put back) gives the stored values of a node (`lobe_value`)
+    /// exactly at each corner of the cosine triangle (weight 1), all three
+    /// lobes, both NDFs, roughness and index nodes from first to last,
+    /// cosine node pairs on both sides of the diagonal and on it (a
+    /// reflection cell below the diagonal is read as its transpose), the
+    /// peaked part's weight of reflection cells too. Fails when two cosine
+    /// terms trade places.
+    #[test]
+    fn lobe_reads_match_the_stored_values() {
+        let mut checked = 0;
+        for ndf in 0..NDF_N {
+            for (a, e) in [(1, 0), (4, 2), (8, ETA_N - 1), (3, 5), (7, 1)] {
+                let t: Tri = [
+                    ((node(ndf, a, e) * NODE_BYTES) as u32, 1.0),
+                    (0, 0.0),
+                    (0, 0.0),
+                ];
+                for (i, j) in [(0, 0), (0, 1), (3, 9), (9, 3), (12, 12), (18, 19), (19, 0)] {
+                    for (di, dj) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                        let (i, j) = ((i + di).min(MU_N - 1), (j + dj).min(MU_N - 1));
+                        // The node as the lower corner of its interval, or
+                        // the upper one of the last.
+                        let split = |x: usize| {
+                            if x + 1 < MU_N { (x, 0.0) } else { (x - 1, 1.0) }
+                        };
+                        for lobe in [R_THIN, R_DENSE, T_THIN] {
+                            let (v, b) = lobe_cell(&t, lobe, split(i), split(j));
+                            let at = lobe_index(ndf, a, e, lobe, i, j);
+                            let want =
+                                Vec4::from_array(std::array::from_fn(|k| lobe_value(at + k)));
+                            assert_eq!(v, want, "ndf {ndf} ({a}, {e}) lobe {lobe} ({i}, {j})");
+                            let peak = if lobe == T_THIN {
+                                0.0
+                            } else {
+                                lobe_value(at + PEAK)
+                            };
+                            assert_eq!(b, peak, "ndf {ndf} ({a}, {e}) lobe {lobe} ({i}, {j})");
+                            checked += (v != Vec4::ZERO) as usize;
+                        }
+                    }
+                }
+            }
+        }
+        assert!(checked > 500, "{checked} cells not 0");
     }
 
     /// Init's and eval's reads of the 16-bit scale table (`node_scales`,
