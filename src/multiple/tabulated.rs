@@ -635,16 +635,18 @@ fn corr_corners(ndf: usize, ax: f32, ay: f32) -> CorrBlocks {
         ((HEADER_BYTES + 2 * CORR_VALUES * block) as u32 | m, w)
     });
     let rho = tri.map(|((dx, dy), _)| corr_stretch(jx + dx, jy + dy));
-    let n = rho.map(corr_phi_n);
-    CorrBlocks {
-        corners,
-        stretch: rho.iter().any(|&r| r != 1.0).then_some(CorrStretch {
+    // The stretched corners' grids only when there are some (plain
+    // materials, most, pay the test alone).
+    let stretch = rho.iter().any(|&r| r != 1.0).then(|| {
+        let n = rho.map(corr_phi_n);
+        CorrStretch {
             rho,
             last: n.map(|n| (n - 1) as f32),
             top: n.map(|n| (n - 2) as u8),
             mu_n: rho.map(|r| corr_mu_n(r) as u8),
-        }),
-    }
+        }
+    });
+    CorrBlocks { corners, stretch }
 }
 
 /// The triangle of the unit square holding `(fx, fy)` (Kuhn: the diagonal
