@@ -2716,7 +2716,8 @@ mod tests {
                     assert_eq!(corr_index(ndf, lo, hi, 1, 0), next + nmu);
                     let last = corr_index(ndf, lo, hi, n - 1, nmu - 1);
                     assert_eq!(last + 1 - next, n * nmu);
-                    for k in [0, 1, n - 1] {
+                    // (The diagonal's pairs are stored as they are.)
+                    for k in [0, 1, n - 1].into_iter().filter(|_| lo < hi) {
                         assert_eq!(
                             corr_index(ndf, hi, lo, k, 3),
                             corr_index(ndf, lo, hi, n - 1 - k, 3)
