@@ -708,7 +708,7 @@ fn corr_at(corners: &CorrCorners, d: &AnisoDir) -> [f32; 2] {
 /// lane weights are computed once for the three corners: reading plain
 /// materials through this one cost their eval 36 instructions (GGX gold
 /// (0.1, 0.6): 1,258 against 1,222).
-#[inline]
+#[inline(always)]
 fn corr_at_stretched(corners: &CorrCorners, s: &CorrStretch, d: &[AnisoDir; 3]) -> [f32; 2] {
     let mut acc = Vec4::ZERO;
     for (j, (&(b, w), d)) in corners.iter().zip(d).enumerate() {
@@ -835,7 +835,7 @@ pub(crate) fn corr_dir(w: Vec3) -> AnisoDir {
 /// diamond angle of `(|x|, rho |y|)`) on its own azimuth nodes
 /// ([`corr_pair_phi`]); the cosine node once, the three azimuth
 /// coordinates in SIMD lanes.
-#[inline]
+#[inline(always)]
 fn corr_dirs(s: &CorrStretch, w: Vec3) -> [AnisoDir; 3] {
     let ([r0, r1, r2], [l0, l1, l2]) = (s.rho, s.last);
     let (k, fk) = split_root4_by(
@@ -843,12 +843,12 @@ fn corr_dirs(s: &CorrStretch, w: Vec3) -> [AnisoDir; 3] {
         Vec4::new(l0, l1, l2, 1.0),
         CORR_PHI_STRETCHED - 2,
     );
-    // The two cosine grids' splits, each corner on its own.
-    let plain = corr_mu_split(w);
-    let fine = split_at(
-        corr_mu_coord_in(w.z.abs(), CORR_MU_FINE_STRETCHED),
-        CORR_MU_STRETCHED,
-    );
+    // The two cosine grids' splits (one coordinate), each corner on its
+    // own.
+    let c = compensation::aniso_mu_coord(w.z.abs());
+    let fine = |n: usize| (c - CORR_MU_FINE_FROM as f32).max(0.0).min(n as f32);
+    let plain = split_at(c + fine(CORR_MU_FINE), CORR_MU);
+    let fine = split_at(c + fine(CORR_MU_FINE_STRETCHED), CORR_MU_STRETCHED);
     [0, 1, 2].map(|j| {
         let (i0, fi) = if s.mu_n[j] as usize == CORR_MU {
             plain
