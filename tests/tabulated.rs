@@ -128,16 +128,20 @@ fn white_furnace_anisotropic() {
 
 /// The furnace at the corners of the roughness range, where the
 /// correction's interpolation is hardest: both NDFs, (0.05, 1.9) and
-/// (0.11, 1.9), 60, 75, 85, 88 and 89 degrees and 20 degrees (inside the
+/// (0.11, 1.9), 60, 75, 85, 86, 88 and 89 degrees and 20 degrees (inside the
 /// last cosine interval, 29.3 to 0 degrees), azimuths on and near the
 /// smooth axis (0, 2, 2.8, 5.6 and 11.25 degrees), at 45 and near the
 /// rough axis (70.3 degrees); eval over
 /// `compensation::broad_reflection_nodes` (the lobe is broad, the
 /// normals' reflections crowd into a band at this anisotropy). Measured
-/// worst 0.0184 (GGX (0.05, 1.9) at 88 degrees, azimuth 2: between the
+/// worst 0.0061 (GGX (0.05, 1.9) at 88 degrees, azimuth 2.8: version 13
+/// of the correction, whose stretched blocks have 25 x 20 nodes and the
+/// stretch `ratio^0.5`; the interpolation in roughness between them is
+/// what is left, `docs/tabulated.md`). The 0.5% is not met there:
+/// this bounds what is (0.008; 86 degrees added with version 13). Version
+/// 12 gave 0.0184 (GGX (0.05, 1.9) at 88 degrees, azimuth 2: between the
 /// stretched block's azimuth nodes at 1.3 and 2.9 degrees; version 11 of
-/// the correction, 16 cosine nodes, 0.0232 there). The 0.5% is
-/// not met there: this bounds what is (0.02). 88 degrees and azimuth 2
+/// the correction, 16 cosine nodes, 0.0232 there; bound 0.02). 88 degrees and azimuth 2
 /// were added in session 19 (version 12, two more cosine nodes near
 /// grazing): on the earlier directions version 12 gives 0.0089 (GGX
 /// (0.05, 1.9) at 89 degrees, azimuth 5.6: 0.0131 with version 11,
@@ -161,7 +165,7 @@ fn anisotropic_furnace_at_the_range_corners() {
     for ndf in NDFS {
         for (ax, ay) in [(0.05, 1.9), (0.11, 1.9)] {
             let m = mirror(ndf, ax, ay);
-            for theta in [20.0, 60.0, 75.0, 85.0, 88.0, 89.0] {
+            for theta in [20.0, 60.0, 75.0, 85.0, 86.0, 88.0, 89.0] {
                 for phi in [0.0, 2.0, 2.8125, 5.625, 11.25, 45.0, 70.3125] {
                     let wi = dir_deg_az(theta, phi);
                     let mut rng = Rng::new(0, 0);
@@ -176,7 +180,7 @@ fn anisotropic_furnace_at_the_range_corners() {
         }
     }
     println!("{report}worst |albedo - 1| = {worst:.4}");
-    assert!(worst < 0.02, "{report}");
+    assert!(worst < 0.008, "{report}");
 }
 
 /// Sample directions against the pdf: chi-square per configuration with a
@@ -521,8 +525,8 @@ fn stability_sweep() {
 #[test]
 fn anisotropic_furnace_at_correction_nodes() {
     use msbsdf::multiple::tabulated::{
-        CORR_A, CORR_MU, CORR_PHI, corr_azimuth_dir, corr_grid_alpha, corr_grid_mu_at,
-        corr_node_dir, corr_stretch,
+        CORR_A, corr_azimuth_dir, corr_block_mu_at, corr_grid_alpha, corr_node_dir, corr_pair_mu,
+        corr_pair_phi, corr_stretch,
     };
     let mut pick = Rng::new(2718, 2);
     let mut report = String::new();
@@ -537,15 +541,16 @@ fn anisotropic_furnace_at_correction_nodes() {
             continue;
         }
         n += 1;
-        let k = (pick.next_u32() % CORR_PHI as u32) as usize;
-        // Cosine nodes 1 to CORR_MU - 2: the midpoint towards the normal
+        let k = (pick.next_u32() % corr_pair_phi(jx, jy) as u32) as usize;
+        let nmu = corr_pair_mu(jx, jy);
+        // Cosine nodes 1 to nmu - 2: the midpoint towards the normal
         // is within 89 degrees and not the normal itself.
-        let i = 1 + (pick.next_u32() % (CORR_MU as u32 - 2)) as usize;
+        let i = 1 + (pick.next_u32() % (nmu as u32 - 2)) as usize;
         let rho = corr_stretch(jx, jy);
-        let wi = corr_node_dir(k * CORR_MU + i, rho);
+        let wi = corr_node_dir(k * nmu + i, rho);
         // The midpoint in the grid's coordinate towards the next cosine
         // node, at the same azimuth.
-        let mu_mid = corr_grid_mu_at(i as f32 + 0.5);
+        let mu_mid = corr_block_mu_at(i as f32 + 0.5, rho);
         let w_mid = corr_azimuth_dir(k, mu_mid, rho);
         let m = mirror(NDFS[nd], ax, ay);
         let q = albedo_quadrature(&m, wi, ax, ay, 0);

@@ -4,8 +4,11 @@
 //! `(alpha_x, alpha_y)` on the grid `tabulated::corr_grid_alpha` (31 nodes
 //! per axis: ENERGY_COMPENSATED's 16 and the midpoints between them) and
 //! direction node (`tabulated::corr_node_dir`: the albedo table's 16
-//! cosines, `tabulated::CORR_PHI` = 17 diamond-angle azimuths), the two factors `u = s sqrt(t)`,
-//! `v = s sqrt(b)` of the lobe `T u(wi) u(wo) + P v(wi) v(wo)`
+//! cosines and the midpoints of two intervals near grazing,
+//! `tabulated::CORR_MU` = 18, and `tabulated::CORR_PHI` = 17
+//! diamond-angle azimuths; in the stretched blocks four midpoints,
+//! `CORR_MU_STRETCHED` = 20, and `CORR_PHI_STRETCHED` = 25 azimuths),
+//! the two factors `u = s sqrt(t)`, `v = s sqrt(b)` of the lobe `T u(wi) u(wo) + P v(wi) v(wo)`
 //! (`Tabulated::aniso_parts`; `t`, `b` from `Tabulated::aniso_factors`),
 //! with `s` such that the lobe has the multiply scattered albedo
 //! `1 - E_ss(wi)` at every node, `E_ss` SINGLE's albedo with F = 1. No
@@ -27,7 +30,13 @@
 //! records the residual of the stored values, the clamp hits and the time.
 //! (The dielectric's correction, below, stores `s` alone.)
 //!
-//! `cargo run --release --example gen_tabulated_aniso [-- --quad N]`;
+//! `cargo run --release --example gen_tabulated_aniso [-- --quad N]`
+//! (every block; about 80 minutes on 2 threads). Environment switches:
+//! `PAIRS=n:jx:jy,...` solves the listed blocks only (experiments: the
+//! others are 0, and the header's command line says so);
+//! `REUSE=PATH` copies the plain blocks from a version-12 table, which
+//! this code computes bit for bit, and solves the 300 stretched ones (the
+//! committed version 13 was made so: its header names both runs);
 //! `-- --dielectric [--quad N]` writes the dielectric tier's
 //! `data/tabulated_aniso_dielectric.bin` the same way ([`dielectric`]);
 //! `-- --dielectric-random [COUNT]` measures anisotropic glass's furnace
@@ -50,10 +59,11 @@ use msbsdf::multiple::compensation::{
 };
 use msbsdf::multiple::compensation_aniso_tables::{AN_A, AN_MU, AN_PHI, CONDUCTOR_E_ANISO};
 use msbsdf::multiple::tabulated::{
-    CORR_A, CORR_BLOCK, CORR_LEN, CORR_MAGIC, CORR_MAX, CORR_MU, CORR_MU_FINE, CORR_MU_FINE_FROM,
-    CORR_PAIR_MAX, CORR_PHI, CORR_PROXY_V, CORR_STRETCH_POW, CORR_STRETCH_RATIO, CORR_VALUES,
-    HEADER_BYTES, Tabulated, corr_azimuth_dir, corr_decode, corr_dir_weights, corr_encode,
-    corr_grid_alpha, corr_grid_mu_at, corr_index, corr_node_dir, corr_proxy, corr_stretch,
+    CORR_A, CORR_LEN, CORR_MAGIC, CORR_MAX, CORR_MU, CORR_MU_FINE, CORR_MU_FINE_FROM,
+    CORR_PAIR_MAX, CORR_PHI, CORR_PHI_STRETCHED, CORR_PROXY_V, CORR_STRETCH_POW,
+    CORR_STRETCH_RATIO, CORR_VALUES, HEADER_BYTES, Tabulated, corr_azimuth_dir, corr_block_mu_at,
+    corr_block_nodes, corr_decode, corr_dir_weights, corr_encode, corr_grid_alpha, corr_index,
+    corr_mu_n, corr_node_dir, corr_pair_mu, corr_pair_phi, corr_phi_n, corr_proxy, corr_stretch,
     dcorr_dir_weights, dcorr_node_dir,
 };
 use msbsdf::ndf::{Ndf, NdfKind};
@@ -161,9 +171,11 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
     let (ax, ay) = (corr_grid_alpha(jx), corr_grid_alpha(jy));
     // The block's azimuth stretch (its nodes and eval's weights).
     let rho = corr_stretch(jx, jy);
+    // Its nodes: `nphi` azimuth rows of `nmu` cosines.
+    let (nphi, nmu, nb) = (corr_phi_n(rho), corr_mu_n(rho), corr_block_nodes(rho));
     if ax < 1e-3 || ay < 1e-3 {
         // Factors 1, `v` times the nodes' proxies (`corr_proxy`).
-        let g = (0..CORR_BLOCK).map(|r| [1.0, corr_proxy(n, ax, ay, corr_node_dir(r, rho))]);
+        let g = (0..nb).map(|r| [1.0, corr_proxy(n, ax, ay, corr_node_dir(r, rho))]);
         return (g.collect(), Stats::default());
     }
     // On the diagonal the model is isotropic; the factors there are read by
@@ -179,7 +191,7 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
     let single = Single::new(ndf, white, G2Form::HeightCorrelated);
     let mut rng = Rng::new(0, 0);
     // The uncorrected factors sqrt(t), sqrt(b) at every node.
-    let fac: Vec<(f64, f64)> = (0..CORR_BLOCK)
+    let fac: Vec<(f64, f64)> = (0..nb)
         .map(|r| {
             let (t, b) = tab
                 .aniso_factors(corr_node_dir(r, rho))
@@ -190,7 +202,7 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
     // The peaked factor's proxies at the nodes (`CORR_PROXY_V`, 1 for
     // GGX): the table stores `v g(n)`, and eval divides the interpolated
     // value by the proxy of its own direction.
-    let proxy: Vec<f64> = (0..CORR_BLOCK)
+    let proxy: Vec<f64> = (0..nb)
         .map(|r| corr_proxy(n, ax, ay, corr_node_dir(r, rho)) as f64)
         .collect();
     // A direction's furnace target `1 - E_ss` and the lobe's two parts
@@ -199,7 +211,7 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
     let mut rows = |wi: Vec3| {
         let target =
             1.0 - single_albedo(|x, y| single.eval(x, y, &mut rng).x, ax, ay, wi, None, quad);
-        let (mut mt, mut mp) = (vec![0.0f64; CORR_BLOCK], vec![0.0f64; CORR_BLOCK]);
+        let (mut mt, mut mp) = (vec![0.0f64; nb], vec![0.0f64; nb]);
         // The lobe is broad: the normals' nodes alone leave most of the
         // hemisphere nearly empty when the roughness is strongly
         // anisotropic (`broad_reflection_nodes`).
@@ -219,7 +231,7 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
         (target, mt, mp)
     };
     let (mut target, mut mt, mut mp) = (Vec::new(), Vec::new(), Vec::new());
-    for r in 0..CORR_BLOCK {
+    for r in 0..nb {
         let (t, a, b) = rows(corr_node_dir(r, rho));
         target.push(t);
         mt.push(a);
@@ -229,10 +241,10 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
     // the linear interpolation of the factors strays most: near grazing
     // and in the wide last interval next to the normal): their
     // directions, targets, rows and eval's interpolation weights.
-    let mids: Vec<_> = (0..CORR_PHI)
-        .flat_map(|k| (1..CORR_MU - 1).map(move |i| (k, i)))
+    let mids: Vec<_> = (0..nphi)
+        .flat_map(|k| (1..nmu - 1).map(move |i| (k, i)))
         .map(|(k, i)| {
-            let w = corr_azimuth_dir(k, corr_grid_mu_at(i as f32 + 0.5), rho);
+            let w = corr_azimuth_dir(k, corr_block_mu_at(i as f32 + 0.5, rho), rho);
             let (t, a, b) = rows(w);
             Mid {
                 w,
@@ -245,9 +257,9 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
         .collect();
     // With u = s sqrt(t), v = s sqrt(b) at every node, the albedo from node
     // r is s_r sum_n M[r][n] s_n.
-    let m: Vec<Vec<f64>> = (0..CORR_BLOCK)
+    let m: Vec<Vec<f64>> = (0..nb)
         .map(|r| {
-            (0..CORR_BLOCK)
+            (0..nb)
                 .map(|c| fac[r].0 * fac[c].0 * mt[r][c] + fac[r].1 * fac[c].1 * mp[r][c])
                 .collect()
         })
@@ -259,9 +271,8 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
     // and the mean error of its adjacent cosine midpoints come out equal
     // and opposite (the interpolant's overshoot split in two), a few
     // fixed-point steps.
-    let node_albedo = |s: &[f32], r: usize| {
-        s[r] as f64 * (0..CORR_BLOCK).map(|c| m[r][c] * s[c] as f64).sum::<f64>()
-    };
+    let node_albedo =
+        |s: &[f32], r: usize| s[r] as f64 * (0..nb).map(|c| m[r][c] * s[c] as f64).sum::<f64>();
     let mid_error = |s: &[f32], q: &Mid| {
         let Mid { w, t, a, b, wts } = q;
         let (mut u, mut v) = (0.0f64, 0.0f64);
@@ -270,28 +281,25 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
             v += wt as f64 * s[nd] as f64 * fac[nd].1 * proxy[nd];
         }
         v /= corr_proxy(n, ax, ay, *w) as f64;
-        let at: f64 = (0..CORR_BLOCK).map(|c| a[c] * fac[c].0 * s[c] as f64).sum();
-        let bt: f64 = (0..CORR_BLOCK).map(|c| b[c] * fac[c].1 * s[c] as f64).sum();
+        let at: f64 = (0..nb).map(|c| a[c] * fac[c].0 * s[c] as f64).sum();
+        let bt: f64 = (0..nb).map(|c| b[c] * fac[c].1 * s[c] as f64).sum();
         u * at + v * bt - t
     };
     for _ in 0..3 {
         let e: Vec<f64> = mids.iter().map(|q| mid_error(&s, q)).collect();
-        for r in 0..CORR_BLOCK {
-            let (k, i) = (r / CORR_MU, r % CORR_MU);
-            // Midpoint j (of CORR_MU - 2 per azimuth node) lies between
+        for r in 0..nb {
+            let (k, i) = (r / nmu, r % nmu);
+            // Midpoint j (of nmu - 2 per azimuth node) lies between
             // cosine nodes j + 1 and j + 2; none below node 1: node i's
             // adjacent midpoints are i - 2 and i - 1 where they exist.
-            let row = &e[k * (CORR_MU - 2)..(k + 1) * (CORR_MU - 2)];
-            let adj = &row[i.saturating_sub(2)..i.min(CORR_MU - 2)];
+            let row = &e[k * (nmu - 2)..(k + 1) * (nmu - 2)];
+            let adj = &row[i.saturating_sub(2)..i.min(nmu - 2)];
             // The last cosine node is the normal, the same direction
             // for every azimuth node: its target moves by the mean of
             // the last midpoints' errors over all azimuth nodes, so
             // that its factors stay equal across the azimuth nodes.
-            let em = if i + 1 == CORR_MU {
-                (0..CORR_PHI)
-                    .map(|kk| e[kk * (CORR_MU - 2) + CORR_MU - 3])
-                    .sum::<f64>()
-                    / CORR_PHI as f64
+            let em = if i + 1 == nmu {
+                (0..nphi).map(|kk| e[kk * (nmu - 2) + nmu - 3]).sum::<f64>() / nphi as f64
             } else if adj.is_empty() {
                 continue;
             } else {
@@ -306,11 +314,11 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
     }
     let e: Vec<f64> = mids.iter().map(|q| mid_error(&s, q)).collect();
     stats.mid = e.iter().fold(0.0f64, |w, x| w.max(x.abs()));
-    stats.node = (0..CORR_BLOCK)
+    stats.node = (0..nb)
         .filter(|&r| target[r] >= 1e-4)
         .fold(0.0f64, |w, r| w.max((node_albedo(&s, r) - target[r]).abs()));
     let round = |x: f64| corr_decode(corr_encode(x as f32, CORR_PAIR_MAX), CORR_PAIR_MAX) as f64;
-    let uv: Vec<[f64; 2]> = (0..CORR_BLOCK)
+    let uv: Vec<[f64; 2]> = (0..nb)
         .map(|r| {
             [
                 round(s[r] as f64 * fac[r].0),
@@ -325,11 +333,11 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
         .count();
     // The residual of what is stored.
     stats.residual = 0.0;
-    for r in 0..CORR_BLOCK {
+    for r in 0..nb {
         if shifted[r] < 1e-4 {
             continue;
         }
-        let a: f64 = (0..CORR_BLOCK)
+        let a: f64 = (0..nb)
             .map(|c| {
                 let peaked = uv[r][1] / proxy[r] * mp[r][c] * uv[c][1] / proxy[c];
                 uv[r][0] * mt[r][c] * uv[c][0] + peaked
@@ -452,6 +460,19 @@ fn main() {
             .collect();
         jobs.retain(|j| keep.contains(j));
     }
+    // `REUSE=PATH`: the plain blocks (17 azimuth nodes) are copied from a
+    // version-12 table, whose plain blocks this code computes bit for bit
+    // (the same nodes, rows, balancing and solve); only the stretched
+    // blocks are solved. The header's command line says so.
+    let reuse = std::env::var("REUSE").ok().map(|path| {
+        let raw = std::fs::read(&path).expect("read the REUSE table");
+        assert!(
+            raw.starts_with(b"MSBSDF-TABULATED-ANISO-F-v12\n") && raw.len() == V12_BYTES,
+            "REUSE needs a version-12 conductor correction table"
+        );
+        jobs.retain(|&(_, jx, jy)| corr_pair_phi(jx, jy) != CORR_PHI);
+        (path, raw)
+    });
     let threads: usize = std::env::var("THREADS")
         .ok()
         .and_then(|v| v.parse().ok())
@@ -460,6 +481,9 @@ fn main() {
         block(n, jx, jy, quad)
     });
     let mut table = vec![0u16; CORR_VALUES * CORR_LEN];
+    if let Some((_, raw)) = &reuse {
+        copy_plain_blocks(raw, &mut table);
+    }
     let (mut lo, mut hi) = ([f32::MAX; 2], [f32::MIN; 2]);
     let mut stats = Stats::default();
     for (idx, block, st) in results.into_iter().flatten() {
@@ -470,10 +494,11 @@ fn main() {
         stats.steps = stats.steps.max(st.steps);
         stats.mid = stats.mid.max(st.mid);
         stats.node = stats.node.max(st.node);
-        for k in 0..CORR_PHI {
-            for i in 0..CORR_MU {
+        let nmu = corr_pair_mu(jx, jy);
+        for k in 0..corr_pair_phi(jx, jy) {
+            for i in 0..nmu {
                 let at = corr_index(n, jx, jy, k, i);
-                for (c, &v) in block[k * CORR_MU + i].iter().enumerate() {
+                for (c, &v) in block[k * nmu + i].iter().enumerate() {
                     lo[c] = lo[c].min(v);
                     hi[c] = hi[c].max(v);
                     table[CORR_VALUES * at + c] = corr_encode(v, CORR_PAIR_MAX);
@@ -483,9 +508,9 @@ fn main() {
     }
     let command: Vec<String> = args.iter().skip(1).cloned().collect();
     let header = format!(
-        "ANISO_CORRECTION v12 (MSBSDF_MODEL_TABULATED): per [ndf: Beckmann, GGX][roughness \
-         pair (jx <= jy) of {CORR_A} x {CORR_A}: alpha = 2 (j / {})^2][azimuth: {CORR_PHI} \
-         nodes of the diamond angle rho |y| / (|x| + rho |y|) from 0 to 1, rho the block's \
+        "ANISO_CORRECTION v13 (MSBSDF_MODEL_TABULATED): per [ndf: Beckmann, GGX][roughness \
+         pair (jx <= jy) of {CORR_A} x {CORR_A}: alpha = 2 (j / {})^2][azimuth n: {CORR_PHI} \
+         nodes, {CORR_PHI_STRETCHED} in the stretched blocks (tabulated::corr_pair_phi), of the diamond angle rho |y| / (|x| + rho |y|) from 0 to 1, rho the block's \
          stretch (tabulated::corr_stretch: 1 up to alpha_y / alpha_x = {CORR_STRETCH_RATIO}, \
          above it (alpha_y / alpha_x)^{CORR_STRETCH_POW}; tabulated::corr_dirs)][mu: \
          {CORR_MU}] (tabulated::corr_grid_mu_at: ENERGY_COMPENSATED's anisotropic cosine grid \
@@ -495,7 +520,7 @@ fn main() {
          exp({} L), L = (1 - cos theta) ln(proj / mean) (tabulated::corr_proxy_ln; eval \
          divides by its own direction's), as little-endian u16 pairs x, value = \
          {CORR_PAIR_MAX} (x / 65535)^2, after this {HEADER_BYTES}-byte header; (jx > jy, k) \
-         reads (jy, jx, {} - k). The lobe parts.0 u(wi) u(wo) + parts.1 v(wi) v(wo), u and v \
+         reads (jy, jx, n - 1 - k). The lobe parts.0 u(wi) u(wo) + parts.1 v(wi) v(wo), u and v \
          interpolated as eval does, has the multiply scattered albedo 1 - E_ss at every \
          node, E_ss SINGLE's albedo with F = 1 (at targets shifted by three fixed-point \
          steps so that the furnace error at each node and the mean one at its adjacent \
@@ -517,7 +542,6 @@ fn main() {
         CORR_MU_FINE_FROM,
         CORR_MU_FINE_FROM + CORR_MU_FINE,
         CORR_PROXY_V[0],
-        CORR_PHI - 1,
         stats.mid,
         stats.node,
         2 * quad / 3,
@@ -530,16 +554,67 @@ fn main() {
         stats.clamped,
         stats.pair_clamped,
         stats.steps,
-        pairs.map_or(String::new(), |p| format!("PAIRS={p} ")),
+        pairs.map_or(String::new(), |p| format!("PAIRS={p} "))
+            + &reuse
+                .as_ref()
+                .map_or(String::new(), |(p, _)| format!("REUSE={p} ")),
         if command.is_empty() { "" } else { " -- " },
         command.join(" "),
         git::commit(),
         t0.elapsed().as_secs_f32()
     );
+    // A reused table's own lines (its statistics cover its blocks, and
+    // its command and commit say where they came from).
+    let header = match &reuse {
+        Some((p, raw)) => {
+            let old = String::from_utf8_lossy(&raw[..HEADER_BYTES]);
+            let old = old.trim_end_matches('\0');
+            let keep: Vec<&str> = old
+                .lines()
+                .filter(|l| l.starts_with("Command:") || l.starts_with("Commit:"))
+                .collect();
+            format!(
+                "{header}REUSE: the plain blocks ({CORR_PHI} azimuth nodes) copied from {p}, \
+                 a version-12 table made by the same code for them (its {}); the statistics \
+                 above cover the blocks solved here\n",
+                keep.join("; ")
+            )
+        }
+        None => header,
+    };
     let bytes = table_bytes(CORR_MAGIC, &header, &table);
     let path = format!("{}/data/tabulated_aniso.bin", env!("CARGO_MANIFEST_DIR"));
     std::fs::write(&path, bytes).expect("write the table file");
     eprintln!("{header}wrote {path}");
+}
+
+/// Size of a version-12 conductor correction table (every block of
+/// `CORR_PHI` azimuth nodes and `CORR_MU` cosines): `REUSE`.
+const V12_BYTES: usize = HEADER_BYTES + 2 * CORR_VALUES * 2 * 496 * CORR_PHI * CORR_MU;
+
+/// Copies the plain blocks (`CORR_PHI` azimuth nodes) of a version-12
+/// table `raw` (all blocks plain, `[ndf][pair][phi][mu]` in `corr_pair`
+/// order) into `table`, the new layout's `u16` (`REUSE`).
+fn copy_plain_blocks(raw: &[u8], table: &mut [u16]) {
+    use msbsdf::multiple::tabulated::corr_pair;
+    let mut copied = 0;
+    for n in 0..2 {
+        for lo in 0..CORR_A {
+            for hi in lo..CORR_A {
+                if corr_pair_phi(lo, hi) != CORR_PHI {
+                    continue;
+                }
+                let old = ((n * 496 + corr_pair(lo, hi)) * CORR_PHI * CORR_MU) * CORR_VALUES;
+                let new = corr_index(n, lo, hi, 0, 0) * CORR_VALUES;
+                for v in 0..CORR_PHI * CORR_MU * CORR_VALUES {
+                    let b = HEADER_BYTES + 2 * (old + v);
+                    table[new + v] = u16::from_le_bytes([raw[b], raw[b + 1]]);
+                }
+                copied += 1;
+            }
+        }
+    }
+    eprintln!("REUSE: {copied} plain blocks copied");
 }
 
 /// `CONDUCTOR_E_ANISO` read as eval reads it (bilinear in the two alpha
@@ -612,9 +687,10 @@ fn check(quad: usize) {
             continue;
         }
         nodes += 1;
-        let k = (pick.next_u32() % CORR_PHI as u32) as usize;
-        let i = (pick.next_u32() % CORR_MU as u32) as usize;
-        let w = corr_node_dir(k * CORR_MU + i, corr_stretch(jx, jy));
+        let k = (pick.next_u32() % corr_pair_phi(jx, jy) as u32) as usize;
+        let nmu = corr_pair_mu(jx, jy);
+        let i = (pick.next_u32() % nmu as u32) as usize;
+        let w = corr_node_dir(k * nmu + i, corr_stretch(jx, jy));
         cases.push((n, ax, ay, w.z.acos(), w.y.atan2(w.x)));
     }
     // Random materials and directions (between nodes in general).

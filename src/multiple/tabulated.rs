@@ -251,6 +251,17 @@ pub const CORR_PAIRS: usize = CORR_A * (CORR_A + 1) / 2;
 /// furnace 19% off near the smooth axis of the range's most anisotropic
 /// corner (Beckmann (0.05, 1.9), 89 degrees, azimuth 2.8; 5.4% with 17).
 pub const CORR_PHI: usize = 17;
+/// Azimuth nodes of the conductor correction's stretched blocks
+/// ([`corr_stretch`] not 1; version 13). With 17 (and the stretch
+/// `ratio^0.3`), the factors near the smooth axis of GGX (0.05, 1.9) at
+/// 88 degrees dipped between the stretched nodes 1.3 and 2.9 degrees from
+/// the axis: furnace -1.84% at azimuth 2. Measured on the four blocks
+/// around it (0.25-degree azimuth steps near the axis, with
+/// [`CORR_MU_STRETCHED`] cosines and the stretch `ratio^0.5`): worst
+/// -0.69% with 25 nodes, -0.61% with 29, -0.59% with 33; at a node
+/// material (0.056, 1.87) 25 give 0.41%: what is left between nodes is
+/// the interpolation in roughness (`docs/tabulated.md`).
+pub const CORR_PHI_STRETCHED: usize = 25;
 /// First node coordinate of ENERGY_COMPENSATED's anisotropic cosine grid
 /// (`compensation::aniso_grid_mu_at`) from which the conductor's
 /// correction halves the grid's intervals ([`corr_mu_coord`]).
@@ -262,11 +273,26 @@ pub const CORR_MU_FINE: usize = 2;
 /// ENERGY_COMPENSATED's 16 anisotropic cosines and the midpoints of
 /// [`CORR_MU_FINE`] of their intervals near grazing.
 pub const CORR_MU: usize = AN_MU + CORR_MU_FINE;
-/// Values per roughness pair: the diamond-angle azimuth and the cosine
-/// grid (`[phi: CORR_PHI][mu: CORR_MU]`).
+/// Intervals of ENERGY_COMPENSATED's anisotropic cosine grid, from
+/// [`CORR_MU_FINE_FROM`] on, that the conductor correction's stretched
+/// blocks halve (89.17 to 83.11 degrees; version 13): near the smooth axis
+/// of GGX (0.05, 1.9) the plain grid's interval from 87.16 to 85.39
+/// degrees left the furnace -0.93% at 86 degrees with 33 azimuth nodes
+/// (-0.58% with this grid, `docs/tabulated.md`).
+pub const CORR_MU_FINE_STRETCHED: usize = 4;
+/// Cosine nodes of the conductor correction's stretched blocks.
+pub const CORR_MU_STRETCHED: usize = AN_MU + CORR_MU_FINE_STRETCHED;
+/// Values per plain roughness pair: the diamond-angle azimuth and the
+/// cosine grid (`[phi: CORR_PHI][mu: CORR_MU]`); a stretched pair holds
+/// [`CORR_PHI_STRETCHED`] azimuth rows ([`corr_block_nodes`]).
 pub const CORR_BLOCK: usize = CORR_PHI * CORR_MU;
+/// Nodes of one NDF's blocks `[pair][phi][mu]` ([`corr_index`]).
+pub const CORR_NDF_LEN: usize = {
+    let last = CORR_A - 1;
+    CORR_BLOCK_AT[last][last] as usize + corr_pair_phi(last, last) * corr_pair_mu(last, last)
+};
 /// Nodes of the correction table `[ndf][pair][phi][mu]`.
-pub const CORR_LEN: usize = NDF_N * CORR_PAIRS * CORR_BLOCK;
+pub const CORR_LEN: usize = NDF_N * CORR_NDF_LEN;
 /// Stored values per node of the conductor's correction table: the
 /// corrected per-direction factors of the lobe's two parts (see
 /// [`corr_values`]).
@@ -276,7 +302,7 @@ pub const CORR_VALUES: usize = 2;
 /// [`CORR_LEN`].
 pub const CORR_FILE_BYTES: usize = HEADER_BYTES + 2 * CORR_VALUES * CORR_LEN;
 /// First bytes of the correction table file.
-pub const CORR_MAGIC: &[u8; 29] = b"MSBSDF-TABULATED-ANISO-F-v12\n";
+pub const CORR_MAGIC: &[u8; 29] = b"MSBSDF-TABULATED-ANISO-F-v13\n";
 
 /// Exponent of the peaked part's proxy ([`corr_proxy_ln`]) per NDF index
 /// (Beckmann, GGX): the correction table stores `v exp(CORR_PROXY_V L)`
@@ -354,8 +380,12 @@ pub fn corr_grid_alpha(j: usize) -> f32 {
 /// smoother axis ([`corr_stretch`]).
 pub const CORR_STRETCH_RATIO: f32 = 8.0;
 
-/// Power of the anisotropy ratio in [`corr_stretch`].
-pub const CORR_STRETCH_POW: f32 = 0.3;
+/// Power of the anisotropy ratio in [`corr_stretch`]: 0.5 since version 13
+/// (0.3 with 17 azimuth nodes, versions 9-12). On the four blocks around
+/// GGX (0.05, 1.9) with 33 azimuth nodes: worst -0.72% with 0.3, -0.64%
+/// with 0.4, -0.59% with 0.5 and 0.56% with 0.6, but +1.06% at 70 degrees
+/// on the rough side with 0.7 (its nodes there too sparse).
+pub const CORR_STRETCH_POW: f32 = 0.5;
 
 /// The azimuth stretch of the conductor correction's block at roughness
 /// nodes `(jx, jy)`: a direction's azimuth coordinate in the block is
@@ -369,8 +399,9 @@ pub const CORR_STRETCH_POW: f32 = 0.3;
 /// incidence the factors fall steeply with the azimuth (GGX (0.056, 1.87)
 /// at 89 degrees: `v` 0.81 on the axis, 0.43 at the plain grid's next
 /// node 3.8 degrees away, 0.22 at 8.1 degrees), faster than linear
-/// interpolation between plain nodes follows. At that block `rho` = 2.9
-/// puts the first nodes 1.3, 2.8 and 4.6 degrees from the axis. Only
+/// interpolation between plain nodes follows. At that block `rho` = 5.8
+/// puts the first of its [`CORR_PHI_STRETCHED`] nodes 0.43, 0.90, 1.41
+/// and 1.97 degrees from the axis. Only
 /// blocks above the ratio 8 are stretched: the suite's (0.1, 0.6)
 /// materials read blocks of ratio 5.2-7.1 and keep the plain nodes (when
 /// every block was stretched, session 12, their anisotropic GGX gold moved
@@ -420,27 +451,85 @@ pub const fn corr_pair(jx: usize, jy: usize) -> usize {
     jx * CORR_A - jx * (jx + 1) / 2 + jy
 }
 
-/// [`corr_pair`]`(jx, 0)` per `jx` (material init reads three pairs: no
-/// multiplications).
-const CORR_PAIR_BASE: [u32; CORR_A] = {
-    let mut out = [0u32; CORR_A];
-    let mut j = 0;
-    while j < CORR_A {
-        out[j] = corr_pair(j, 0) as u32;
-        j += 1;
+/// Azimuth nodes of the block of roughness nodes `(jx, jy)`:
+/// [`CORR_PHI_STRETCHED`] where [`corr_stretch`] is not 1, else
+/// [`CORR_PHI`] (the same for `(jy, jx)`).
+pub const fn corr_pair_phi(jx: usize, jy: usize) -> usize {
+    if jx < CORR_A && jy < CORR_A && (CORR_STRETCHED[jx] >> jy) & 1 != 0 {
+        CORR_PHI_STRETCHED
+    } else {
+        CORR_PHI
+    }
+}
+
+/// Cosine nodes of the block of roughness nodes `(jx, jy)`:
+/// [`CORR_MU_STRETCHED`] where [`corr_stretch`] is not 1, else
+/// [`CORR_MU`].
+pub const fn corr_pair_mu(jx: usize, jy: usize) -> usize {
+    if corr_pair_phi(jx, jy) == CORR_PHI {
+        CORR_MU
+    } else {
+        CORR_MU_STRETCHED
+    }
+}
+
+/// Azimuth nodes of a block of azimuth stretch `rho` ([`corr_stretch`]):
+/// [`corr_pair_phi`] of its nodes.
+#[inline(always)]
+pub fn corr_phi_n(rho: f32) -> usize {
+    if rho == 1.0 {
+        CORR_PHI
+    } else {
+        CORR_PHI_STRETCHED
+    }
+}
+
+/// Cosine nodes of a block of azimuth stretch `rho` ([`corr_pair_mu`]).
+#[inline(always)]
+pub fn corr_mu_n(rho: f32) -> usize {
+    if rho == 1.0 {
+        CORR_MU
+    } else {
+        CORR_MU_STRETCHED
+    }
+}
+
+/// Nodes of a block of azimuth stretch `rho`: [`corr_phi_n`] azimuth rows
+/// of [`corr_mu_n`] cosines.
+pub fn corr_block_nodes(rho: f32) -> usize {
+    corr_phi_n(rho) * corr_mu_n(rho)
+}
+
+/// First node of the stored pair `(lo, hi)`'s block (`lo <= hi`) in an
+/// NDF's blocks, `[lo][hi]`: the blocks in [`corr_pair`] order, each of
+/// [`corr_pair_phi`] rows (material init reads three: one load each).
+const CORR_BLOCK_AT: [[u32; CORR_A]; CORR_A] = {
+    let mut out = [[0u32; CORR_A]; CORR_A];
+    let mut at = 0;
+    let mut lo = 0;
+    while lo < CORR_A {
+        let mut hi = lo;
+        while hi < CORR_A {
+            out[lo][hi] = at as u32;
+            at += corr_pair_phi(lo, hi) * corr_pair_mu(lo, hi);
+            hi += 1;
+        }
+        lo += 1;
     }
     out
 };
 
 /// Index of the value of `(ndf, jx, jy, phi node k, mu node i)` for any
-/// `jx`, `jy` (through the symmetry for `jx > jy`).
+/// `jx`, `jy` (through the symmetry for `jx > jy`: azimuth node `k` of
+/// `(jx, jy)` is node `n - 1 - k` of `(jy, jx)`, `n` the block's
+/// [`corr_pair_phi`]).
 pub const fn corr_index(ndf: usize, jx: usize, jy: usize, k: usize, i: usize) -> usize {
     let (lo, hi, k) = if jx <= jy {
         (jx, jy, k)
     } else {
-        (jy, jx, CORR_PHI - 1 - k)
+        (jy, jx, corr_pair_phi(jy, jx) - 1 - k)
     };
-    (ndf * CORR_PAIRS + corr_pair(lo, hi)) * CORR_BLOCK + k * CORR_MU + i
+    ndf * CORR_NDF_LEN + CORR_BLOCK_AT[lo][hi] as usize + k * corr_pair_mu(lo, hi) + i
 }
 
 /// The stored `u16` of a factor `s` in `[0, max]`: `s = max (v /
@@ -504,13 +593,26 @@ pub(crate) const CORR_MIRROR: u32 = 1 << 31;
 type CorrCorners = [(u32, f32); 3];
 
 /// A material's corners in the conductor's correction table
-/// ([`CorrCorners`]) and each corner's azimuth stretch
-/// ([`corr_stretch`]; `None` when all three are 1, the plain diamond
-/// angle read once for the three).
+/// ([`CorrCorners`]) and each corner's azimuth grid ([`CorrStretch`];
+/// `None` when all three are plain, the plain diamond angle read once for
+/// the three).
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct CorrBlocks {
     corners: CorrCorners,
-    stretch: Option<[f32; 3]>,
+    stretch: Option<CorrStretch>,
+}
+
+/// The grids of a material's three corners when one is stretched: each
+/// corner's stretch ([`corr_stretch`]), its last azimuth node `n - 1`
+/// ([`corr_pair_phi`]) as a float, `n - 2` (the mirrored read's first
+/// row is `n - 2 - k0`) and its cosine nodes per azimuth row
+/// ([`corr_pair_mu`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct CorrStretch {
+    rho: [f32; 3],
+    last: [f32; 3],
+    top: [u8; 3],
+    mu_n: [u8; 3],
 }
 
 /// The corners of `(alpha_x, alpha_y)` for NDF index `ndf`: linear on the
@@ -528,15 +630,23 @@ fn corr_corners(ndf: usize, ax: f32, ay: f32) -> CorrBlocks {
     let tri = triangle(fx, fy);
     let corners = tri.map(|((dx, dy), w)| {
         let (lo, hi, m) = stored_pair(jx + dx, jy + dy);
-        let pair = CORR_PAIR_BASE[lo.min(CORR_A - 1)] as usize + hi;
-        let block = (ndf * CORR_PAIRS + pair) * CORR_BLOCK;
+        let at = CORR_BLOCK_AT[lo.min(CORR_A - 1)][hi.min(CORR_A - 1)] as usize;
+        let block = ndf * CORR_NDF_LEN + at;
         ((HEADER_BYTES + 2 * CORR_VALUES * block) as u32 | m, w)
     });
-    let stretch = tri.map(|((dx, dy), _)| corr_stretch(jx + dx, jy + dy));
-    CorrBlocks {
-        corners,
-        stretch: stretch.iter().any(|&r| r != 1.0).then_some(stretch),
-    }
+    let rho = tri.map(|((dx, dy), _)| corr_stretch(jx + dx, jy + dy));
+    // The stretched corners' grids only when there are some (plain
+    // materials, most, pay the test alone).
+    let stretch = rho.iter().any(|&r| r != 1.0).then(|| {
+        let n = rho.map(corr_phi_n);
+        CorrStretch {
+            rho,
+            last: n.map(|n| (n - 1) as f32),
+            top: n.map(|n| (n - 2) as u8),
+            mu_n: rho.map(|r| corr_mu_n(r) as u8),
+        }
+    });
+    CorrBlocks { corners, stretch }
 }
 
 /// The triangle of the unit square holding `(fx, fy)` (Kuhn: the diagonal
@@ -598,21 +708,25 @@ fn corr_at(corners: &CorrCorners, d: &AnisoDir) -> [f32; 2] {
 /// lane weights are computed once for the three corners: reading plain
 /// materials through this one cost their eval 36 instructions (GGX gold
 /// (0.1, 0.6): 1,258 against 1,222).
-#[inline]
-fn corr_at_stretched(corners: &CorrCorners, d: &[AnisoDir; 3]) -> [f32; 2] {
+#[inline(always)]
+fn corr_at_stretched(corners: &CorrCorners, s: &CorrStretch, d: &[AnisoDir; 3]) -> [f32; 2] {
     let mut acc = Vec4::ZERO;
-    for (&(b, w), d) in corners.iter().zip(d) {
+    for (j, (&(b, w), d)) in corners.iter().zip(d).enumerate() {
         // Mirrored, the row read first is the direction's upper one (node
-        // `CORR_PHI - 2 - k0`, weight `1 - fk`).
+        // `n - 2 - k0` of the corner's `n` azimuth nodes, weight `1 - fk`).
         let (k, g) = if b & CORR_MIRROR != 0 {
-            (CORR_PHI - 2 - d.k0, 1.0 - d.fk)
+            ((s.top[j] as usize).saturating_sub(d.k0), 1.0 - d.fk)
         } else {
             (d.k0, d.fk)
         };
-        let at = (b & !CORR_MIRROR) as usize + 2 * CORR_VALUES * (k * CORR_MU + d.i0);
-        let Some((lo, hi)) = corr_rows(at) else {
+        let n_mu = s.mu_n[j] as usize;
+        let at = (b & !CORR_MIRROR) as usize + 2 * CORR_VALUES * (k * n_mu + d.i0);
+        let row = |at: usize| RAW_CORR.get(at..).and_then(|r| r.first_chunk::<8>());
+        let (Some(lo), Some(hi)) = (row(at), row(at + 2 * CORR_VALUES * n_mu)) else {
             return [1.0; 2];
         };
+        let (lo, hi) = (u16x4(Some(lo)), u16x4(Some(hi)));
+        let (lo, hi) = (lo * lo, hi * hi);
         let lanes = Vec4::new(1.0 - d.fi, 1.0 - d.fi, d.fi, d.fi) * w;
         acc += lo * (lanes * (1.0 - g)) + hi * (lanes * g);
     }
@@ -718,15 +832,36 @@ pub(crate) fn corr_dir(w: Vec3) -> AnisoDir {
 /// A direction's nodes in the conductor correction's blocks of a
 /// material with a stretched corner ([`CorrBlocks`]): per roughness
 /// corner, [`corr_dir`] at the corner's azimuth stretch `rho` (the
-/// diamond angle of `(|x|, rho |y|)`; the cosine node once, the three
-/// azimuth coordinates in SIMD lanes).
-#[inline]
-fn corr_dirs([r0, r1, r2]: [f32; 3], w: Vec3) -> [AnisoDir; 3] {
-    grid_dirs3(
+/// diamond angle of `(|x|, rho |y|)`) on its own azimuth nodes
+/// ([`corr_pair_phi`]); the cosine node once, the three azimuth
+/// coordinates in SIMD lanes.
+#[inline(always)]
+fn corr_dirs(s: &CorrStretch, w: Vec3) -> [AnisoDir; 3] {
+    let ([r0, r1, r2], [l0, l1, l2]) = (s.rho, s.last);
+    let (k, fk) = split_root4_by(
         diamond4(w, Vec4::new(r0, r1, r2, 1.0)),
-        corr_mu_split(w),
-        CORR_PHI,
-    )
+        Vec4::new(l0, l1, l2, 1.0),
+        CORR_PHI_STRETCHED - 2,
+    );
+    // The two cosine grids' splits (one coordinate), each corner on its
+    // own.
+    let c = compensation::aniso_mu_coord(w.z.abs());
+    let fine = |n: usize| (c - CORR_MU_FINE_FROM as f32).max(0.0).min(n as f32);
+    let plain = split_at(c + fine(CORR_MU_FINE), CORR_MU);
+    let fine = split_at(c + fine(CORR_MU_FINE_STRETCHED), CORR_MU_STRETCHED);
+    [0, 1, 2].map(|j| {
+        let (i0, fi) = if s.mu_n[j] as usize == CORR_MU {
+            plain
+        } else {
+            fine
+        };
+        AnisoDir {
+            k0: k[j],
+            fk: fk[j],
+            i0,
+            fi,
+        }
+    })
 }
 
 /// The conductor correction's continuous cosine node coordinate of a
@@ -737,17 +872,39 @@ fn corr_dirs([r0, r1, r2]: [f32; 3], w: Vec3) -> [AnisoDir; 3] {
 /// clamp(c - CORR_MU_FINE_FROM, 0, CORR_MU_FINE)`.
 #[inline(always)]
 pub fn corr_mu_coord(mu: f32) -> f32 {
-    let c = compensation::aniso_mu_coord(mu);
-    c + (c - CORR_MU_FINE_FROM as f32)
-        .max(0.0)
-        .min(CORR_MU_FINE as f32)
+    corr_mu_coord_in(mu, CORR_MU_FINE)
 }
 
-/// The cosine of the conductor correction's node coordinate `x` (the
-/// inverse of [`corr_mu_coord`]; `x = i` the cosine node `i`, `i + 0.5`
-/// the cosine midpoint between nodes `i` and `i + 1`).
+/// [`corr_mu_coord`] with `fine` intervals halved ([`CORR_MU_FINE`] in
+/// the plain blocks, [`CORR_MU_FINE_STRETCHED`] in the stretched ones).
+#[inline(always)]
+pub fn corr_mu_coord_in(mu: f32, fine: usize) -> f32 {
+    let c = compensation::aniso_mu_coord(mu);
+    c + (c - CORR_MU_FINE_FROM as f32).max(0.0).min(fine as f32)
+}
+
+/// The cosine of the conductor correction's node coordinate `x` in its
+/// plain blocks (the inverse of [`corr_mu_coord`]; `x = i` the cosine
+/// node `i`, `i + 0.5` the cosine midpoint between nodes `i` and `i +
+/// 1`).
 pub fn corr_grid_mu_at(x: f32) -> f32 {
-    let (from, fine) = (CORR_MU_FINE_FROM as f32, CORR_MU_FINE as f32);
+    corr_grid_mu_in(x, CORR_MU_FINE)
+}
+
+/// [`corr_grid_mu_at`] in a block of azimuth stretch `rho`: its cosine
+/// grid ([`corr_mu_n`]).
+pub fn corr_block_mu_at(x: f32, rho: f32) -> f32 {
+    let fine = if rho == 1.0 {
+        CORR_MU_FINE
+    } else {
+        CORR_MU_FINE_STRETCHED
+    };
+    corr_grid_mu_in(x, fine)
+}
+
+/// The inverse of [`corr_mu_coord_in`] with `fine` intervals halved.
+fn corr_grid_mu_in(x: f32, fine: usize) -> f32 {
+    let (from, fine) = (CORR_MU_FINE_FROM as f32, fine as f32);
     let c = if x <= from {
         x
     } else if x <= from + 2.0 * fine {
@@ -866,7 +1023,7 @@ pub(crate) fn dcorr_phi4(c: Vec4) -> Vec4 {
 /// into `1 / rho` and the coordinate `c` into `1 - c`, so a transposed
 /// block is read with the corner's own stretch and its nodes mirrored.
 /// (The conductor's correction stretches only its blocks of anisotropy
-/// ratio above 8, by `ratio^0.3` on 17 nodes, [`corr_stretch`]: stretching
+/// ratio above 8, by `ratio^0.5` on 25 nodes, [`corr_stretch`]: stretching
 /// every block moved the suite's anisotropic GGX gold, `docs/tabulated.md`.)
 #[inline(always)]
 pub(crate) fn dcorr_dir(w: Vec3, rho: f32) -> AnisoDir {
@@ -881,7 +1038,8 @@ pub(crate) fn dcorr_dir(w: Vec3, rho: f32) -> AnisoDir {
 /// correction (`corr_dir`: diamond angle `k / (CORR_PHI - 1)`, cosine node
 /// `i` of [`corr_grid_mu_at`]).
 pub fn corr_node_dir(r: usize, rho: f32) -> Vec3 {
-    corr_azimuth_dir(r / CORR_MU, corr_grid_mu_at((r % CORR_MU) as f32), rho)
+    let n = corr_mu_n(rho);
+    corr_azimuth_dir(r / n, corr_block_mu_at((r % n) as f32, rho), rho)
 }
 
 /// The direction of cosine `mu` at azimuth node `k` of the conductor
@@ -889,7 +1047,7 @@ pub fn corr_node_dir(r: usize, rho: f32) -> Vec3 {
 /// the cosine nodes; the generator and the tests also take the cosine
 /// midpoints, [`corr_grid_mu_at`]).
 pub fn corr_azimuth_dir(k: usize, mu: f32, rho: f32) -> Vec3 {
-    let c = k as f32 / (CORR_PHI - 1) as f32;
+    let c = k as f32 / (corr_phi_n(rho) - 1) as f32;
     // rho y / (x + rho y) = c  <=>  y / (x + y) = c / (c + rho (1 - c));
     // plain blocks take c itself (c + (1 - c) is not 1 in every rounding,
     // and their nodes are those of the tables before the stretch).
@@ -933,10 +1091,17 @@ pub fn corr_dir_weights(w: Vec3, rho: f32) -> [(usize, f32); 4] {
     dir_weights(
         &grid_dir(
             diamond_xy(w.x.abs(), rho * w.y.abs()),
-            corr_mu_split(w),
-            CORR_PHI,
+            if rho == 1.0 {
+                corr_mu_split(w)
+            } else {
+                split_at(
+                    corr_mu_coord_in(w.z.abs(), CORR_MU_FINE_STRETCHED),
+                    CORR_MU_STRETCHED,
+                )
+            },
+            corr_phi_n(rho),
         ),
-        CORR_MU,
+        corr_mu_n(rho),
     )
 }
 
@@ -1083,12 +1248,20 @@ pub(crate) fn split_at(x: f32, n: usize) -> (usize, f32) {
 /// range whatever the lanes hold.
 #[inline(always)]
 pub(crate) fn split_root4(r: Vec4, n: usize) -> ([usize; 4], Vec4) {
-    let x = r * (n - 1) as f32;
-    let t = (x - 0.5).min(Vec4::splat((n - 2) as f32)) + ROUND;
+    split_root4_by(r, Vec4::splat((n - 1) as f32), n - 2)
+}
+
+/// [`split_root4`] on grids of `last + 1` nodes per lane: the lower node
+/// of `r last` clamped to `last - 1` in the lanes, and to `top` after the
+/// rounding (the largest `last - 1` of the lanes).
+#[inline(always)]
+fn split_root4_by(r: Vec4, last: Vec4, top: usize) -> ([usize; 4], Vec4) {
+    let x = r * last;
+    let t = (x - 0.5).min(last - 1.0) + ROUND;
     let f = x - (t - ROUND);
     let k = t
         .to_array()
-        .map(|v| (v.to_bits().wrapping_sub(ROUND.to_bits()) as usize).min(n - 2));
+        .map(|v| (v.to_bits().wrapping_sub(ROUND.to_bits()) as usize).min(top));
     (k, f)
 }
 
@@ -1910,9 +2083,9 @@ impl Tabulated {
         let c = &a.corners.corners;
         let ([ui, vi], [uo, vo]) = match (&a.exact, a.corners.stretch) {
             (None, None) => (corr_at(c, &corr_dir(wi)), corr_at(c, &corr_dir(wo))),
-            (None, Some(rho)) => (
-                corr_at_stretched(c, &corr_dirs(rho, wi)),
-                corr_at_stretched(c, &corr_dirs(rho, wo)),
+            (None, Some(s)) => (
+                corr_at_stretched(c, &s, &corr_dirs(&s, wi)),
+                corr_at_stretched(c, &s, &corr_dirs(&s, wo)),
             ),
             (Some((e, e_peak)), _) => {
                 let [pi, po] = self.proj2(wi, wo);
@@ -2304,32 +2477,46 @@ mod tests {
     /// inserted ([`CORR_MU_FINE`] of them), decreasing in angle from
     /// grazing to the normal, and eval's coordinate inverts it at every
     /// quarter node (within 1e-3 of a node step).
+    /// The same for the stretched blocks' grid ([`corr_block_mu_at`],
+    /// [`corr_mu_coord_in`] with [`CORR_MU_FINE_STRETCHED`]).
     #[test]
     fn conductor_cosine_grid() {
         use crate::multiple::compensation::{aniso_grid_mu, aniso_grid_mu_at};
-        let (from, fine) = (CORR_MU_FINE_FROM, CORR_MU_FINE);
-        for i in 0..CORR_MU {
-            let want = if i <= from {
-                aniso_grid_mu(i)
-            } else if i <= from + 2 * fine {
-                aniso_grid_mu_at(from as f32 + 0.5 * (i - from) as f32)
-            } else {
-                aniso_grid_mu(i - fine)
-            };
-            assert_eq!(corr_grid_mu_at(i as f32), want, "node {i}");
+        for (rho, fine, n) in [
+            (1.0, CORR_MU_FINE, CORR_MU),
+            (2.0, CORR_MU_FINE_STRETCHED, CORR_MU_STRETCHED),
+        ] {
+            assert_eq!(corr_mu_n(rho), n);
+            let from = CORR_MU_FINE_FROM;
+            for i in 0..n {
+                let want = if i <= from {
+                    aniso_grid_mu(i)
+                } else if i <= from + 2 * fine {
+                    aniso_grid_mu_at(from as f32 + 0.5 * (i - from) as f32)
+                } else {
+                    aniso_grid_mu(i - fine)
+                };
+                assert_eq!(corr_block_mu_at(i as f32, rho), want, "node {i}");
+                if rho == 1.0 {
+                    assert_eq!(corr_grid_mu_at(i as f32), want, "node {i}");
+                }
+            }
+            assert_eq!(corr_block_mu_at((n - 1) as f32, rho), 1.0);
+            let mut last = 0.0;
+            for q in 0..=4 * (n - 1) {
+                let x = q as f32 / 4.0;
+                let mu = corr_block_mu_at(x, rho);
+                assert!(mu > last, "x {x}: {mu} after {last}");
+                last = mu;
+                let back = corr_mu_coord_in(mu, fine);
+                assert!((back - x).abs() < 1e-3, "x {x}: mu {mu} reads {back}");
+                if rho == 1.0 {
+                    assert_eq!(back, corr_mu_coord(mu));
+                }
+            }
+            // Below the first node: node 0.
+            assert_eq!(corr_mu_coord_in(0.0, fine), 0.0);
         }
-        assert_eq!(corr_grid_mu_at((CORR_MU - 1) as f32), 1.0);
-        let mut last = 0.0;
-        for q in 0..=4 * (CORR_MU - 1) {
-            let x = q as f32 / 4.0;
-            let mu = corr_grid_mu_at(x);
-            assert!(mu > last, "x {x}: {mu} after {last}");
-            last = mu;
-            let back = corr_mu_coord(mu);
-            assert!((back - x).abs() < 1e-3, "x {x}: mu {mu} reads {back}");
-        }
-        // Below the first node: node 0.
-        assert_eq!(corr_mu_coord(0.0), 0.0);
     }
 
     /// The conductor correction's azimuth stretch ([`corr_stretch`]) is 1
@@ -2370,16 +2557,17 @@ mod tests {
         for (jx, jy) in [(9, 9), (4, 11), (2, 27), (27, 2), (5, 29)] {
             let rho = corr_stretch(jx, jy);
             let blocks = corr_corners(1, corr_grid_alpha(jx), corr_grid_alpha(jy));
-            for r in 0..CORR_BLOCK {
+            let nmu = corr_mu_n(rho);
+            for r in 0..corr_block_nodes(rho) {
                 let w = corr_node_dir(r, rho);
                 assert!((w.length() - 1.0).abs() < 1e-5, "node {r}: {w}");
                 // At the normal (the last cosine node) every azimuth is the
                 // same direction: only the cosine is checked there.
-                let top = r % CORR_MU == CORR_MU - 1;
+                let top = r % nmu == nmu - 1;
                 let weights = corr_dir_weights(w, rho);
                 let at_node: f32 = weights
                     .iter()
-                    .filter(|&&(n, _)| n == r || (top && n % CORR_MU == CORR_MU - 1))
+                    .filter(|&&(n, _)| n == r || (top && n % nmu == nmu - 1))
                     .map(|&(_, v)| v)
                     .sum();
                 assert!(at_node > 0.999, "({jx}, {jy}) node {r}: {weights:?}");
@@ -2388,17 +2576,17 @@ mod tests {
                     .max_by(|&a, &b| blocks.corners[a].1.total_cmp(&blocks.corners[b].1))
                     .unwrap_or(0);
                 let d = match blocks.stretch {
-                    Some(rho) => corr_dirs(rho, w)[c],
+                    Some(s) => corr_dirs(&s, w)[c],
                     None => corr_dir(w),
                 };
                 let (kk, ii) = (d.k0 as f32 + d.fk, d.i0 as f32 + d.fi);
                 if !top {
                     assert!(
-                        (kk - (r / CORR_MU) as f32).abs() < 1e-3,
+                        (kk - (r / nmu) as f32).abs() < 1e-3,
                         "({jx}, {jy}) node {r}: {kk}"
                     );
                 }
-                assert!((ii - (r % CORR_MU) as f32).abs() < 1e-3, "node {r}: {ii}");
+                assert!((ii - (r % nmu) as f32).abs() < 1e-3, "node {r}: {ii}");
             }
         }
     }
@@ -2442,9 +2630,10 @@ mod tests {
         for ndf in 0..NDF_N {
             for jx in 0..CORR_A {
                 for jy in jx..CORR_A {
-                    let first = corr_values(corr_index(ndf, jx, jy, 0, CORR_MU - 1));
-                    for k in 1..CORR_PHI {
-                        let v = corr_values(corr_index(ndf, jx, jy, k, CORR_MU - 1));
+                    let top = corr_pair_mu(jx, jy) - 1;
+                    let first = corr_values(corr_index(ndf, jx, jy, 0, top));
+                    for k in 1..corr_pair_phi(jx, jy) {
+                        let v = corr_values(corr_index(ndf, jx, jy, k, top));
                         for c in 0..2 {
                             // One u16 step of `16 (x / 65535)^2` at value v
                             // is about 2 sqrt(16 v) / 65535.
@@ -2478,11 +2667,12 @@ mod tests {
                 let (ax, ay) = (corr_grid_alpha(jx), corr_grid_alpha(jy));
                 let blocks = corr_corners(ndf, ax, ay);
                 let rho = corr_stretch(jx, jy);
-                for k in 0..CORR_PHI {
-                    for i in [0, 3, 7, 12, CORR_MU - 1] {
-                        let w = corr_node_dir(k * CORR_MU + i, rho);
+                let nmu = corr_pair_mu(jx, jy);
+                for k in 0..corr_pair_phi(jx, jy) {
+                    for i in [0, 3, 7, 12, nmu - 1] {
+                        let w = corr_node_dir(k * nmu + i, rho);
                         let got = match blocks.stretch {
-                            Some(rho) => corr_at_stretched(&blocks.corners, &corr_dirs(rho, w)),
+                            Some(s) => corr_at_stretched(&blocks.corners, &s, &corr_dirs(&s, w)),
                             None => corr_at(&blocks.corners, &corr_dir(w)),
                         };
                         let want = corr_values(corr_index(ndf, jx, jy, k, i));
@@ -2500,6 +2690,49 @@ mod tests {
                 }
             }
         }
-        assert_eq!(checked, NDF_N * 6 * CORR_PHI * 5);
+        // (2, 27) and (27, 2) are stretched.
+        assert_eq!(checked, NDF_N * (4 * CORR_PHI + 2 * CORR_PHI_STRETCHED) * 5);
+    }
+
+    /// The conductor correction's blocks of varying size ([`corr_pair_phi`])
+    /// tile the table: in [`corr_pair`] order, each starts where the one
+    /// before it ends ([`corr_index`] of its last node plus one), the last
+    /// NDF's last block ends at [`CORR_LEN`], and the file holds exactly
+    /// the header and [`CORR_VALUES`] `u16` per node. Transposed pairs
+    /// read their block's rows in reverse.
+    #[test]
+    fn conductor_blocks_tile_the_table() {
+        let mut next = 0;
+        let mut stretched = 0;
+        for ndf in 0..NDF_N {
+            for lo in 0..CORR_A {
+                for hi in lo..CORR_A {
+                    let (n, nmu) = (corr_pair_phi(lo, hi), corr_pair_mu(lo, hi));
+                    assert_eq!((n, nmu), (corr_pair_phi(hi, lo), corr_pair_mu(hi, lo)));
+                    let rho = corr_stretch(lo, hi);
+                    assert_eq!((n, nmu), (corr_phi_n(rho), corr_mu_n(rho)), "({lo}, {hi})");
+                    stretched += (n == CORR_PHI_STRETCHED) as usize;
+                    assert_eq!(corr_index(ndf, lo, hi, 0, 0), next, "({lo}, {hi})");
+                    assert_eq!(corr_index(ndf, lo, hi, 1, 0), next + nmu);
+                    let last = corr_index(ndf, lo, hi, n - 1, nmu - 1);
+                    assert_eq!(last + 1 - next, n * nmu);
+                    // (The diagonal's pairs are stored as they are.)
+                    for k in [0, 1, n - 1].into_iter().filter(|_| lo < hi) {
+                        assert_eq!(
+                            corr_index(ndf, hi, lo, k, 3),
+                            corr_index(ndf, lo, hi, n - 1 - k, 3)
+                        );
+                    }
+                    next = last + 1;
+                }
+            }
+        }
+        assert_eq!(next, CORR_LEN);
+        assert_eq!(stretched, 300);
+        assert_eq!(
+            CORR_LEN,
+            NDF_N * (346 * CORR_PHI * CORR_MU + 150 * CORR_PHI_STRETCHED * CORR_MU_STRETCHED)
+        );
+        assert_eq!(RAW_CORR.len(), HEADER_BYTES + 2 * CORR_VALUES * CORR_LEN);
     }
 }
