@@ -502,7 +502,8 @@ pub fn corr_block_nodes(rho: f32) -> usize {
 
 /// First node of the stored pair `(lo, hi)`'s block (`lo <= hi`) in an
 /// NDF's blocks, `[lo][hi]`: the blocks in [`corr_pair`] order, each of
-/// [`corr_pair_phi`] rows (material init reads three: one load each).
+/// [`corr_pair_phi`] azimuth rows of [`corr_pair_mu`] cosines (material
+/// init reads three: one load each).
 const CORR_BLOCK_AT: [[u32; CORR_A]; CORR_A] = {
     let mut out = [[0u32; CORR_A]; CORR_A];
     let mut at = 0;
