@@ -525,8 +525,7 @@ fn stability_sweep() {
 #[test]
 fn anisotropic_furnace_at_correction_nodes() {
     use msbsdf::multiple::tabulated::{
-        CORR_A, corr_azimuth_dir, corr_block_mu_at, corr_grid_alpha, corr_node_dir, corr_pair_mu,
-        corr_pair_phi, corr_stretch,
+        CORR_A, corr_azimuth_dir, corr_grid_alpha, corr_node_dir, corr_pair_grid, corr_stretch,
     };
     let mut pick = Rng::new(2718, 2);
     let mut report = String::new();
@@ -541,8 +540,9 @@ fn anisotropic_furnace_at_correction_nodes() {
             continue;
         }
         n += 1;
-        let k = (pick.next_u32() % corr_pair_phi(jx, jy) as u32) as usize;
-        let nmu = corr_pair_mu(jx, jy);
+        let g = corr_pair_grid(jx, jy);
+        let k = (pick.next_u32() % g.phi as u32) as usize;
+        let nmu = g.mu;
         // Cosine nodes 1 to nmu - 2: the midpoint towards the normal
         // is within 89 degrees and not the normal itself.
         let i = 1 + (pick.next_u32() % (nmu as u32 - 2)) as usize;
@@ -550,7 +550,7 @@ fn anisotropic_furnace_at_correction_nodes() {
         let wi = corr_node_dir(k * nmu + i, rho);
         // The midpoint in the grid's coordinate towards the next cosine
         // node, at the same azimuth.
-        let mu_mid = corr_block_mu_at(i as f32 + 0.5, rho);
+        let mu_mid = g.mu_at(i as f32 + 0.5);
         let w_mid = corr_azimuth_dir(k, mu_mid, rho);
         let m = mirror(NDFS[nd], ax, ay);
         let q = albedo_quadrature(&m, wi, ax, ay, 0);

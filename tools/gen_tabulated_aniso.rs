@@ -60,11 +60,10 @@ use msbsdf::multiple::compensation::{
 use msbsdf::multiple::compensation_aniso_tables::{AN_A, AN_MU, AN_PHI, CONDUCTOR_E_ANISO};
 use msbsdf::multiple::tabulated::{
     CORR_A, CORR_LEN, CORR_MAGIC, CORR_MAX, CORR_MU, CORR_MU_FINE, CORR_MU_FINE_FROM,
-    CORR_PAIR_MAX, CORR_PHI, CORR_PHI_STRETCHED, CORR_PROXY_V, CORR_STRETCH_POW,
-    CORR_STRETCH_RATIO, CORR_VALUES, HEADER_BYTES, Tabulated, corr_azimuth_dir, corr_block_mu_at,
-    corr_block_nodes, corr_decode, corr_dir_weights, corr_encode, corr_grid_alpha, corr_index,
-    corr_mu_n, corr_node_dir, corr_pair_mu, corr_pair_phi, corr_phi_n, corr_proxy, corr_stretch,
-    dcorr_dir_weights, dcorr_node_dir,
+    CORR_PAIR_MAX, CORR_PAIRS, CORR_PHI, CORR_PHI_STRETCHED, CORR_PROXY_V, CORR_STRETCH_POW,
+    CORR_STRETCH_RATIO, CORR_VALUES, HEADER_BYTES, Tabulated, corr_azimuth_dir, corr_decode,
+    corr_dir_weights, corr_encode, corr_grid, corr_grid_alpha, corr_index, corr_node_dir,
+    corr_pair_grid, corr_proxy, corr_stretch, dcorr_dir_weights, dcorr_node_dir,
 };
 use msbsdf::ndf::{Ndf, NdfKind};
 use msbsdf::rng::Rng;
@@ -172,7 +171,8 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
     // The block's azimuth stretch (its nodes and eval's weights).
     let rho = corr_stretch(jx, jy);
     // Its nodes: `nphi` azimuth rows of `nmu` cosines.
-    let (nphi, nmu, nb) = (corr_phi_n(rho), corr_mu_n(rho), corr_block_nodes(rho));
+    let grid = corr_grid(rho);
+    let (nphi, nmu, nb) = (grid.phi, grid.mu, grid.nodes());
     if ax < 1e-3 || ay < 1e-3 {
         // Factors 1, `v` times the nodes' proxies (`corr_proxy`).
         let g = (0..nb).map(|r| [1.0, corr_proxy(n, ax, ay, corr_node_dir(r, rho))]);
@@ -244,7 +244,7 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
     let mids: Vec<_> = (0..nphi)
         .flat_map(|k| (1..nmu - 1).map(move |i| (k, i)))
         .map(|(k, i)| {
-            let w = corr_azimuth_dir(k, corr_block_mu_at(i as f32 + 0.5, rho), rho);
+            let w = corr_azimuth_dir(k, grid.mu_at(i as f32 + 0.5), rho);
             let (t, a, b) = rows(w);
             Mid {
                 w,
@@ -470,7 +470,7 @@ fn main() {
             raw.starts_with(b"MSBSDF-TABULATED-ANISO-F-v12\n") && raw.len() == V12_BYTES,
             "REUSE needs a version-12 conductor correction table"
         );
-        jobs.retain(|&(_, jx, jy)| corr_pair_phi(jx, jy) != CORR_PHI);
+        jobs.retain(|&(_, jx, jy)| corr_pair_grid(jx, jy).phi != CORR_PHI);
         (path, raw)
     });
     let threads: usize = std::env::var("THREADS")
@@ -494,8 +494,9 @@ fn main() {
         stats.steps = stats.steps.max(st.steps);
         stats.mid = stats.mid.max(st.mid);
         stats.node = stats.node.max(st.node);
-        let nmu = corr_pair_mu(jx, jy);
-        for k in 0..corr_pair_phi(jx, jy) {
+        let g = corr_pair_grid(jx, jy);
+        let nmu = g.mu;
+        for k in 0..g.phi {
             for i in 0..nmu {
                 let at = corr_index(n, jx, jy, k, i);
                 for (c, &v) in block[k * nmu + i].iter().enumerate() {
@@ -510,7 +511,7 @@ fn main() {
     let header = format!(
         "ANISO_CORRECTION v13 (MSBSDF_MODEL_TABULATED): per [ndf: Beckmann, GGX][roughness \
          pair (jx <= jy) of {CORR_A} x {CORR_A}: alpha = 2 (j / {})^2][azimuth n: {CORR_PHI} \
-         nodes, {CORR_PHI_STRETCHED} in the stretched blocks (tabulated::corr_pair_phi), of the diamond angle rho |y| / (|x| + rho |y|) from 0 to 1, rho the block's \
+         nodes, {CORR_PHI_STRETCHED} in the stretched blocks (tabulated::corr_pair_grid), of the diamond angle rho |y| / (|x| + rho |y|) from 0 to 1, rho the block's \
          stretch (tabulated::corr_stretch: 1 up to alpha_y / alpha_x = {CORR_STRETCH_RATIO}, \
          above it (alpha_y / alpha_x)^{CORR_STRETCH_POW}; tabulated::corr_dirs)][mu: \
          {CORR_MU}] (tabulated::corr_grid_mu_at: ENERGY_COMPENSATED's anisotropic cosine grid \
@@ -590,7 +591,7 @@ fn main() {
 
 /// Size of a version-12 conductor correction table (every block of
 /// `CORR_PHI` azimuth nodes and `CORR_MU` cosines): `REUSE`.
-const V12_BYTES: usize = HEADER_BYTES + 2 * CORR_VALUES * 2 * 496 * CORR_PHI * CORR_MU;
+const V12_BYTES: usize = HEADER_BYTES + 2 * CORR_VALUES * 2 * CORR_PAIRS * CORR_PHI * CORR_MU;
 
 /// Copies the plain blocks (`CORR_PHI` azimuth nodes) of a version-12
 /// table `raw` (all blocks plain, `[ndf][pair][phi][mu]` in `corr_pair`
@@ -601,10 +602,10 @@ fn copy_plain_blocks(raw: &[u8], table: &mut [u16]) {
     for n in 0..2 {
         for lo in 0..CORR_A {
             for hi in lo..CORR_A {
-                if corr_pair_phi(lo, hi) != CORR_PHI {
+                if corr_pair_grid(lo, hi).phi != CORR_PHI {
                     continue;
                 }
-                let old = ((n * 496 + corr_pair(lo, hi)) * CORR_PHI * CORR_MU) * CORR_VALUES;
+                let old = ((n * CORR_PAIRS + corr_pair(lo, hi)) * CORR_PHI * CORR_MU) * CORR_VALUES;
                 let new = corr_index(n, lo, hi, 0, 0) * CORR_VALUES;
                 for v in 0..CORR_PHI * CORR_MU * CORR_VALUES {
                     let b = HEADER_BYTES + 2 * (old + v);
@@ -687,8 +688,9 @@ fn check(quad: usize) {
             continue;
         }
         nodes += 1;
-        let k = (pick.next_u32() % corr_pair_phi(jx, jy) as u32) as usize;
-        let nmu = corr_pair_mu(jx, jy);
+        let g = corr_pair_grid(jx, jy);
+        let k = (pick.next_u32() % g.phi as u32) as usize;
+        let nmu = g.mu;
         let i = (pick.next_u32() % nmu as u32) as usize;
         let w = corr_node_dir(k * nmu + i, corr_stretch(jx, jy));
         cases.push((n, ax, ay, w.z.acos(), w.y.atan2(w.x)));

@@ -284,12 +284,12 @@ pub const CORR_MU_FINE_STRETCHED: usize = 4;
 pub const CORR_MU_STRETCHED: usize = AN_MU + CORR_MU_FINE_STRETCHED;
 /// Values per plain roughness pair: the diamond-angle azimuth and the
 /// cosine grid (`[phi: CORR_PHI][mu: CORR_MU]`); a stretched pair holds
-/// [`CORR_PHI_STRETCHED`] azimuth rows ([`corr_block_nodes`]).
+/// [`CORR_PHI_STRETCHED`] azimuth rows ([`CorrGrid::nodes`]).
 pub const CORR_BLOCK: usize = CORR_PHI * CORR_MU;
 /// Nodes of one NDF's blocks `[pair][phi][mu]` ([`corr_index`]).
 pub const CORR_NDF_LEN: usize = {
     let last = CORR_A - 1;
-    CORR_BLOCK_AT[last][last] as usize + corr_pair_phi(last, last) * corr_pair_mu(last, last)
+    CORR_BLOCK_AT[last][last] as usize + corr_pair_grid(last, last).nodes()
 };
 /// Nodes of the correction table `[ndf][pair][phi][mu]`.
 pub const CORR_LEN: usize = NDF_N * CORR_NDF_LEN;
@@ -451,58 +451,78 @@ pub const fn corr_pair(jx: usize, jy: usize) -> usize {
     jx * CORR_A - jx * (jx + 1) / 2 + jy
 }
 
-/// Azimuth nodes of the block of roughness nodes `(jx, jy)`:
-/// [`CORR_PHI_STRETCHED`] where [`corr_stretch`] is not 1, else
-/// [`CORR_PHI`] (the same for `(jy, jx)`).
-pub const fn corr_pair_phi(jx: usize, jy: usize) -> usize {
+/// The node grid of a conductor correction block: azimuth nodes, cosine
+/// nodes and the cosine intervals halved from [`CORR_MU_FINE_FROM`] on
+/// ([`corr_mu_coord_in`]). Plain blocks have [`CORR_GRID_PLAIN`],
+/// stretched ones ([`corr_stretch`] not 1) [`CORR_GRID_STRETCHED`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CorrGrid {
+    /// Azimuth nodes.
+    pub phi: usize,
+    /// Cosine nodes.
+    pub mu: usize,
+    /// Halved cosine intervals.
+    pub fine: usize,
+}
+
+/// The plain blocks' grid.
+pub const CORR_GRID_PLAIN: CorrGrid = CorrGrid {
+    phi: CORR_PHI,
+    mu: CORR_MU,
+    fine: CORR_MU_FINE,
+};
+
+/// The stretched blocks' grid.
+pub const CORR_GRID_STRETCHED: CorrGrid = CorrGrid {
+    phi: CORR_PHI_STRETCHED,
+    mu: CORR_MU_STRETCHED,
+    fine: CORR_MU_FINE_STRETCHED,
+};
+
+impl CorrGrid {
+    /// Nodes of a block: `phi` azimuth rows of `mu` cosines.
+    pub const fn nodes(self) -> usize {
+        self.phi * self.mu
+    }
+
+    /// The cosine of node coordinate `x` (`x = i` the cosine node `i`, `i
+    /// + 0.5` the midpoint to the next; the inverse of
+    /// [`corr_mu_coord_in`]).
+    pub fn mu_at(self, x: f32) -> f32 {
+        corr_grid_mu_in(x, self.fine)
+    }
+
+    /// A cosine's lower node and the weight of the upper one.
+    #[inline(always)]
+    pub fn mu_split(self, mu: f32) -> (usize, f32) {
+        split_at(corr_mu_coord_in(mu, self.fine), self.mu)
+    }
+}
+
+/// The grid of the block of roughness nodes `(jx, jy)` (the same for `(jy,
+/// jx)`): [`CORR_GRID_STRETCHED`] where [`corr_stretch`] is not 1.
+pub const fn corr_pair_grid(jx: usize, jy: usize) -> CorrGrid {
     if jx < CORR_A && jy < CORR_A && (CORR_STRETCHED[jx] >> jy) & 1 != 0 {
-        CORR_PHI_STRETCHED
+        CORR_GRID_STRETCHED
     } else {
-        CORR_PHI
+        CORR_GRID_PLAIN
     }
 }
 
-/// Cosine nodes of the block of roughness nodes `(jx, jy)`:
-/// [`CORR_MU_STRETCHED`] where [`corr_stretch`] is not 1, else
-/// [`CORR_MU`].
-pub const fn corr_pair_mu(jx: usize, jy: usize) -> usize {
-    if corr_pair_phi(jx, jy) == CORR_PHI {
-        CORR_MU
-    } else {
-        CORR_MU_STRETCHED
-    }
-}
-
-/// Azimuth nodes of a block of azimuth stretch `rho` ([`corr_stretch`]):
-/// [`corr_pair_phi`] of its nodes.
+/// The grid of a block of azimuth stretch `rho` ([`corr_stretch`]; the
+/// [`corr_pair_grid`] of its nodes).
 #[inline(always)]
-pub fn corr_phi_n(rho: f32) -> usize {
+pub fn corr_grid(rho: f32) -> CorrGrid {
     if rho == 1.0 {
-        CORR_PHI
+        CORR_GRID_PLAIN
     } else {
-        CORR_PHI_STRETCHED
+        CORR_GRID_STRETCHED
     }
-}
-
-/// Cosine nodes of a block of azimuth stretch `rho` ([`corr_pair_mu`]).
-#[inline(always)]
-pub fn corr_mu_n(rho: f32) -> usize {
-    if rho == 1.0 {
-        CORR_MU
-    } else {
-        CORR_MU_STRETCHED
-    }
-}
-
-/// Nodes of a block of azimuth stretch `rho`: [`corr_phi_n`] azimuth rows
-/// of [`corr_mu_n`] cosines.
-pub fn corr_block_nodes(rho: f32) -> usize {
-    corr_phi_n(rho) * corr_mu_n(rho)
 }
 
 /// First node of the stored pair `(lo, hi)`'s block (`lo <= hi`) in an
 /// NDF's blocks, `[lo][hi]`: the blocks in [`corr_pair`] order, each of
-/// [`corr_pair_phi`] azimuth rows of [`corr_pair_mu`] cosines (material
+/// [`corr_pair_grid`]'s nodes (material
 /// init reads three: one load each).
 const CORR_BLOCK_AT: [[u32; CORR_A]; CORR_A] = {
     let mut out = [[0u32; CORR_A]; CORR_A];
@@ -512,7 +532,7 @@ const CORR_BLOCK_AT: [[u32; CORR_A]; CORR_A] = {
         let mut hi = lo;
         while hi < CORR_A {
             out[lo][hi] = at as u32;
-            at += corr_pair_phi(lo, hi) * corr_pair_mu(lo, hi);
+            at += corr_pair_grid(lo, hi).nodes();
             hi += 1;
         }
         lo += 1;
@@ -523,14 +543,14 @@ const CORR_BLOCK_AT: [[u32; CORR_A]; CORR_A] = {
 /// Index of the value of `(ndf, jx, jy, phi node k, mu node i)` for any
 /// `jx`, `jy` (through the symmetry for `jx > jy`: azimuth node `k` of
 /// `(jx, jy)` is node `n - 1 - k` of `(jy, jx)`, `n` the block's
-/// [`corr_pair_phi`]).
+/// [`corr_pair_grid`]).
 pub const fn corr_index(ndf: usize, jx: usize, jy: usize, k: usize, i: usize) -> usize {
     let (lo, hi, k) = if jx <= jy {
         (jx, jy, k)
     } else {
-        (jy, jx, corr_pair_phi(jy, jx) - 1 - k)
+        (jy, jx, corr_pair_grid(jy, jx).phi - 1 - k)
     };
-    ndf * CORR_NDF_LEN + CORR_BLOCK_AT[lo][hi] as usize + k * corr_pair_mu(lo, hi) + i
+    ndf * CORR_NDF_LEN + CORR_BLOCK_AT[lo][hi] as usize + k * corr_pair_grid(lo, hi).mu + i
 }
 
 /// The stored `u16` of a factor `s` in `[0, max]`: `s = max (v /
@@ -605,9 +625,9 @@ struct CorrBlocks {
 
 /// The grids of a material's three corners when one is stretched: each
 /// corner's stretch ([`corr_stretch`]), its last azimuth node `n - 1`
-/// ([`corr_pair_phi`]) as a float, `n - 2` (the mirrored read's first
+/// ([`CorrGrid`]) as a float, `n - 2` (the mirrored read's first
 /// row is `n - 2 - k0`) and its cosine nodes per azimuth row
-/// ([`corr_pair_mu`]).
+/// ([`CorrGrid::mu`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct CorrStretch {
     rho: [f32; 3],
@@ -639,12 +659,12 @@ fn corr_corners(ndf: usize, ax: f32, ay: f32) -> CorrBlocks {
     // The stretched corners' grids only when there are some (plain
     // materials, most, pay the test alone).
     let stretch = rho.iter().any(|&r| r != 1.0).then(|| {
-        let n = rho.map(corr_phi_n);
+        let g = rho.map(corr_grid);
         CorrStretch {
             rho,
-            last: n.map(|n| (n - 1) as f32),
-            top: n.map(|n| (n - 2) as u8),
-            mu_n: rho.map(|r| corr_mu_n(r) as u8),
+            last: g.map(|g| (g.phi - 1) as f32),
+            top: g.map(|g| (g.phi - 2) as u8),
+            mu_n: g.map(|g| g.mu as u8),
         }
     });
     CorrBlocks { corners, stretch }
@@ -834,7 +854,7 @@ pub(crate) fn corr_dir(w: Vec3) -> AnisoDir {
 /// material with a stretched corner ([`CorrBlocks`]): per roughness
 /// corner, [`corr_dir`] at the corner's azimuth stretch `rho` (the
 /// diamond angle of `(|x|, rho |y|)`) on its own azimuth nodes
-/// ([`corr_pair_phi`]); the cosine node once, the three azimuth
+/// ([`corr_pair_grid`]); the cosine node once, the three azimuth
 /// coordinates in SIMD lanes.
 #[inline(always)]
 fn corr_dirs(s: &CorrStretch, w: Vec3) -> [AnisoDir; 3] {
@@ -847,9 +867,12 @@ fn corr_dirs(s: &CorrStretch, w: Vec3) -> [AnisoDir; 3] {
     // The two cosine grids' splits (one coordinate), each corner on its
     // own.
     let c = compensation::aniso_mu_coord(w.z.abs());
-    let fine = |n: usize| (c - CORR_MU_FINE_FROM as f32).max(0.0).min(n as f32);
-    let plain = split_at(c + fine(CORR_MU_FINE), CORR_MU);
-    let fine = split_at(c + fine(CORR_MU_FINE_STRETCHED), CORR_MU_STRETCHED);
+    let [plain, fine] = [CORR_GRID_PLAIN, CORR_GRID_STRETCHED].map(|g| {
+        split_at(
+            c + (c - CORR_MU_FINE_FROM as f32).max(0.0).min(g.fine as f32),
+            g.mu,
+        )
+    });
     [0, 1, 2].map(|j| {
         let (i0, fi) = if s.mu_n[j] as usize == CORR_MU {
             plain
@@ -890,17 +913,6 @@ pub fn corr_mu_coord_in(mu: f32, fine: usize) -> f32 {
 /// 1`).
 pub fn corr_grid_mu_at(x: f32) -> f32 {
     corr_grid_mu_in(x, CORR_MU_FINE)
-}
-
-/// [`corr_grid_mu_at`] in a block of azimuth stretch `rho`: its cosine
-/// grid ([`corr_mu_n`]).
-pub fn corr_block_mu_at(x: f32, rho: f32) -> f32 {
-    let fine = if rho == 1.0 {
-        CORR_MU_FINE
-    } else {
-        CORR_MU_FINE_STRETCHED
-    };
-    corr_grid_mu_in(x, fine)
 }
 
 /// The inverse of [`corr_mu_coord_in`] with `fine` intervals halved.
@@ -1039,8 +1051,8 @@ pub(crate) fn dcorr_dir(w: Vec3, rho: f32) -> AnisoDir {
 /// correction (`corr_dir`: diamond angle `k / (CORR_PHI - 1)`, cosine node
 /// `i` of [`corr_grid_mu_at`]).
 pub fn corr_node_dir(r: usize, rho: f32) -> Vec3 {
-    let n = corr_mu_n(rho);
-    corr_azimuth_dir(r / n, corr_block_mu_at((r % n) as f32, rho), rho)
+    let g = corr_grid(rho);
+    corr_azimuth_dir(r / g.mu, g.mu_at((r % g.mu) as f32), rho)
 }
 
 /// The direction of cosine `mu` at azimuth node `k` of the conductor
@@ -1048,7 +1060,7 @@ pub fn corr_node_dir(r: usize, rho: f32) -> Vec3 {
 /// the cosine nodes; the generator and the tests also take the cosine
 /// midpoints, [`corr_grid_mu_at`]).
 pub fn corr_azimuth_dir(k: usize, mu: f32, rho: f32) -> Vec3 {
-    let c = k as f32 / (corr_phi_n(rho) - 1) as f32;
+    let c = k as f32 / (corr_grid(rho).phi - 1) as f32;
     // rho y / (x + rho y) = c  <=>  y / (x + y) = c / (c + rho (1 - c));
     // plain blocks take c itself (c + (1 - c) is not 1 in every rounding,
     // and their nodes are those of the tables before the stretch).
@@ -1089,20 +1101,14 @@ fn diamond_node(mu: f32, c: f32) -> Vec3 {
 /// i` in a roughness pair's block; generator).
 pub fn corr_dir_weights(w: Vec3, rho: f32) -> [(usize, f32); 4] {
     // With rho = 1 the same operations as `corr_dir` (rho |y| = |y|).
+    let g = corr_grid(rho);
     dir_weights(
         &grid_dir(
             diamond_xy(w.x.abs(), rho * w.y.abs()),
-            if rho == 1.0 {
-                corr_mu_split(w)
-            } else {
-                split_at(
-                    corr_mu_coord_in(w.z.abs(), CORR_MU_FINE_STRETCHED),
-                    CORR_MU_STRETCHED,
-                )
-            },
-            corr_phi_n(rho),
+            g.mu_split(w.z.abs()),
+            g.phi,
         ),
-        corr_mu_n(rho),
+        g.mu,
     )
 }
 
@@ -2478,7 +2484,7 @@ mod tests {
     /// inserted ([`CORR_MU_FINE`] of them), decreasing in angle from
     /// grazing to the normal, and eval's coordinate inverts it at every
     /// quarter node (within 1e-3 of a node step).
-    /// The same for the stretched blocks' grid ([`corr_block_mu_at`],
+    /// The same for the stretched blocks' grid ([`CorrGrid::mu_at`],
     /// [`corr_mu_coord_in`] with [`CORR_MU_FINE_STRETCHED`]).
     #[test]
     fn conductor_cosine_grid() {
@@ -2487,7 +2493,8 @@ mod tests {
             (1.0, CORR_MU_FINE, CORR_MU),
             (2.0, CORR_MU_FINE_STRETCHED, CORR_MU_STRETCHED),
         ] {
-            assert_eq!(corr_mu_n(rho), n);
+            let g = corr_grid(rho);
+            assert_eq!((g.mu, g.fine), (n, fine));
             let from = CORR_MU_FINE_FROM;
             for i in 0..n {
                 let want = if i <= from {
@@ -2497,16 +2504,16 @@ mod tests {
                 } else {
                     aniso_grid_mu(i - fine)
                 };
-                assert_eq!(corr_block_mu_at(i as f32, rho), want, "node {i}");
+                assert_eq!(g.mu_at(i as f32), want, "node {i}");
                 if rho == 1.0 {
                     assert_eq!(corr_grid_mu_at(i as f32), want, "node {i}");
                 }
             }
-            assert_eq!(corr_block_mu_at((n - 1) as f32, rho), 1.0);
+            assert_eq!(g.mu_at((n - 1) as f32), 1.0);
             let mut last = 0.0;
             for q in 0..=4 * (n - 1) {
                 let x = q as f32 / 4.0;
-                let mu = corr_block_mu_at(x, rho);
+                let mu = g.mu_at(x);
                 assert!(mu > last, "x {x}: {mu} after {last}");
                 last = mu;
                 let back = corr_mu_coord_in(mu, fine);
@@ -2558,8 +2565,8 @@ mod tests {
         for (jx, jy) in [(9, 9), (4, 11), (2, 27), (27, 2), (5, 29)] {
             let rho = corr_stretch(jx, jy);
             let blocks = corr_corners(1, corr_grid_alpha(jx), corr_grid_alpha(jy));
-            let nmu = corr_mu_n(rho);
-            for r in 0..corr_block_nodes(rho) {
+            let nmu = corr_grid(rho).mu;
+            for r in 0..corr_grid(rho).nodes() {
                 let w = corr_node_dir(r, rho);
                 assert!((w.length() - 1.0).abs() < 1e-5, "node {r}: {w}");
                 // At the normal (the last cosine node) every azimuth is the
@@ -2631,9 +2638,9 @@ mod tests {
         for ndf in 0..NDF_N {
             for jx in 0..CORR_A {
                 for jy in jx..CORR_A {
-                    let top = corr_pair_mu(jx, jy) - 1;
+                    let top = corr_pair_grid(jx, jy).mu - 1;
                     let first = corr_values(corr_index(ndf, jx, jy, 0, top));
-                    for k in 1..corr_pair_phi(jx, jy) {
+                    for k in 1..corr_pair_grid(jx, jy).phi {
                         let v = corr_values(corr_index(ndf, jx, jy, k, top));
                         for c in 0..2 {
                             // One u16 step of `16 (x / 65535)^2` at value v
@@ -2668,8 +2675,8 @@ mod tests {
                 let (ax, ay) = (corr_grid_alpha(jx), corr_grid_alpha(jy));
                 let blocks = corr_corners(ndf, ax, ay);
                 let rho = corr_stretch(jx, jy);
-                let nmu = corr_pair_mu(jx, jy);
-                for k in 0..corr_pair_phi(jx, jy) {
+                let nmu = corr_pair_grid(jx, jy).mu;
+                for k in 0..corr_pair_grid(jx, jy).phi {
                     for i in [0, 3, 7, 12, nmu - 1] {
                         let w = corr_node_dir(k * nmu + i, rho);
                         let got = match blocks.stretch {
@@ -2695,7 +2702,7 @@ mod tests {
         assert_eq!(checked, NDF_N * (4 * CORR_PHI + 2 * CORR_PHI_STRETCHED) * 5);
     }
 
-    /// The conductor correction's blocks of varying size ([`corr_pair_phi`])
+    /// The conductor correction's blocks of varying size ([`corr_pair_grid`])
     /// tile the table: in [`corr_pair`] order, each starts where the one
     /// before it ends ([`corr_index`] of its last node plus one), the last
     /// NDF's last block ends at [`CORR_LEN`], and the file holds exactly
@@ -2708,10 +2715,11 @@ mod tests {
         for ndf in 0..NDF_N {
             for lo in 0..CORR_A {
                 for hi in lo..CORR_A {
-                    let (n, nmu) = (corr_pair_phi(lo, hi), corr_pair_mu(lo, hi));
-                    assert_eq!((n, nmu), (corr_pair_phi(hi, lo), corr_pair_mu(hi, lo)));
+                    let g = corr_pair_grid(lo, hi);
+                    let (n, nmu) = (g.phi, g.mu);
+                    assert_eq!(g, corr_pair_grid(hi, lo));
                     let rho = corr_stretch(lo, hi);
-                    assert_eq!((n, nmu), (corr_phi_n(rho), corr_mu_n(rho)), "({lo}, {hi})");
+                    assert_eq!(g, corr_grid(rho), "({lo}, {hi})");
                     stretched += (n == CORR_PHI_STRETCHED) as usize;
                     assert_eq!(corr_index(ndf, lo, hi, 0, 0), next, "({lo}, {hi})");
                     assert_eq!(corr_index(ndf, lo, hi, 1, 0), next + nmu);
