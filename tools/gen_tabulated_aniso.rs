@@ -63,10 +63,10 @@ use msbsdf::multiple::compensation_aniso_tables::{AN_A, AN_MU, AN_PHI, CONDUCTOR
 use msbsdf::multiple::tabulated::{
     CORR_A, CORR_GRID_PLAIN, CORR_GRID_STRETCHED, CORR_LEN, CORR_MAGIC, CORR_MAX, CORR_MU,
     CORR_MU_FINE, CORR_MU_FINE_FROM, CORR_PAIR_MAX, CORR_PHI, CORR_PHI_STRETCHED, CORR_PROXY_V,
-    CORR_STRETCH_POW, CORR_STRETCH_RATIO, CORR_VALUES, CorrGrid, HEADER_BYTES, Tabulated,
-    corr_azimuth_dir, corr_decode, corr_dir_weights, corr_encode, corr_grid, corr_grid_alpha,
-    corr_index, corr_node_dir, corr_pair_grid, corr_proxy, corr_stretch, dcorr_dir_weights,
-    dcorr_node_dir,
+    CORR_STRETCH_POW, CORR_STRETCH_RATIO, CORR_STRETCH_RATIO_ROUGH, CORR_STRETCH_ROUGH_FROM,
+    CORR_VALUES, CorrGrid, HEADER_BYTES, Tabulated, corr_azimuth_dir, corr_decode,
+    corr_dir_weights, corr_encode, corr_grid, corr_grid_alpha, corr_index, corr_node_dir,
+    corr_pair_grid, corr_proxy, corr_stretch, dcorr_dir_weights, dcorr_node_dir,
 };
 use msbsdf::ndf::{Ndf, NdfKind};
 use msbsdf::rng::Rng;
@@ -514,6 +514,7 @@ fn main() {
          pair (jx <= jy) of {CORR_A} x {CORR_A}: alpha = 2 (j / {})^2][azimuth n: {CORR_PHI} \
          nodes, {CORR_PHI_STRETCHED} in the stretched blocks (tabulated::corr_pair_grid), of the diamond angle rho |y| / (|x| + rho |y|) from 0 to 1, rho the block's \
          stretch (tabulated::corr_stretch: 1 up to alpha_y / alpha_x = {CORR_STRETCH_RATIO}, \
+         {CORR_STRETCH_RATIO_ROUGH} where the rougher axis is at node {CORR_STRETCH_ROUGH_FROM} or above, \
          above it (alpha_y / alpha_x)^{CORR_STRETCH_POW}; tabulated::corr_dirs)][mu: \
          {CORR_MU}] (tabulated::corr_grid_mu_at: ENERGY_COMPENSATED's anisotropic cosine grid \
          with its intervals {} to {} halved) the two factors \
