@@ -405,6 +405,8 @@ pub const CORR_STRETCH_ROUGH_FROM: usize = 20;
 /// with 0.4, -0.59% with 0.5 and 0.56% with 0.6, but +1.06% at 70 degrees
 /// on the rough side with 0.7 (its nodes there too sparse).
 pub const CORR_STRETCH_POW: f32 = 0.5;
+// `corr_read_stretch` takes `ratio^CORR_STRETCH_POW` as a square root.
+const _: () = assert!(CORR_STRETCH_POW == 0.5);
 
 /// The azimuth stretch of the conductor correction's block at roughness
 /// nodes `(jx, jy)`: a direction's azimuth coordinate in the block is
@@ -427,7 +429,7 @@ pub const CORR_STRETCH_POW: f32 = 0.5;
 /// session 12, on 17 nodes, the suite's anisotropic GGX gold moved by
 /// +0.003, `docs/tabulated.md`). A material's three roughness corners
 /// are each read on their own nodes, at a stretch between the corner's
-/// and the material's own ([`corr_read_stretch`]; one SIMD division for
+/// and the material's own (`corr_read_stretch`; one SIMD division for
 /// the three azimuth coordinates, only when a corner is stretched).
 pub fn corr_stretch(jx: usize, jy: usize) -> f32 {
     // Plain corners (most materials) cost material init one table read.
@@ -714,10 +716,6 @@ fn corr_read_stretch(rho: f32, ax: f32, ay: f32) -> f32 {
     if rho == 1.0 {
         return 1.0;
     }
-    debug_assert!(
-        CORR_STRETCH_POW == 0.5,
-        "the square root below is ratio^0.5"
-    );
     let own = (ay.max(1e-6) / ax.max(1e-6)).sqrt();
     (rho * own).sqrt()
 }
