@@ -128,17 +128,21 @@ fn white_furnace_anisotropic() {
 
 /// The furnace at the corners of the roughness range, where the
 /// correction's interpolation is hardest: both NDFs, (0.05, 1.9) and
-/// (0.11, 1.9), 60, 75, 85, 86, 88 and 89 degrees and 20 degrees (inside the
+/// (0.11, 1.9) and (0.3, 1.9) (version 14), 60, 75, 85, 86, 88 and 89 degrees and 20 degrees (inside the
 /// last cosine interval, 29.3 to 0 degrees), azimuths on and near the
 /// smooth axis (0, 2, 2.8, 5.6 and 11.25 degrees), at 45 and near the
 /// rough axis (70.3 degrees); eval over
 /// `compensation::broad_reflection_nodes` (the lobe is broad, the
 /// normals' reflections crowd into a band at this anisotropy). Measured
-/// worst 0.0061 (GGX (0.05, 1.9) at 88 degrees, azimuth 2.8: version 13
-/// of the correction, whose stretched blocks have 25 x 20 nodes and the
-/// stretch `ratio^0.5`; the interpolation in roughness between them is
-/// what is left, `docs/tabulated.md`). The 0.5% is not met there:
-/// this bounds what is (0.008; 86 degrees added with version 13). Version
+/// worst 0.0053 (GGX (0.05, 1.9) and (0.11, 1.9) at 20 degrees, azimuth
+/// 70.3: the last cosine interval; version 14 of the correction, whose
+/// stretched corners a material reads towards its own stretch,
+/// `tabulated::corr_read_stretch`; (0.3, 1.9) reads blocks of ratio 5-8
+/// stretched since then, within 0.42% here). Version 13 gave 0.0061 (GGX
+/// (0.05, 1.9) at 88 degrees, azimuth 2.8, now 0.30%: the interpolation in
+/// roughness between stretched blocks, `docs/tabulated.md`). The issue's
+/// 0.5% is not met there: this bounds what is (0.007; 0.008 with version
+/// 13; 86 degrees added with version 13). Version
 /// 12 gave 0.0184 (GGX (0.05, 1.9) at 88 degrees, azimuth 2: between the
 /// stretched block's azimuth nodes at 1.3 and 2.9 degrees; version 11 of
 /// the correction, 16 cosine nodes, 0.0232 there; bound 0.02). 88 degrees and azimuth 2
@@ -163,7 +167,7 @@ fn anisotropic_furnace_at_the_range_corners() {
     let mut report = String::new();
     let mut worst: f64 = 0.0;
     for ndf in NDFS {
-        for (ax, ay) in [(0.05, 1.9), (0.11, 1.9)] {
+        for (ax, ay) in [(0.05, 1.9), (0.11, 1.9), (0.3, 1.9)] {
             let m = mirror(ndf, ax, ay);
             for theta in [20.0, 60.0, 75.0, 85.0, 86.0, 88.0, 89.0] {
                 for phi in [0.0, 2.0, 2.8125, 5.625, 11.25, 45.0, 70.3125] {
@@ -180,7 +184,7 @@ fn anisotropic_furnace_at_the_range_corners() {
         }
     }
     println!("{report}worst |albedo - 1| = {worst:.4}");
-    assert!(worst < 0.008, "{report}");
+    assert!(worst < 0.007, "{report}");
 }
 
 /// Sample directions against the pdf: chi-square per configuration with a

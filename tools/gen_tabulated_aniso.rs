@@ -34,9 +34,11 @@
 //! (every block; about 80 minutes on 2 threads). Environment switches:
 //! `PAIRS=n:jx:jy,...` solves the listed blocks only (experiments: the
 //! others are 0, and the header's command line says so);
-//! `REUSE=PATH` copies the plain blocks from a version-12 table, which
-//! this code computes bit for bit, and solves the 300 stretched ones (the
-//! committed version 13 was made so: its header names both runs);
+//! `REUSE=PATH` copies the blocks an earlier table (version 12 or 13)
+//! has on the same grid and stretch, which this code computes bit for
+//! bit, and solves the others (the committed version 14 was made so from
+//! version 13, which was made so from version 12: its header names the
+//! runs);
 //! `-- --dielectric [--quad N]` writes the dielectric tier's
 //! `data/tabulated_aniso_dielectric.bin` the same way ([`dielectric`]);
 //! `-- --dielectric-random [COUNT]` measures anisotropic glass's furnace
@@ -59,9 +61,10 @@ use msbsdf::multiple::compensation::{
 };
 use msbsdf::multiple::compensation_aniso_tables::{AN_A, AN_MU, AN_PHI, CONDUCTOR_E_ANISO};
 use msbsdf::multiple::tabulated::{
-    CORR_A, CORR_LEN, CORR_MAGIC, CORR_MAX, CORR_MU, CORR_MU_FINE, CORR_MU_FINE_FROM,
-    CORR_PAIR_MAX, CORR_PAIRS, CORR_PHI, CORR_PHI_STRETCHED, CORR_PROXY_V, CORR_STRETCH_POW,
-    CORR_STRETCH_RATIO, CORR_VALUES, HEADER_BYTES, Tabulated, corr_azimuth_dir, corr_decode,
+    CORR_A, CORR_GRID_PLAIN, CORR_GRID_STRETCHED, CORR_LEN, CORR_MAGIC, CORR_MAX, CORR_MU,
+    CORR_MU_FINE, CORR_MU_FINE_FROM, CORR_PAIR_MAX, CORR_PHI, CORR_PHI_STRETCHED, CORR_PROXY_V,
+    CORR_STRETCH_POW, CORR_STRETCH_RATIO, CORR_STRETCH_RATIO_ROUGH, CORR_STRETCH_ROUGH_FROM,
+    CORR_VALUES, CorrGrid, HEADER_BYTES, Tabulated, corr_azimuth_dir, corr_decode,
     corr_dir_weights, corr_encode, corr_grid, corr_grid_alpha, corr_index, corr_node_dir,
     corr_pair_grid, corr_proxy, corr_stretch, dcorr_dir_weights, dcorr_node_dir,
 };
@@ -460,18 +463,16 @@ fn main() {
             .collect();
         jobs.retain(|j| keep.contains(j));
     }
-    // `REUSE=PATH`: the plain blocks (17 azimuth nodes) are copied from a
-    // version-12 table, whose plain blocks this code computes bit for bit
-    // (the same nodes, rows, balancing and solve); only the stretched
-    // blocks are solved. The header's command line says so.
+    // `REUSE=PATH`: the blocks whose grid and stretch an earlier table
+    // (version 12 or 13) shares are copied from it: this code computes
+    // them bit for bit (the same nodes, rows, balancing and solve); only
+    // the others are solved. The header's command line says so.
     let reuse = std::env::var("REUSE").ok().map(|path| {
         let raw = std::fs::read(&path).expect("read the REUSE table");
-        assert!(
-            raw.starts_with(b"MSBSDF-TABULATED-ANISO-F-v12\n") && raw.len() == V12_BYTES,
-            "REUSE needs a version-12 conductor correction table"
-        );
-        jobs.retain(|&(_, jx, jy)| corr_pair_grid(jx, jy).phi != CORR_PHI);
-        (path, raw)
+        let old = OldLayout::of(&raw)
+            .expect("REUSE needs a version-12 or -13 conductor correction table");
+        jobs.retain(|&(_, jx, jy)| old.grid(jx, jy) != Some(corr_pair_grid(jx, jy)));
+        (path, raw, old)
     });
     let threads: usize = std::env::var("THREADS")
         .ok()
@@ -481,8 +482,8 @@ fn main() {
         block(n, jx, jy, quad)
     });
     let mut table = vec![0u16; CORR_VALUES * CORR_LEN];
-    if let Some((_, raw)) = &reuse {
-        copy_plain_blocks(raw, &mut table);
+    if let Some((_, raw, old)) = &reuse {
+        old.copy_shared_blocks(raw, &mut table);
     }
     let (mut lo, mut hi) = ([f32::MAX; 2], [f32::MIN; 2]);
     let mut stats = Stats::default();
@@ -509,10 +510,11 @@ fn main() {
     }
     let command: Vec<String> = args.iter().skip(1).cloned().collect();
     let header = format!(
-        "ANISO_CORRECTION v13 (MSBSDF_MODEL_TABULATED): per [ndf: Beckmann, GGX][roughness \
+        "ANISO_CORRECTION v14 (MSBSDF_MODEL_TABULATED): per [ndf: Beckmann, GGX][roughness \
          pair (jx <= jy) of {CORR_A} x {CORR_A}: alpha = 2 (j / {})^2][azimuth n: {CORR_PHI} \
          nodes, {CORR_PHI_STRETCHED} in the stretched blocks (tabulated::corr_pair_grid), of the diamond angle rho |y| / (|x| + rho |y|) from 0 to 1, rho the block's \
          stretch (tabulated::corr_stretch: 1 up to alpha_y / alpha_x = {CORR_STRETCH_RATIO}, \
+         {CORR_STRETCH_RATIO_ROUGH} where the rougher axis is at node {CORR_STRETCH_ROUGH_FROM} or above, \
          above it (alpha_y / alpha_x)^{CORR_STRETCH_POW}; tabulated::corr_dirs)][mu: \
          {CORR_MU}] (tabulated::corr_grid_mu_at: ENERGY_COMPENSATED's anisotropic cosine grid \
          with its intervals {} to {} halved) the two factors \
@@ -558,7 +560,7 @@ fn main() {
         pairs.map_or(String::new(), |p| format!("PAIRS={p} "))
             + &reuse
                 .as_ref()
-                .map_or(String::new(), |(p, _)| format!("REUSE={p} ")),
+                .map_or(String::new(), |(p, _, _)| format!("REUSE={p} ")),
         if command.is_empty() { "" } else { " -- " },
         command.join(" "),
         git::commit(),
@@ -567,17 +569,23 @@ fn main() {
     // A reused table's own lines (its statistics cover its blocks, and
     // its command and commit say where they came from).
     let header = match &reuse {
-        Some((p, raw)) => {
+        Some((p, raw, layout)) => {
             let old = String::from_utf8_lossy(&raw[..HEADER_BYTES]);
             let old = old.trim_end_matches('\0');
             let keep: Vec<&str> = old
                 .lines()
-                .filter(|l| l.starts_with("Command:") || l.starts_with("Commit:"))
+                .filter(|l| {
+                    ["Command:", "Commit:", "REUSE:"]
+                        .iter()
+                        .any(|p| l.starts_with(p))
+                })
                 .collect();
             format!(
-                "{header}REUSE: the plain blocks ({CORR_PHI} azimuth nodes) copied from {p}, \
-                 a version-12 table made by the same code for them (its {}); the statistics \
-                 above cover the blocks solved here\n",
+                "{header}REUSE: the blocks of the same grid and stretch ({} per NDF) copied \
+                 from {p}, a version-{} table made by the same code for them (its {}); the \
+                 statistics above cover the blocks solved here\n",
+                layout.shared(),
+                layout.version,
                 keep.join("; ")
             )
         }
@@ -589,33 +597,91 @@ fn main() {
     eprintln!("{header}wrote {path}");
 }
 
-/// Size of a version-12 conductor correction table (every block of
-/// `CORR_PHI` azimuth nodes and `CORR_MU` cosines): `REUSE`.
-const V12_BYTES: usize = HEADER_BYTES + 2 * CORR_VALUES * 2 * CORR_PAIRS * CORR_PHI * CORR_MU;
+/// The block layout of an earlier conductor correction table (`REUSE`):
+/// version 12 (every block plain) or 13 (blocks of anisotropy ratio above
+/// 8 stretched, on [`CORR_GRID_STRETCHED`]).
+struct OldLayout {
+    version: u32,
+    /// Stretch ratio threshold of the stretched blocks (`None`: none).
+    ratio: Option<usize>,
+}
 
-/// Copies the plain blocks (`CORR_PHI` azimuth nodes) of a version-12
-/// table `raw` (all blocks plain, `[ndf][pair][phi][mu]` in `corr_pair`
-/// order) into `table`, the new layout's `u16` (`REUSE`).
-fn copy_plain_blocks(raw: &[u8], table: &mut [u16]) {
-    use msbsdf::multiple::tabulated::corr_pair;
-    let mut copied = 0;
-    for n in 0..2 {
-        for lo in 0..CORR_A {
-            for hi in lo..CORR_A {
-                if corr_pair_grid(lo, hi).phi != CORR_PHI {
-                    continue;
-                }
-                let old = ((n * CORR_PAIRS + corr_pair(lo, hi)) * CORR_PHI * CORR_MU) * CORR_VALUES;
-                let new = corr_index(n, lo, hi, 0, 0) * CORR_VALUES;
-                for v in 0..CORR_PHI * CORR_MU * CORR_VALUES {
-                    let b = HEADER_BYTES + 2 * (old + v);
-                    table[new + v] = u16::from_le_bytes([raw[b], raw[b + 1]]);
-                }
-                copied += 1;
+impl OldLayout {
+    /// The layout of `raw` from its magic, checked against its size.
+    fn of(raw: &[u8]) -> Option<OldLayout> {
+        let old = if raw.starts_with(b"MSBSDF-TABULATED-ANISO-F-v12\n") {
+            OldLayout {
+                version: 12,
+                ratio: None,
             }
+        } else if raw.starts_with(b"MSBSDF-TABULATED-ANISO-F-v13\n") {
+            OldLayout {
+                version: 13,
+                ratio: Some(8),
+            }
+        } else {
+            return None;
+        };
+        let nodes: usize = Self::pairs()
+            .map(|(lo, hi)| old.grid_of(lo, hi).nodes())
+            .sum();
+        (raw.len() == HEADER_BYTES + 2 * CORR_VALUES * 2 * nodes).then_some(old)
+    }
+
+    /// The stored pairs `lo <= hi` in file order.
+    fn pairs() -> impl Iterator<Item = (usize, usize)> {
+        (0..CORR_A).flat_map(|lo| (lo..CORR_A).map(move |hi| (lo, hi)))
+    }
+
+    /// The grid of the old table's block `(lo, hi)`.
+    fn grid_of(&self, lo: usize, hi: usize) -> CorrGrid {
+        let (a, b) = (lo * lo, hi * hi);
+        match self.ratio {
+            Some(r) if lo > 0 && (b > r * a || a > r * b) => CORR_GRID_STRETCHED,
+            _ => CORR_GRID_PLAIN,
         }
     }
-    eprintln!("REUSE: {copied} plain blocks copied");
+
+    /// The old block's grid where the new table's block has the same
+    /// grid and stretch (`corr_stretch` depends on the pair and
+    /// `CORR_STRETCH_POW` only), else `None`.
+    fn grid(&self, jx: usize, jy: usize) -> Option<CorrGrid> {
+        let (lo, hi) = (jx.min(jy), jx.max(jy));
+        let g = self.grid_of(lo, hi);
+        (g == corr_pair_grid(lo, hi)).then_some(g)
+    }
+
+    /// Blocks per NDF that [`OldLayout::copy_shared_blocks`] copies.
+    fn shared(&self) -> usize {
+        Self::pairs()
+            .filter(|&(lo, hi)| self.grid(lo, hi).is_some())
+            .count()
+    }
+
+    /// Copies the blocks the old table `raw` shares with the new layout
+    /// into `table` (the new layout's `u16`).
+    fn copy_shared_blocks(&self, raw: &[u8], table: &mut [u16]) {
+        let ndf_len: usize = Self::pairs()
+            .map(|(lo, hi)| self.grid_of(lo, hi).nodes())
+            .sum();
+        let mut copied = 0;
+        for n in 0..2 {
+            let mut old = n * ndf_len;
+            for (lo, hi) in Self::pairs() {
+                let len = self.grid_of(lo, hi).nodes() * CORR_VALUES;
+                if self.grid(lo, hi).is_some() {
+                    let new = corr_index(n, lo, hi, 0, 0) * CORR_VALUES;
+                    for v in 0..len {
+                        let b = HEADER_BYTES + 2 * (old * CORR_VALUES + v);
+                        table[new + v] = u16::from_le_bytes([raw[b], raw[b + 1]]);
+                    }
+                    copied += 1;
+                }
+                old += len / CORR_VALUES;
+            }
+        }
+        eprintln!("REUSE: {copied} blocks copied");
+    }
 }
 
 /// `CONDUCTOR_E_ANISO` read as eval reads it (bilinear in the two alpha

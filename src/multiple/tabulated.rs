@@ -123,7 +123,8 @@
 //! NDF, roughness pair on a 31 x 31 grid ([`corr_grid_alpha`]) and node of
 //! a direction grid (`corr_dir`: the albedo table's 16 cosines and 17
 //! nodes of the diamond angle `|y| / (|x| + |y|)`, no `atan2`; in blocks
-//! of anisotropy ratio above 8 the diamond angle of `(|x|, rho |y|)`,
+//! of anisotropy ratio above 8 (5 where the rougher axis is above 0.89)
+//! the diamond angle of `(|x|, rho |y|)`,
 //! [`corr_stretch`], whose nodes crowd towards the smoother axis), linear
 //! on triangles in roughness (the lobe has a kink at isotropy) and
 //! bilinear in direction. `s` gives the lobe with `u` and `v` interpolated so the
@@ -302,7 +303,7 @@ pub const CORR_VALUES: usize = 2;
 /// [`CORR_LEN`].
 pub const CORR_FILE_BYTES: usize = HEADER_BYTES + 2 * CORR_VALUES * CORR_LEN;
 /// First bytes of the correction table file.
-pub const CORR_MAGIC: &[u8; 29] = b"MSBSDF-TABULATED-ANISO-F-v13\n";
+pub const CORR_MAGIC: &[u8; 29] = b"MSBSDF-TABULATED-ANISO-F-v14\n";
 
 /// Exponent of the peaked part's proxy ([`corr_proxy_ln`]) per NDF index
 /// (Beckmann, GGX): the correction table stores `v exp(CORR_PROXY_V L)`
@@ -377,8 +378,26 @@ pub fn corr_grid_alpha(j: usize) -> f32 {
 
 /// Anisotropy ratio `alpha_y / alpha_x` of a stored roughness pair above
 /// which the conductor correction's azimuth nodes are crowded towards the
-/// smoother axis ([`corr_stretch`]).
+/// smoother axis ([`corr_stretch`]); [`CORR_STRETCH_RATIO_ROUGH`] where
+/// the rougher axis is at node [`CORR_STRETCH_ROUGH_FROM`] or above.
 pub const CORR_STRETCH_RATIO: f32 = 8.0;
+
+/// The stretch's ratio threshold where the rougher axis is rough (node
+/// [`CORR_STRETCH_ROUGH_FROM`] on, version 14): in versions 9-13 the
+/// plain blocks of ratio 5-8 there left GGX and Beckmann (0.3, 1.9) at
+/// 75-85 degrees near the smooth axis -0.5% to -0.64% (0.22% on the
+/// stretched grid), while those of ratio 5-8 with a smoother rough axis
+/// kept the sweeps' materials within 0.3% on the plain grid ((0.11, 0.6),
+/// (0.05, 0.3)). The suite's (0.1, 0.6) materials read blocks of ratio
+/// 5.2-7.1 at nodes 16-17: on the stretched grid their anisotropic GGX
+/// gold went from 0.0287 to 0.0293 and their eval from 1,237 to 1,430
+/// instructions (the harness's conductor class from 1.46x to 1.51x
+/// SINGLE's time).
+pub const CORR_STRETCH_RATIO_ROUGH: f32 = 5.0;
+
+/// First node of the rougher axis (`alpha = 2 (20 / 30)^2 = 0.89`) from
+/// which [`CORR_STRETCH_RATIO_ROUGH`] applies.
+pub const CORR_STRETCH_ROUGH_FROM: usize = 20;
 
 /// Power of the anisotropy ratio in [`corr_stretch`]: 0.5 since version 13
 /// (0.3 with 17 azimuth nodes, versions 9-12). On the four blocks around
@@ -386,12 +405,15 @@ pub const CORR_STRETCH_RATIO: f32 = 8.0;
 /// with 0.4, -0.59% with 0.5 and 0.56% with 0.6, but +1.06% at 70 degrees
 /// on the rough side with 0.7 (its nodes there too sparse).
 pub const CORR_STRETCH_POW: f32 = 0.5;
+// `corr_read_stretch` takes `ratio^CORR_STRETCH_POW` as a square root.
+const _: () = assert!(CORR_STRETCH_POW == 0.5);
 
 /// The azimuth stretch of the conductor correction's block at roughness
 /// nodes `(jx, jy)`: a direction's azimuth coordinate in the block is
 /// the diamond angle of `(|x|, rho |y|)` (`corr_dirs`). 1 (the plain
 /// diamond angle) unless the block's ratio `alpha_y / alpha_x` (or its
-/// inverse) is above [`CORR_STRETCH_RATIO`]; there
+/// inverse) is above [`CORR_STRETCH_RATIO`] ([`CORR_STRETCH_RATIO_ROUGH`]
+/// from the rougher node [`CORR_STRETCH_ROUGH_FROM`] on); there
 /// `ratio^CORR_STRETCH_POW`, crowding the nodes towards the smoother
 /// axis (`1 / rho` for `alpha_x > alpha_y`).
 ///
@@ -402,12 +424,13 @@ pub const CORR_STRETCH_POW: f32 = 0.5;
 /// interpolation between plain nodes follows. At that block `rho` = 5.8
 /// puts the first of its [`CORR_PHI_STRETCHED`] nodes 0.43, 0.90, 1.41
 /// and 1.97 degrees from the axis. Only
-/// blocks above the ratio 8 are stretched: the suite's (0.1, 0.6)
-/// materials read blocks of ratio 5.2-7.1 and keep the plain nodes (when
-/// every block was stretched, session 12, their anisotropic GGX gold moved
-/// by +0.003, `docs/tabulated.md`). A material's three roughness corners
-/// are each read at their own nodes (one SIMD division for the three
-/// azimuth coordinates, only when a corner is stretched).
+/// the blocks above those ratios are stretched (the plain grid's nodes are
+/// closer to uniform in the azimuth; when every block was stretched,
+/// session 12, on 17 nodes, the suite's anisotropic GGX gold moved by
+/// +0.003, `docs/tabulated.md`). A material's three roughness corners
+/// are each read on their own nodes, at a stretch between the corner's
+/// and the material's own (`corr_read_stretch`; one SIMD division for
+/// the three azimuth coordinates, only when a corner is stretched).
 pub fn corr_stretch(jx: usize, jy: usize) -> f32 {
     // Plain corners (most materials) cost material init one table read.
     let stretched = CORR_STRETCHED
@@ -424,17 +447,23 @@ pub fn corr_stretch(jx: usize, jy: usize) -> f32 {
 /// Per node `jx`, bit `jy` set when the pair `(jx, jy)` has its azimuth
 /// nodes stretched ([`corr_stretch`]): the nodes' roughness is
 /// proportional to `j^2`, so the ratio test is exact on the integers (no
-/// pair has the ratio [`CORR_STRETCH_RATIO`] itself); pairs with a node 0
-/// (roughness 0) are plain.
+/// pair has the ratio [`CORR_STRETCH_RATIO`] or
+/// [`CORR_STRETCH_RATIO_ROUGH`] itself); pairs with a node 0 (roughness
+/// 0) are plain.
 const CORR_STRETCHED: [u32; CORR_A] = {
     assert!(CORR_A <= 32);
-    let ratio = CORR_STRETCH_RATIO as usize;
     let mut out = [0u32; CORR_A];
     let mut jx = 1;
     while jx < CORR_A {
         let mut jy = 1;
         while jy < CORR_A {
             let (a, b) = (jx * jx, jy * jy);
+            let rough = jx >= CORR_STRETCH_ROUGH_FROM || jy >= CORR_STRETCH_ROUGH_FROM;
+            let ratio = if rough {
+                CORR_STRETCH_RATIO_ROUGH
+            } else {
+                CORR_STRETCH_RATIO
+            } as usize;
             if b > ratio * a || a > ratio * b {
                 out[jx] |= 1 << jy;
             }
@@ -661,13 +690,34 @@ fn corr_corners(ndf: usize, ax: f32, ay: f32) -> CorrBlocks {
     let stretch = rho.iter().any(|&r| r != 1.0).then(|| {
         let g = rho.map(corr_grid);
         CorrStretch {
-            rho,
+            rho: rho.map(|r| corr_read_stretch(r, ax, ay)),
             last: g.map(|g| (g.phi - 1) as f32),
             top: g.map(|g| (g.phi - 2) as u8),
             mu_n: g.map(|g| g.mu as u8),
         }
     });
     CorrBlocks { corners, stretch }
+}
+
+/// The stretch at which a material `(ax, ay)` reads a corner of azimuth
+/// stretch `rho` ([`corr_stretch`]): 1 for a plain corner; for a
+/// stretched one the geometric mean of `rho` and the stretch the
+/// material would have as a node, `(ay / ax)^CORR_STRETCH_POW`
+/// (version 14). Near the smooth axis the factors fall at an azimuth
+/// that moves with the anisotropy; read at its own stretch, each corner
+/// puts its fall at its own azimuth, and the interpolation in roughness
+/// between two such falls dips: GGX (0.05, 1.9) at 86-88 degrees,
+/// azimuth 2.8, was -0.6% (the corners at `alpha_x` 0.036 and 0.056).
+/// Halfway (in the logarithm) towards the material's stretch: -0.41%
+/// there; the whole way moved the rough side (70 degrees, azimuth 68)
+/// from +0.46% to +0.60%. At a node material the two are equal.
+#[inline]
+fn corr_read_stretch(rho: f32, ax: f32, ay: f32) -> f32 {
+    if rho == 1.0 {
+        return 1.0;
+    }
+    let own = (ay.max(1e-6) / ax.max(1e-6)).sqrt();
+    (rho * own).sqrt()
 }
 
 /// The triangle of the unit square holding `(fx, fy)` (Kuhn: the diagonal
@@ -1036,7 +1086,7 @@ pub(crate) fn dcorr_phi4(c: Vec4) -> Vec4 {
 /// into `1 / rho` and the coordinate `c` into `1 - c`, so a transposed
 /// block is read with the corner's own stretch and its nodes mirrored.
 /// (The conductor's correction stretches only its blocks of anisotropy
-/// ratio above 8, by `ratio^0.5` on 25 nodes, [`corr_stretch`]: stretching
+/// ratio above 8 (5 where rough), by `ratio^0.5` on 25 nodes, [`corr_stretch`]: stretching
 /// every block moved the suite's anisotropic GGX gold, `docs/tabulated.md`.)
 #[inline(always)]
 pub(crate) fn dcorr_dir(w: Vec3, rho: f32) -> AnisoDir {
@@ -2528,8 +2578,9 @@ mod tests {
     }
 
     /// The conductor correction's azimuth stretch ([`corr_stretch`]) is 1
-    /// up to the anisotropy ratio [`CORR_STRETCH_RATIO`] and for an axis at
-    /// node 0, `ratio^CORR_STRETCH_POW` above it, inverted by the exchange
+    /// up to the anisotropy ratio [`CORR_STRETCH_RATIO`] (from the rougher
+    /// node [`CORR_STRETCH_ROUGH_FROM`] on [`CORR_STRETCH_RATIO_ROUGH`]) and
+    /// for an axis at node 0, `ratio^CORR_STRETCH_POW` above it, inverted by the exchange
     /// of the axes; and every node direction of a block reads its own node
     /// with weight 1 ([`corr_dir_weights`] and eval's per-corner
     /// [`corr_dirs`]), for plain, stretched and transposed blocks.
@@ -2548,7 +2599,12 @@ mod tests {
                     continue;
                 }
                 let ratio = corr_grid_alpha(jy) / corr_grid_alpha(jx);
-                let want = if ratio.max(1.0 / ratio) > CORR_STRETCH_RATIO {
+                let limit = if jx.max(jy) >= CORR_STRETCH_ROUGH_FROM {
+                    CORR_STRETCH_RATIO_ROUGH
+                } else {
+                    CORR_STRETCH_RATIO
+                };
+                let want = if ratio.max(1.0 / ratio) > limit {
                     ratio.powf(CORR_STRETCH_POW)
                 } else {
                     1.0
@@ -2560,8 +2616,9 @@ mod tests {
                 stretched += (rho != 1.0) as usize;
             }
         }
-        // Pairs with jy > sqrt(8) jx, both ways.
-        assert_eq!(stretched, 2 * 150);
+        // Pairs with jy > sqrt(8) jx (sqrt(5) jx from node 20 on), both
+        // ways.
+        assert_eq!(stretched, 2 * 175);
         for (jx, jy) in [(9, 9), (4, 11), (2, 27), (27, 2), (5, 29)] {
             let rho = corr_stretch(jx, jy);
             let blocks = corr_corners(1, corr_grid_alpha(jx), corr_grid_alpha(jy));
@@ -2611,7 +2668,12 @@ mod tests {
             for jy in 0..CORR_A {
                 let (ax, ay) = (corr_grid_alpha(jx), corr_grid_alpha(jy));
                 let ratio = ax.max(ay) / ax.min(ay);
-                let want = ax > 0.0 && ay > 0.0 && ratio > CORR_STRETCH_RATIO;
+                let limit = if ax.max(ay) >= corr_grid_alpha(CORR_STRETCH_ROUGH_FROM) {
+                    CORR_STRETCH_RATIO_ROUGH
+                } else {
+                    CORR_STRETCH_RATIO
+                };
+                let want = ax > 0.0 && ay > 0.0 && ratio > limit;
                 let rho = corr_stretch(jx, jy);
                 assert_eq!(rho != 1.0, want, "({jx}, {jy}): ratio {ratio}, rho {rho}");
                 if want {
@@ -2622,9 +2684,9 @@ mod tests {
                 }
             }
         }
-        // 300 stored blocks of 992 (both NDFs, jx <= jy) are stretched:
-        // 150 pairs per NDF, twice that over the full square.
-        assert_eq!(stretched, 300);
+        // 350 stored blocks of 992 (both NDFs, jx <= jy) are stretched:
+        // 175 pairs per NDF, twice that over the full square.
+        assert_eq!(stretched, 350);
     }
 
     /// The normal is the last cosine node of every azimuth node: the
@@ -2737,10 +2799,10 @@ mod tests {
             }
         }
         assert_eq!(next, CORR_LEN);
-        assert_eq!(stretched, 300);
+        assert_eq!(stretched, 350);
         assert_eq!(
             CORR_LEN,
-            NDF_N * (346 * CORR_PHI * CORR_MU + 150 * CORR_PHI_STRETCHED * CORR_MU_STRETCHED)
+            NDF_N * (321 * CORR_PHI * CORR_MU + 175 * CORR_PHI_STRETCHED * CORR_MU_STRETCHED)
         );
         assert_eq!(RAW_CORR.len(), HEADER_BYTES + 2 * CORR_VALUES * CORR_LEN);
     }
