@@ -134,14 +134,17 @@ fn white_furnace_anisotropic() {
 /// rough axis (70.3 degrees); eval over
 /// `compensation::broad_reflection_nodes` (the lobe is broad, the
 /// normals' reflections crowd into a band at this anisotropy). Measured
-/// worst 0.0053 (GGX (0.05, 1.9) and (0.11, 1.9) at 20 degrees, azimuth
-/// 70.3: the last cosine interval; version 14 of the correction, whose
-/// stretched corners a material reads towards its own stretch,
-/// `tabulated::corr_read_stretch`; (0.3, 1.9) reads blocks of ratio 5-8
-/// stretched since then, within 0.42% here). Version 13 gave 0.0061 (GGX
+/// worst 0.0050 (Beckmann (0.05, 1.9) at 88 degrees on the smooth axis:
+/// the interpolation in roughness; version 15 of the correction, whose
+/// stretched blocks have a cosine node at 20.8 degrees). Version 14 gave
+/// 0.0053 (GGX (0.05, 1.9) and (0.11, 1.9) at 20 degrees, azimuth 70.3:
+/// the last cosine interval; version 14's stretched corners a material
+/// reads towards its own stretch, `tabulated::corr_read_stretch`; (0.3,
+/// 1.9) reads blocks of ratio 5-8 stretched since then, within 0.42%
+/// there; bound 0.007). Version 13 gave 0.0061 (GGX
 /// (0.05, 1.9) at 88 degrees, azimuth 2.8, now 0.30%: the interpolation in
 /// roughness between stretched blocks, `docs/tabulated.md`). The issue's
-/// 0.5% is not met there: this bounds what is (0.007; 0.008 with version
+/// 0.5% is not met there: this bounds what is (0.006; 0.008 with version
 /// 13; 86 degrees added with version 13). Version
 /// 12 gave 0.0184 (GGX (0.05, 1.9) at 88 degrees, azimuth 2: between the
 /// stretched block's azimuth nodes at 1.3 and 2.9 degrees; version 11 of
@@ -184,7 +187,7 @@ fn anisotropic_furnace_at_the_range_corners() {
         }
     }
     println!("{report}worst |albedo - 1| = {worst:.4}");
-    assert!(worst < 0.007, "{report}");
+    assert!(worst < 0.006, "{report}");
 }
 
 /// Sample directions against the pdf: chi-square per configuration with a

@@ -6,8 +6,9 @@
 //! direction node (`tabulated::corr_node_dir`: the albedo table's 16
 //! cosines and the midpoints of two intervals near grazing,
 //! `tabulated::CORR_MU` = 18, and `tabulated::CORR_PHI` = 17
-//! diamond-angle azimuths; in the stretched blocks four midpoints,
-//! `CORR_MU_STRETCHED` = 20, and `CORR_PHI_STRETCHED` = 25 azimuths),
+//! diamond-angle azimuths; in the stretched blocks four midpoints near
+//! grazing and one at the normal, `CORR_MU_STRETCHED` = 21, and
+//! `CORR_PHI_STRETCHED` = 25 azimuths),
 //! the two factors `u = s sqrt(t)`, `v = s sqrt(b)` of the lobe `T u(wi) u(wo) + P v(wi) v(wo)`
 //! (`Tabulated::aniso_parts`; `t`, `b` from `Tabulated::aniso_factors`),
 //! with `s` such that the lobe has the multiply scattered albedo
@@ -34,7 +35,7 @@
 //! (every block; about 80 minutes on 2 threads). Environment switches:
 //! `PAIRS=n:jx:jy,...` solves the listed blocks only (experiments: the
 //! others are 0, and the header's command line says so);
-//! `REUSE=PATH` copies the blocks an earlier table (version 12 or 13)
+//! `REUSE=PATH` copies the blocks an earlier table (version 12, 13 or 14)
 //! has on the same grid and stretch, which this code computes bit for
 //! bit, and solves the others (the committed version 14 was made so from
 //! version 13, which was made so from version 12: its header names the
@@ -61,12 +62,12 @@ use msbsdf::multiple::compensation::{
 };
 use msbsdf::multiple::compensation_aniso_tables::{AN_A, AN_MU, AN_PHI, CONDUCTOR_E_ANISO};
 use msbsdf::multiple::tabulated::{
-    CORR_A, CORR_GRID_PLAIN, CORR_GRID_STRETCHED, CORR_LEN, CORR_MAGIC, CORR_MAX, CORR_MU,
-    CORR_MU_FINE, CORR_MU_FINE_FROM, CORR_PAIR_MAX, CORR_PHI, CORR_PHI_STRETCHED, CORR_PROXY_V,
-    CORR_STRETCH_POW, CORR_STRETCH_RATIO, CORR_STRETCH_RATIO_ROUGH, CORR_STRETCH_ROUGH_FROM,
-    CORR_VALUES, CorrGrid, HEADER_BYTES, Tabulated, corr_azimuth_dir, corr_decode,
-    corr_dir_weights, corr_encode, corr_grid, corr_grid_alpha, corr_index, corr_node_dir,
-    corr_pair_grid, corr_proxy, corr_stretch, dcorr_dir_weights, dcorr_node_dir,
+    CORR_A, CORR_GRID_PLAIN, CORR_LEN, CORR_MAGIC, CORR_MAX, CORR_MU, CORR_MU_FINE,
+    CORR_MU_FINE_FROM, CORR_PAIR_MAX, CORR_PHI, CORR_PHI_STRETCHED, CORR_PROXY_V, CORR_STRETCH_POW,
+    CORR_STRETCH_RATIO, CORR_STRETCH_RATIO_ROUGH, CORR_STRETCH_ROUGH_FROM, CORR_VALUES, CorrGrid,
+    HEADER_BYTES, Tabulated, corr_azimuth_dir, corr_decode, corr_dir_weights, corr_encode,
+    corr_grid, corr_grid_alpha, corr_index, corr_node_dir, corr_pair_grid, corr_proxy,
+    corr_stretch, dcorr_dir_weights, dcorr_node_dir,
 };
 use msbsdf::ndf::{Ndf, NdfKind};
 use msbsdf::rng::Rng;
@@ -510,7 +511,7 @@ fn main() {
     }
     let command: Vec<String> = args.iter().skip(1).cloned().collect();
     let header = format!(
-        "ANISO_CORRECTION v14 (MSBSDF_MODEL_TABULATED): per [ndf: Beckmann, GGX][roughness \
+        "ANISO_CORRECTION v15 (MSBSDF_MODEL_TABULATED): per [ndf: Beckmann, GGX][roughness \
          pair (jx <= jy) of {CORR_A} x {CORR_A}: alpha = 2 (j / {})^2][azimuth n: {CORR_PHI} \
          nodes, {CORR_PHI_STRETCHED} in the stretched blocks (tabulated::corr_pair_grid), of the diamond angle rho |y| / (|x| + rho |y|) from 0 to 1, rho the block's \
          stretch (tabulated::corr_stretch: 1 up to alpha_y / alpha_x = {CORR_STRETCH_RATIO}, \
@@ -598,13 +599,23 @@ fn main() {
 }
 
 /// The block layout of an earlier conductor correction table (`REUSE`):
-/// version 12 (every block plain) or 13 (blocks of anisotropy ratio above
-/// 8 stretched, on [`CORR_GRID_STRETCHED`]).
+/// version 12 (every block plain), 13 (blocks of anisotropy ratio above
+/// 8 stretched, on 25 x 20 nodes) or 14 (also those of ratio 5-8 with the
+/// rougher axis at node 20 or above).
 struct OldLayout {
     version: u32,
-    /// Stretch ratio threshold of the stretched blocks (`None`: none).
-    ratio: Option<usize>,
+    /// Stretch ratio threshold of the stretched blocks (`None`: none),
+    /// and the lower threshold and the rougher node from which it holds.
+    ratio: Option<(usize, Option<(usize, usize)>)>,
 }
+
+/// The stretched blocks' grid of versions 13 and 14.
+const V14_STRETCHED: CorrGrid = CorrGrid {
+    phi: 25,
+    mu: 20,
+    fine: 4,
+    tail: 0,
+};
 
 impl OldLayout {
     /// The layout of `raw` from its magic, checked against its size.
@@ -617,7 +628,12 @@ impl OldLayout {
         } else if raw.starts_with(b"MSBSDF-TABULATED-ANISO-F-v13\n") {
             OldLayout {
                 version: 13,
-                ratio: Some(8),
+                ratio: Some((8, None)),
+            }
+        } else if raw.starts_with(b"MSBSDF-TABULATED-ANISO-F-v14\n") {
+            OldLayout {
+                version: 14,
+                ratio: Some((8, Some((5, 20)))),
             }
         } else {
             return None;
@@ -636,9 +652,17 @@ impl OldLayout {
     /// The grid of the old table's block `(lo, hi)`.
     fn grid_of(&self, lo: usize, hi: usize) -> CorrGrid {
         let (a, b) = (lo * lo, hi * hi);
-        match self.ratio {
-            Some(r) if lo > 0 && (b > r * a || a > r * b) => CORR_GRID_STRETCHED,
-            _ => CORR_GRID_PLAIN,
+        let Some((r, rough)) = self.ratio else {
+            return CORR_GRID_PLAIN;
+        };
+        let r = match rough {
+            Some((r5, from)) if hi >= from => r5,
+            _ => r,
+        };
+        if lo > 0 && (b > r * a || a > r * b) {
+            V14_STRETCHED
+        } else {
+            CORR_GRID_PLAIN
         }
     }
 

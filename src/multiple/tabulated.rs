@@ -281,8 +281,14 @@ pub const CORR_MU: usize = AN_MU + CORR_MU_FINE;
 /// degrees left the furnace -0.93% at 86 degrees with 33 azimuth nodes
 /// (-0.58% with this grid, `docs/tabulated.md`).
 pub const CORR_MU_FINE_STRETCHED: usize = 4;
+/// Intervals of ENERGY_COMPENSATED's anisotropic cosine grid at the
+/// normal that the conductor correction's stretched blocks halve (the
+/// last, 29.3 to 0 degrees: a node at 20.8 degrees; version 15): near
+/// the rough axis of GGX (0.05-0.11, 1.9) the furnace was -0.6% at 15-20
+/// degrees, the interpolant across that interval.
+pub const CORR_MU_TAIL_STRETCHED: usize = 1;
 /// Cosine nodes of the conductor correction's stretched blocks.
-pub const CORR_MU_STRETCHED: usize = AN_MU + CORR_MU_FINE_STRETCHED;
+pub const CORR_MU_STRETCHED: usize = AN_MU + CORR_MU_FINE_STRETCHED + CORR_MU_TAIL_STRETCHED;
 /// Values per plain roughness pair: the diamond-angle azimuth and the
 /// cosine grid (`[phi: CORR_PHI][mu: CORR_MU]`); a stretched pair holds
 /// [`CORR_PHI_STRETCHED`] azimuth rows ([`CorrGrid::nodes`]).
@@ -303,7 +309,7 @@ pub const CORR_VALUES: usize = 2;
 /// [`CORR_LEN`].
 pub const CORR_FILE_BYTES: usize = HEADER_BYTES + 2 * CORR_VALUES * CORR_LEN;
 /// First bytes of the correction table file.
-pub const CORR_MAGIC: &[u8; 29] = b"MSBSDF-TABULATED-ANISO-F-v14\n";
+pub const CORR_MAGIC: &[u8; 29] = b"MSBSDF-TABULATED-ANISO-F-v15\n";
 
 /// Exponent of the peaked part's proxy ([`corr_proxy_ln`]) per NDF index
 /// (Beckmann, GGX): the correction table stores `v exp(CORR_PROXY_V L)`
@@ -481,8 +487,8 @@ pub const fn corr_pair(jx: usize, jy: usize) -> usize {
 }
 
 /// The node grid of a conductor correction block: azimuth nodes, cosine
-/// nodes and the cosine intervals halved from [`CORR_MU_FINE_FROM`] on
-/// ([`corr_mu_coord_in`]). Plain blocks have [`CORR_GRID_PLAIN`],
+/// nodes, the cosine intervals halved from [`CORR_MU_FINE_FROM`] on and
+/// those halved at the normal ([`corr_mu_coord_in`]). Plain blocks have [`CORR_GRID_PLAIN`],
 /// stretched ones ([`corr_stretch`] not 1) [`CORR_GRID_STRETCHED`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct CorrGrid {
@@ -490,8 +496,10 @@ pub struct CorrGrid {
     pub phi: usize,
     /// Cosine nodes.
     pub mu: usize,
-    /// Halved cosine intervals.
+    /// Halved cosine intervals from [`CORR_MU_FINE_FROM`] on.
     pub fine: usize,
+    /// Halved cosine intervals at the normal.
+    pub tail: usize,
 }
 
 /// The plain blocks' grid.
@@ -499,6 +507,7 @@ pub const CORR_GRID_PLAIN: CorrGrid = CorrGrid {
     phi: CORR_PHI,
     mu: CORR_MU,
     fine: CORR_MU_FINE,
+    tail: 0,
 };
 
 /// The stretched blocks' grid.
@@ -506,7 +515,11 @@ pub const CORR_GRID_STRETCHED: CorrGrid = CorrGrid {
     phi: CORR_PHI_STRETCHED,
     mu: CORR_MU_STRETCHED,
     fine: CORR_MU_FINE_STRETCHED,
+    tail: CORR_MU_TAIL_STRETCHED,
 };
+const _: () =
+    assert!(CORR_GRID_STRETCHED.mu == AN_MU + CORR_GRID_STRETCHED.fine + CORR_GRID_STRETCHED.tail);
+const _: () = assert!(CORR_GRID_PLAIN.mu == AN_MU + CORR_GRID_PLAIN.fine + CORR_GRID_PLAIN.tail);
 
 impl CorrGrid {
     /// Nodes of a block: `phi` azimuth rows of `mu` cosines.
@@ -518,13 +531,13 @@ impl CorrGrid {
     /// + 0.5` the midpoint to the next; the inverse of
     /// [`corr_mu_coord_in`]).
     pub fn mu_at(self, x: f32) -> f32 {
-        corr_grid_mu_in(x, self.fine)
+        corr_grid_mu_in(x, self)
     }
 
     /// A cosine's lower node and the weight of the upper one.
     #[inline(always)]
     pub fn mu_split(self, mu: f32) -> (usize, f32) {
-        split_at(corr_mu_coord_in(mu, self.fine), self.mu)
+        split_at(corr_mu_coord_in(mu, self), self.mu)
     }
 }
 
@@ -917,12 +930,8 @@ fn corr_dirs(s: &CorrStretch, w: Vec3) -> [AnisoDir; 3] {
     // The two cosine grids' splits (one coordinate), each corner on its
     // own.
     let c = compensation::aniso_mu_coord(w.z.abs());
-    let [plain, fine] = [CORR_GRID_PLAIN, CORR_GRID_STRETCHED].map(|g| {
-        split_at(
-            c + (c - CORR_MU_FINE_FROM as f32).max(0.0).min(g.fine as f32),
-            g.mu,
-        )
-    });
+    let [plain, fine] =
+        [CORR_GRID_PLAIN, CORR_GRID_STRETCHED].map(|g| split_at(corr_mu_coord_of(c, g), g.mu));
     [0, 1, 2].map(|j| {
         let (i0, fi) = if s.mu_n[j] as usize == CORR_MU {
             plain
@@ -946,15 +955,29 @@ fn corr_dirs(s: &CorrStretch, w: Vec3) -> [AnisoDir; 3] {
 /// clamp(c - CORR_MU_FINE_FROM, 0, CORR_MU_FINE)`.
 #[inline(always)]
 pub fn corr_mu_coord(mu: f32) -> f32 {
-    corr_mu_coord_in(mu, CORR_MU_FINE)
+    corr_mu_coord_in(mu, CORR_GRID_PLAIN)
 }
 
-/// [`corr_mu_coord`] with `fine` intervals halved ([`CORR_MU_FINE`] in
-/// the plain blocks, [`CORR_MU_FINE_STRETCHED`] in the stretched ones).
+/// [`corr_mu_coord`] on grid `g`: `g.fine` intervals halved from
+/// [`CORR_MU_FINE_FROM`] on ([`CORR_MU_FINE`] in the plain blocks,
+/// [`CORR_MU_FINE_STRETCHED`] in the stretched ones) and `g.tail` at the
+/// normal ([`CORR_MU_TAIL_STRETCHED`] in the stretched ones).
 #[inline(always)]
-pub fn corr_mu_coord_in(mu: f32, fine: usize) -> f32 {
-    let c = compensation::aniso_mu_coord(mu);
-    c + (c - CORR_MU_FINE_FROM as f32).max(0.0).min(fine as f32)
+pub fn corr_mu_coord_in(mu: f32, g: CorrGrid) -> f32 {
+    corr_mu_coord_of(compensation::aniso_mu_coord(mu), g)
+}
+
+/// [`corr_mu_coord_in`] from ENERGY_COMPENSATED's coordinate `c`: `c +
+/// clamp(c - CORR_MU_FINE_FROM, 0, g.fine) + max(c - (AN_MU - 1 -
+/// g.tail), 0)`.
+#[inline(always)]
+fn corr_mu_coord_of(c: f32, g: CorrGrid) -> f32 {
+    let fine = (c - CORR_MU_FINE_FROM as f32).max(0.0).min(g.fine as f32);
+    // The plain grid (a constant where eval reads it) has no tail.
+    if g.tail == 0 {
+        return c + fine;
+    }
+    c + fine + (c - (AN_MU - 1 - g.tail) as f32).max(0.0)
 }
 
 /// The cosine of the conductor correction's node coordinate `x` in its
@@ -962,18 +985,21 @@ pub fn corr_mu_coord_in(mu: f32, fine: usize) -> f32 {
 /// node `i`, `i + 0.5` the cosine midpoint between nodes `i` and `i +
 /// 1`).
 pub fn corr_grid_mu_at(x: f32) -> f32 {
-    corr_grid_mu_in(x, CORR_MU_FINE)
+    corr_grid_mu_in(x, CORR_GRID_PLAIN)
 }
 
-/// The inverse of [`corr_mu_coord_in`] with `fine` intervals halved.
-fn corr_grid_mu_in(x: f32, fine: usize) -> f32 {
-    let (from, fine) = (CORR_MU_FINE_FROM as f32, fine as f32);
+/// The inverse of [`corr_mu_coord_in`] on grid `g`.
+fn corr_grid_mu_in(x: f32, g: CorrGrid) -> f32 {
+    let (from, fine) = (CORR_MU_FINE_FROM as f32, g.fine as f32);
+    let tail_from = (AN_MU - 1 - g.tail) as f32;
     let c = if x <= from {
         x
     } else if x <= from + 2.0 * fine {
         from + 0.5 * (x - from)
-    } else {
+    } else if x <= tail_from + fine {
         x - fine
+    } else {
+        tail_from + 0.5 * (x - tail_from - fine)
     };
     compensation::aniso_grid_mu_at(c)
 }
@@ -2539,20 +2565,28 @@ mod tests {
     #[test]
     fn conductor_cosine_grid() {
         use crate::multiple::compensation::{aniso_grid_mu, aniso_grid_mu_at};
-        for (rho, fine, n) in [
-            (1.0, CORR_MU_FINE, CORR_MU),
-            (2.0, CORR_MU_FINE_STRETCHED, CORR_MU_STRETCHED),
+        for (rho, fine, tail, n) in [
+            (1.0, CORR_MU_FINE, 0, CORR_MU),
+            (
+                2.0,
+                CORR_MU_FINE_STRETCHED,
+                CORR_MU_TAIL_STRETCHED,
+                CORR_MU_STRETCHED,
+            ),
         ] {
             let g = corr_grid(rho);
-            assert_eq!((g.mu, g.fine), (n, fine));
+            assert_eq!((g.mu, g.fine, g.tail), (n, fine, tail));
             let from = CORR_MU_FINE_FROM;
+            let tail_from = AN_MU - 1 - tail;
             for i in 0..n {
                 let want = if i <= from {
                     aniso_grid_mu(i)
                 } else if i <= from + 2 * fine {
                     aniso_grid_mu_at(from as f32 + 0.5 * (i - from) as f32)
-                } else {
+                } else if i <= tail_from + fine {
                     aniso_grid_mu(i - fine)
+                } else {
+                    aniso_grid_mu_at(tail_from as f32 + 0.5 * (i - tail_from - fine) as f32)
                 };
                 assert_eq!(g.mu_at(i as f32), want, "node {i}");
                 if rho == 1.0 {
@@ -2566,14 +2600,14 @@ mod tests {
                 let mu = g.mu_at(x);
                 assert!(mu > last, "x {x}: {mu} after {last}");
                 last = mu;
-                let back = corr_mu_coord_in(mu, fine);
+                let back = corr_mu_coord_in(mu, g);
                 assert!((back - x).abs() < 1e-3, "x {x}: mu {mu} reads {back}");
                 if rho == 1.0 {
                     assert_eq!(back, corr_mu_coord(mu));
                 }
             }
             // Below the first node: node 0.
-            assert_eq!(corr_mu_coord_in(0.0, fine), 0.0);
+            assert_eq!(corr_mu_coord_in(0.0, g), 0.0);
         }
     }
 
