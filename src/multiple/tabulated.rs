@@ -665,8 +665,9 @@ struct CorrBlocks {
     stretch: Option<CorrStretch>,
 }
 
-/// The grids of a material's three corners when one is stretched: each
-/// corner's stretch ([`corr_stretch`]), its last azimuth node `n - 1`
+/// The grids of a material's three corners when one is stretched: the
+/// stretch at which the material reads each corner ([`corr_read_stretch`]
+/// of the corner's [`corr_stretch`]), its last azimuth node `n - 1`
 /// ([`CorrGrid`]) as a float, `n - 2` (the mirrored read's first
 /// row is `n - 2 - k0`) and its cosine nodes per azimuth row
 /// ([`CorrGrid::mu`]).
