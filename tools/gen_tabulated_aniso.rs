@@ -37,9 +37,8 @@
 //! others are 0, and the header's command line says so);
 //! `REUSE=PATH` copies the blocks an earlier table (version 12, 13 or 14)
 //! has on the same grid and stretch, which this code computes bit for
-//! bit, and solves the others (the committed version 14 was made so from
-//! version 13, which was made so from version 12: its header names the
-//! runs);
+//! bit, and solves the others (the committed version 15 was made so from
+//! version 14, 14 from 13 and 13 from 12: its header names the runs);
 //! `-- --dielectric [--quad N]` writes the dielectric tier's
 //! `data/tabulated_aniso_dielectric.bin` the same way ([`dielectric`]);
 //! `-- --dielectric-random [COUNT]` measures anisotropic glass's furnace
@@ -465,13 +464,13 @@ fn main() {
         jobs.retain(|j| keep.contains(j));
     }
     // `REUSE=PATH`: the blocks whose grid and stretch an earlier table
-    // (version 12 or 13) shares are copied from it: this code computes
+    // (version 12, 13 or 14) shares are copied from it: this code computes
     // them bit for bit (the same nodes, rows, balancing and solve); only
     // the others are solved. The header's command line says so.
     let reuse = std::env::var("REUSE").ok().map(|path| {
         let raw = std::fs::read(&path).expect("read the REUSE table");
         let old = OldLayout::of(&raw)
-            .expect("REUSE needs a version-12 or -13 conductor correction table");
+            .expect("REUSE needs a version-12, -13 or -14 conductor correction table");
         jobs.retain(|&(_, jx, jy)| old.grid(jx, jy) != Some(corr_pair_grid(jx, jy)));
         (path, raw, old)
     });
