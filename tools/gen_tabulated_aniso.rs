@@ -471,7 +471,7 @@ fn main() {
         let raw = std::fs::read(&path).expect("read the REUSE table");
         let old = OldLayout::of(&raw)
             .expect("REUSE needs a version-12, -13 or -14 conductor correction table");
-        jobs.retain(|&(_, jx, jy)| old.grid(jx, jy) != Some(corr_pair_grid(jx, jy)));
+        jobs.retain(|&(_, jx, jy)| !old.shares(jx, jy));
         (path, raw, old)
     });
     let threads: usize = std::env::var("THREADS")
@@ -665,42 +665,41 @@ impl OldLayout {
         }
     }
 
-    /// The old block's grid where the new table's block has the same
-    /// grid and stretch (`corr_stretch` depends on the pair and
-    /// `CORR_STRETCH_POW` only), else `None`.
-    fn grid(&self, jx: usize, jy: usize) -> Option<CorrGrid> {
+    /// Whether the old table's block `(jx, jy)` has the new one's grid
+    /// and stretch (`corr_stretch` depends on the pair and
+    /// `CORR_STRETCH_POW` only; the grids compare every field).
+    fn shares(&self, jx: usize, jy: usize) -> bool {
         let (lo, hi) = (jx.min(jy), jx.max(jy));
-        let g = self.grid_of(lo, hi);
-        (g == corr_pair_grid(lo, hi)).then_some(g)
+        self.grid_of(lo, hi) == corr_pair_grid(lo, hi)
     }
 
     /// Blocks per NDF that [`OldLayout::copy_shared_blocks`] copies.
     fn shared(&self) -> usize {
         Self::pairs()
-            .filter(|&(lo, hi)| self.grid(lo, hi).is_some())
+            .filter(|&(lo, hi)| self.shares(lo, hi))
             .count()
     }
 
     /// Copies the blocks the old table `raw` shares with the new layout
     /// into `table` (the new layout's `u16`).
     fn copy_shared_blocks(&self, raw: &[u8], table: &mut [u16]) {
-        let ndf_len: usize = Self::pairs()
-            .map(|(lo, hi)| self.grid_of(lo, hi).nodes())
-            .sum();
+        let values = |lo, hi| self.grid_of(lo, hi).nodes() * CORR_VALUES;
+        let ndf_len: usize = Self::pairs().map(|(lo, hi)| values(lo, hi)).sum();
         let mut copied = 0;
         for n in 0..2 {
+            // The block's first value in the old table.
             let mut old = n * ndf_len;
             for (lo, hi) in Self::pairs() {
-                let len = self.grid_of(lo, hi).nodes() * CORR_VALUES;
-                if self.grid(lo, hi).is_some() {
+                let len = values(lo, hi);
+                if self.shares(lo, hi) {
                     let new = corr_index(n, lo, hi, 0, 0) * CORR_VALUES;
                     for v in 0..len {
-                        let b = HEADER_BYTES + 2 * (old * CORR_VALUES + v);
+                        let b = HEADER_BYTES + 2 * (old + v);
                         table[new + v] = u16::from_le_bytes([raw[b], raw[b + 1]]);
                     }
                     copied += 1;
                 }
-                old += len / CORR_VALUES;
+                old += len;
             }
         }
         eprintln!("REUSE: {copied} blocks copied");
