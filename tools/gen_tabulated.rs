@@ -46,6 +46,9 @@ const SEED_LOBE: u64 = 20261124;
 const SEED_FRESNEL: u64 = 20261125;
 const SEED_GRAM: u64 = 20261126;
 const SEED_SCALE: u64 = 20261127;
+/// Largest furnace scale the scale solve gives a node (just under the
+/// encoding's `SCALE_MAX`).
+const SCALE_TOP: f64 = 0.99 * SCALE_MAX as f64;
 const SEED_SCHLICK: u64 = 20261128;
 /// Cosine terms of the least-squares fit (the file keeps the first K_STORED).
 const K_FIT: usize = 8;
@@ -530,6 +533,8 @@ fn scale_main(args: &[String]) {
     let mut scale = vec![1.0f32; SCALE_LEN];
     let (mut worst_before, mut worst_after, mut s_min, mut s_max) =
         (0.0f64, 0.0f64, 1.0f64, 1.0f64);
+    // Nodes whose target 1 - E_ss is 0 (their scale is 0).
+    let mut zero_targets = 0usize;
     for n in 0..NDF_N {
         for a in 1..SCALE_ALPHA_N {
             let (a0, a1, fa) = split(alpha_coord(scale_grid_alpha(a)), ALPHA_N);
@@ -579,6 +584,7 @@ fn scale_main(args: &[String]) {
                 })
                 .collect();
             let target: Vec<f64> = (0..fine).map(|i| res[base + i].0).collect();
+            zero_targets += target.iter().filter(|&&t| t <= 0.0).count();
             let mut sc = vec![1.0f64; fine];
             for (i, t) in target.iter().enumerate() {
                 let r: f64 = kernel[i].iter().sum();
@@ -588,9 +594,22 @@ fn scale_main(args: &[String]) {
             }
             for _ in 0..300 {
                 for i in 0..fine {
+                    // A node whose target is 0 (E_ss = 1: Beckmann at low
+                    // roughness near grazing, where the quadrature gives
+                    // E_ss >= 1) gets no multiply scattered energy: scale
+                    // 0. Before this rule (session 22) such nodes kept
+                    // their start value 1, and the unscaled lobe gave
+                    // Beckmann alpha 0.002 at 89 degrees an albedo of 1.023.
+                    if target[i] <= 0.0 {
+                        sc[i] = 0.0;
+                        continue;
+                    }
                     let cur: f64 = (0..fine).map(|y| kernel[i][y] * sc[i] * sc[y]).sum();
-                    if cur > 0.0 && target[i] > 0.0 {
-                        sc[i] *= (target[i] / cur).sqrt();
+                    // At most just under SCALE_MAX: the encoding's range.
+                    // Beckmann alpha 0.0005 at 86 degrees, next to nodes
+                    // of target 0, asks for 44 to meet a target of 2e-6.
+                    if cur > 0.0 {
+                        sc[i] = (sc[i] * (target[i] / cur).sqrt()).min(SCALE_TOP);
                     }
                 }
             }
@@ -637,7 +656,7 @@ fn scale_main(args: &[String]) {
          commit: {}\n\
          lobe table: {table} ({table_commit})\n\
          E_ss: SINGLE quadrature 192 x 192; albedo of the peaked part: {samples} SINGLE samples per node, seed Rng::new({SEED_SCALE}, stream = job index)\n\
-         albedo of the alpha-interpolated table vs 1 - E_ss: worst relative deviation {worst_before:.3e} (targets > 1e-3); after scaling {worst_after:.3e} (before the u16 encoding); scales in [{s_min:.4}, {s_max:.4}]\n\
+         albedo of the alpha-interpolated table vs 1 - E_ss: worst relative deviation {worst_before:.3e} (targets > 1e-3); after scaling {worst_after:.3e} (before the u16 encoding); scales in [{s_min:.4}, {s_max:.4}]; {zero_targets} nodes with the target 0 (E_ss >= 1 by the quadrature) have the scale 0\n\
          Schlick weights (1 - c)^5 of multiply scattered paths: first facets per (ndf, alpha node, mu node) of the lobe grid, all facets per (ndf, alpha node); instrumented walk, {schlick_walks} walks per entry, seed Rng::new({SEED_SCHLICK}, stream = job index)\n\
          layout: per (ndf {NDF_N}, scale alpha {SCALE_ALPHA_N}, scale mu {SCALE_MU_N}) node two u16: the scale s = {SCALE_MAX} (v / 65535)^2 and the first-facet Schlick weight (v / 65535)^2 (resampled bilinearly from the lobe grid); then the all-facets weights, f32 per (ndf, alpha node)\n\
          wall time: {:.0} s on {threads} threads\n",
