@@ -396,11 +396,11 @@ fn main() {
         return;
     }
     if args.iter().any(|a| a == "--sweep") {
-        conductor_sweep(azimuths_arg(&args), &thetas_arg(&args));
+        conductor_sweep(azimuths_arg(&args), &thetas_arg(&args), &alphas_arg(&args));
         return;
     }
     if args.iter().any(|a| a == "--dielectric-sweep") {
-        dielectric_sweep(azimuths_arg(&args), &thetas_arg(&args));
+        dielectric_sweep(azimuths_arg(&args), &thetas_arg(&args), &alphas_arg(&args));
         return;
     }
     if args.iter().any(|a| a == "--dielectric-eta-scan") {
@@ -1449,6 +1449,20 @@ fn azimuths_arg(args: &[String]) -> usize {
 
 /// The polar angles of the sweeps in degrees: `--thetas A,B,...`, by
 /// default 0, 30, 60, 75, 85 and 89.
+/// The sweeps' roughness values: `--alphas A,B,...` (pairs `alpha_x <
+/// alpha_y` of them), [`SWEEP_ALPHAS`] by default.
+fn alphas_arg(args: &[String]) -> Vec<f32> {
+    args.iter()
+        .position(|a| a == "--alphas")
+        .and_then(|p| args.get(p + 1))
+        .map(|v| {
+            v.split(',')
+                .filter_map(|t| t.trim().parse().ok())
+                .collect::<Vec<f32>>()
+        })
+        .filter(|v| v.len() >= 2)
+        .unwrap_or_else(|| SWEEP_ALPHAS.to_vec())
+}
 fn thetas_arg(args: &[String]) -> Vec<f32> {
     args.iter()
         .position(|a| a == "--thetas")
@@ -1534,8 +1548,25 @@ fn conductor_at(args: &[String]) {
         let q = conductor_albedo(&tab, ax, ay, wi);
         let qb = conductor_albedo(&bare, ax, ay, wi);
         let qs = conductor_albedo(&single, ax, ay, wi);
+        // With MC=N: the mean of N sample weights (an estimate independent
+        // of the quadrature) and its standard error.
+        let mc = match std::env::var("MC").ok().and_then(|v| v.parse::<u64>().ok()) {
+            Some(count) if count > 1 => {
+                let mut rng = Rng::new(7, 11);
+                let (mut sum, mut sq) = (0.0f64, 0.0f64);
+                for _ in 0..count {
+                    let w = tab.sample(wi, &mut rng).weight.x as f64;
+                    sum += w;
+                    sq += w * w;
+                }
+                let mean = sum / count as f64;
+                let se = ((sq / count as f64 - mean * mean).max(0.0) / count as f64).sqrt();
+                format!(", sampled {:+.4} +- {se:.4}", mean - 1.0)
+            }
+            _ => String::new(),
+        };
         println!(
-            "phi {phi:6.2}: {:+.4} (uncorrected {:+.4}, SINGLE {qs:.4})",
+            "phi {phi:6.2}: {:+.4} (uncorrected {:+.4}, SINGLE {qs:.4}{mc})",
             q - 1.0,
             qb - 1.0
         );
@@ -1550,8 +1581,7 @@ fn conductor_at(args: &[String]) {
 /// {0.05, 0.11, 0.3, 0.6, 1, 1.9}, `wi` at 0, 30, 60, 75, 85 and 89
 /// degrees (or `--thetas`, [`thetas_arg`]), `N` azimuths from 0 to 90 (9
 /// by default, [`azimuths_arg`]).
-fn conductor_sweep(azimuths: usize, thetas: &[f32]) {
-    let alphas = SWEEP_ALPHAS;
+fn conductor_sweep(azimuths: usize, thetas: &[f32], alphas: &[f32]) {
     let white = Facet::Conductor {
         eta: Vec3::ZERO,
         k: Vec3::ONE,
@@ -1611,9 +1641,8 @@ fn conductor_sweep(azimuths: usize, thetas: &[f32]) {
 /// degrees (9 by default, [`azimuths_arg`]). Prints
 /// the worst, 99th and 90th percentiles and median of `|albedo - 1|` and
 /// the worst cases.
-fn dielectric_sweep(azimuths: usize, thetas: &[f32]) {
+fn dielectric_sweep(azimuths: usize, thetas: &[f32], alphas: &[f32]) {
     use msbsdf::multiple::tabulated_dielectric::TabulatedDielectric;
-    let alphas = SWEEP_ALPHAS;
     let mut materials = Vec::new();
     for n in 0..2 {
         for (i, &ax) in alphas.iter().enumerate() {
