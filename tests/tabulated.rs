@@ -73,21 +73,37 @@ fn albedo_quadrature(m: &Material, wi: Vec3, ax: f32, ay: f32, c: usize) -> f64 
 }
 
 /// White furnace with F = 1 to 89 degrees: the quadrature of eval and the
-/// mean of 400,000 sample weights are both 1 within 0.5%; the standard error
+/// mean of 400,000 sample weights (1.6 million below roughness 0.05) are
+/// both 1 within 0.5%; the standard error
 /// of the sample mean is asserted below 1e-3 so the test can see a 0.5% loss.
+/// Roughness 0.002 and 0.01 included: Beckmann 0.002 at 89 degrees had the
+/// albedo 1.023 until the scale table gave the nodes where `E_ss` is 1
+/// the scale 0 (0.01 at 89 degrees is 0.9953 by the quadrature).
 #[test]
 fn white_furnace_eval_and_sample() {
     let mut worst: f64 = 0.0;
     let mut report = String::new();
     for ndf in NDFS {
-        for (ax, ay) in [(0.05, 0.05), (0.3, 0.3), (0.6, 0.6), (1.0, 1.0), (1.9, 1.9)] {
+        for (ax, ay) in [
+            (0.002, 0.002),
+            (0.01, 0.01),
+            (0.05, 0.05),
+            (0.3, 0.3),
+            (0.6, 0.6),
+            (1.0, 1.0),
+            (1.9, 1.9),
+        ] {
             let m = mirror(ndf, ax, ay);
             for (t, theta) in [0.0, 30.0, 60.0, 80.0, 85.0, 89.0].into_iter().enumerate() {
                 let wi = dir_deg(theta);
                 let q = albedo_quadrature(&m, wi, ax, ay, 0);
                 let mut rng = Rng::new(77, t as u64);
+                // GGX 0.01 at 89 degrees: the weights' deviation is 0.95
+                // (its multiply scattered 9.5% of albedo, sampled by the
+                // cosine lobe), 1.6 million for a standard error of 7.5e-4.
+                let n = if ax < 0.05 { 1_600_000 } else { 400_000 };
                 let (mean, se) =
-                    mean_and_error((0..400_000).map(|_| m.sample(wi, &mut rng).weight.x as f64));
+                    mean_and_error((0..n).map(|_| m.sample(wi, &mut rng).weight.x as f64));
                 assert!(se < 1e-3, "{ndf:?} {ax} {theta}: standard error {se}");
                 report +=
                     &format!("{ndf:?} {ax} {theta}: quad {q:.4} sample {mean:.4} +- {se:.1e}\n");
