@@ -863,12 +863,37 @@ fn load_dump(path: &str, jobs: usize) -> (Vec<Sums>, Vec<[f32; FRESNEL_Q]>, Vec<
 /// row are positive (200 sweeps of `s_i *= sqrt(target_i / row_i)`).
 /// `m(i, j)` is the albedo contribution of node `j` to row `i`; scaling the
 /// lobe by `s_i s_j` keeps any reciprocity of the form
-/// `f(i, j) c_j = f(j, i) c_i`.
+/// `f(i, j) c_j = f(j, i) c_i`. Nodes whose target is 0 keep 1 (the lobe
+/// tables' solves, as their data were made); [`sinkhorn_within`] is the
+/// furnace scales' variant.
 fn sinkhorn(target: &[f64], m: impl Fn(usize, usize) -> f64) -> Vec<f64> {
+    sinkhorn_within(target, m, None)
+}
+
+/// [`sinkhorn`], with `Some((lo, hi))`: a node whose target is 0 gets the
+/// factor 0 (no multiply scattered energy where `E_ss` is 1) and the
+/// others stay within `[lo, hi]` during the iteration, so that the rest
+/// adapt to a clamped node.
+fn sinkhorn_within(
+    target: &[f64],
+    m: impl Fn(usize, usize) -> f64,
+    range: Option<(f64, f64)>,
+) -> Vec<f64> {
     let n = target.len();
     let mut sc = vec![1.0f64; n];
     for _ in 0..200 {
         for i in 0..n {
+            if let Some((lo, hi)) = range {
+                if target[i] <= 0.0 {
+                    sc[i] = 0.0;
+                    continue;
+                }
+                let cur: f64 = (0..n).map(|j| m(i, j) * sc[i] * sc[j]).sum();
+                if cur > 0.0 {
+                    sc[i] = (sc[i] * (target[i] / cur).sqrt()).clamp(lo, hi);
+                }
+                continue;
+            }
             let cur: f64 = (0..n).map(|j| m(i, j) * sc[i] * sc[j]).sum();
             if cur > 0.0 && target[i] > 0.0 {
                 sc[i] *= (target[i] / cur).sqrt();
@@ -1203,7 +1228,7 @@ fn repack(args: &[String], rest: &[String], spec: &Repack, pack: fn(&[f32]) -> V
 mod dielectric {
     use super::{
         CONDUCTOR_F1, K_FIT, NDFS, RIDGE, arg, dir, fit_node, git_commit, gram_entries, node_mu,
-        parallel, sinkhorn,
+        parallel, sinkhorn, sinkhorn_within,
     };
     use glam::Vec3;
     use msbsdf::Rng;
@@ -1458,9 +1483,10 @@ mod dielectric {
     /// ([`scale_steps`]).
     pub fn scale_main(args: &[String]) {
         use msbsdf::multiple::tabulated_dielectric::{
-            SCALE_ALPHA_N, SCALE_ETA_N, SCALE_MU_N, TabulatedDielectric, header, scale_grid_alpha,
-            scale_grid_eta, scale_grid_mu, scale_index,
+            SCALE_ALPHA_N, SCALE_ETA_N, SCALE_MAX, SCALE_MU_N, TabulatedDielectric, header,
+            scale_grid_alpha, scale_grid_eta, scale_grid_mu, scale_index,
         };
+        let scale_max = SCALE_MAX as f64;
         let quad: usize = arg(args, "--quad", 128);
         let threads: usize = arg(args, "--threads", 2);
         let out: String = arg(
@@ -1563,12 +1589,13 @@ mod dielectric {
                 .filter(|&x| target[x] > 1e-3)
                 .map(|x| (m[x].iter().sum::<f64>() / target[x] - 1.0).abs())
                 .fold(0.0f64, f64::max);
-            // Scales are kept in [0.25, 4]: a node whose unscaled lobe is
-            // (nearly) empty is left as it is rather than blown up.
-            let sc: Vec<f64> = sinkhorn(&target, |x, y| m[x][y])
-                .into_iter()
-                .map(|v| v.clamp(0.25, 4.0))
-                .collect();
+            // Scales are kept within [0, SCALE_MAX] (the encoding's range)
+            // during the solve, and a node whose target is 0 (`E_ss` = 1:
+            // low roughness near grazing) gets 0. Until session 22 the
+            // solve's result was clamped to [0.25, 4] afterwards, which
+            // left Beckmann alpha 0.005 glass 1.5 at 88 degrees (E_ss = 1)
+            // a quarter of its unscaled lobe: albedo 1.036.
+            let sc: Vec<f64> = sinkhorn_within(&target, |x, y| m[x][y], Some((0.0, scale_max)));
             let after = (0..2 * fm)
                 .filter(|&x| target[x] > 1e-4 && m[x].iter().sum::<f64>() > 0.0)
                 .map(|x| {
@@ -1582,9 +1609,12 @@ mod dielectric {
         let mut scale = vec![scale_steps(1.0); SCALE_LEN];
         let (mut before, mut after) = (0.0f64, 0.0f64);
         let (mut smin, mut smax) = (f64::INFINITY, 0.0f64);
+        // Nodes of target 0 (scale 0).
+        let mut zeros = 0usize;
         for (&(n, a, e), (sc, b, af)) in jobs.iter().zip(&res) {
             before = before.max(*b);
             after = after.max(*af);
+            zeros += sc.iter().filter(|&&v| v == 0.0).count();
             for sd in 0..2 {
                 for i in 0..fm {
                     let v = sc[sd * fm + i];
@@ -1607,7 +1637,7 @@ mod dielectric {
              lobe table: data/tabulated_dielectric.bin, {table_commit}\n\
              quadrature: reflection 2 x 48 x 48 (GGX visible normals of the same roughness with F = 1, for both NDFs, and cosine; balance heuristic), transmission 48 x 96; deterministic, no seeds\n\
              E_ss: SINGLE reflection + transmission quadrature {quad} x {quad} (compensation::single_albedo)\n\
-             albedo of the unscaled lobe vs 1 - E_ss: worst relative deviation {before:.3e} (targets > 1e-3); after scaling: {after:.3e} (targets > 1e-4, rows not empty; scales clamped to [0.25, 4])\n\
+             albedo of the unscaled lobe vs 1 - E_ss: worst relative deviation {before:.3e} (targets > 1e-3); after scaling: {after:.3e} (targets > 1e-4, rows not empty; scales within [0, {scale_max}] during the solve, 0 where the target is 0: {zeros} nodes)\n\
              scales between {smin:.4} and {smax:.4}\n\
              grid: ndf {NDF_N} x alpha {SCALE_ALPHA_N} x eta {SCALE_ETA_N} x side 2 x mu {SCALE_MU_N}\n\
              wall time: {:.0} s on {threads} threads\n\
