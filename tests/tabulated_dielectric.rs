@@ -117,6 +117,36 @@ fn white_furnace_both_sides_eval_and_sample() {
     assert!(worst[1][1] < 5e-3, "{report}");
 }
 
+/// White furnace below the roughness 0.05 at grazing incidence (80-89
+/// degrees, glass 1.5 from both sides, eval quadrature), where `E_ss`
+/// nears 1 and the furnace scales change fastest with the roughness.
+/// Measured: worst 2.3% (GGX 0.01 from inside at 89 degrees, between the
+/// scale table's roughness nodes 0.0035 and 0.0139; within 0.1% at them),
+/// bounded at 2.5%: the 0.5% is not met here. Until session 22
+/// the scale solve's lower clamp (0.25) left the lobe a quarter of its
+/// energy where `E_ss` is 1: Beckmann 0.0055 from inside at 88.5 degrees
+/// was +4.0% (now +0.3%).
+#[test]
+fn furnace_at_low_roughness_near_grazing() {
+    let mut report = String::new();
+    let mut worst: f64 = 0.0;
+    for ndf in NDFS {
+        for alpha in [0.002f32, 0.0055, 0.0075, 0.01, 0.02] {
+            let t = tab(ndf, alpha, alpha, 1.5);
+            let s = Material::new(&desc(Model::Single, ndf, alpha, alpha, 1.5)).expect("valid");
+            for side in [1.0f32, -1.0] {
+                for theta in [80.0, 85.0, 87.0, 88.0, 88.5, 89.0] {
+                    let q = albedo_quadrature(&t, &s, incident(theta, side), alpha, alpha, 1.5);
+                    report += &format!("{ndf:?} {alpha} side {side} {theta}: {:+.4}\n", q - 1.0);
+                    worst = worst.max((q - 1.0).abs());
+                }
+            }
+        }
+    }
+    println!("{report}worst |albedo - 1| = {worst:.4}");
+    assert!(worst < 0.025, "{report}");
+}
+
 /// The furnace of anisotropic glass `eta` for the roughness pairs `pairs`,
 /// both NDFs and sides, 0, 60 and 85 degrees along x and y (eval
 /// quadrature): the report and the worst `|albedo - 1|`.

@@ -977,12 +977,13 @@ fn scale_pair(t: &Tri, (dense_i, root_i): (bool, f32), (dense_o, root_o): (bool,
     (acc.x + (acc.y - acc.x) * fi) * (acc.z + (acc.w - acc.z) * fo) * (SCALE_STEP * SCALE_STEP)
 }
 
-/// Largest furnace scale (the generator clamps the scales to `[0.25, 4]`).
+/// Largest furnace scale (the generator keeps the scales within `[0, 4]`;
+/// 0 where `E_ss` is 1).
 pub const SCALE_MAX: f32 = 4.0;
 
 /// Step of the 16-bit furnace scales, those of the table file and those
-/// an isotropic material keeps: `s = q SCALE_STEP` (6.1e-5, 2.4e-4 of the
-/// smallest scale 0.25).
+/// an isotropic material keeps: `s = q SCALE_STEP` (6.1e-5, 2.4e-4 of a
+/// scale 0.25).
 pub const SCALE_STEP: f32 = SCALE_MAX / 65535.0;
 
 /// The furnace scales of one scale triangle at every cosine node of both
