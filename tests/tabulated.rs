@@ -142,6 +142,65 @@ fn white_furnace_anisotropic() {
     assert!(worst < ANISO_FURNACE, "{report}");
 }
 
+/// The furnace below the roughness 0.05, which the corner sweeps of the
+/// earlier sessions never reached (both NDFs, 60-89 degrees, eval over
+/// `compensation::broad_reflection_nodes`): nearly mirror-like
+/// anisotropic (0.0005, 0.0015; below 0.001 on both axes a material is
+/// specular), a smooth axis below the correction's
+/// node 1 against a rough one (0.0005, 1.9), between nodes 1 and 2
+/// ((0.003, 1.9), (0.003, 0.043)) and between nodes 2 and 3 ((0.012,
+/// 1.9)). Until version 16 of the correction (session 22) a roughness
+/// below node 1 read node 0's blocks, whose factors are 1, not the lobe's
+/// `sqrt(t)`, `sqrt(b)`: GGX (0.0005, 0.0012) had the albedo 1.112 at 89
+/// degrees, azimuth 20; and the blocks of `alpha_x` 0.0022 and 0.0089
+/// against a rough axis crowded all but one or two azimuth nodes within
+/// a few degrees of the smooth axis: GGX (0.003, 1.9) at 75 degrees,
+/// azimuth 65, 1.053. Measured now: off the smooth axis (azimuth 2.8 and
+/// above) worst 0.0140 (Beckmann (0.003, 0.043) at 89 degrees; GGX
+/// (0.0005, 0.0015) at 89 degrees 0.013), bounded at 0.016; within 0.05
+/// degrees of it 0.1521 (Beckmann (0.0005, 1.9) at 89 degrees, azimuth
+/// 0.05; +1.3% at 0.5 degrees: SINGLE's albedo goes from 0.38 to 0.79
+/// within 2 degrees of the axis, a band narrower than the first azimuth
+/// node, 0.25 degrees at the capped stretch 10), bounded at 0.16. The
+/// issue's 0.5% is not met here; the bounds hold what is.
+#[test]
+fn anisotropic_furnace_below_roughness_0_05() {
+    use msbsdf::multiple::compensation::broad_reflection_nodes;
+    let mut report = String::new();
+    let (mut on, mut off): (f64, f64) = (0.0, 0.0);
+    for ndf in NDFS {
+        for (ax, ay) in [
+            (0.0005, 0.0015),
+            (0.0005, 1.9),
+            (0.003, 0.043),
+            (0.003, 1.9),
+            (0.012, 1.9),
+        ] {
+            let m = mirror(ndf, ax, ay);
+            for theta in [60.0, 75.0, 85.0, 89.0] {
+                for phi in [0.0, 0.05, 2.8125, 20.0, 45.0, 65.0, 90.0] {
+                    let wi = dir_deg_az(theta, phi);
+                    let mut rng = Rng::new(0, 0);
+                    let mut q = 0.0;
+                    broad_reflection_nodes(ax, ay, wi, 400, (266, 533), |wo, w| {
+                        q += m.eval(wi, wo, &mut rng)[0] as f64 * w;
+                    });
+                    report += &format!("{ndf:?} ({ax},{ay}) {theta} {phi}: {q:.4}\n");
+                    let e = (q - 1.0).abs();
+                    if phi < 1.0 {
+                        on = on.max(e);
+                    } else {
+                        off = off.max(e);
+                    }
+                }
+            }
+        }
+    }
+    println!("{report}worst |albedo - 1|: on the smooth axis {on:.4}, off it {off:.4}");
+    assert!(on < 0.16, "{report}");
+    assert!(off < 0.016, "{report}");
+}
+
 /// The furnace at the corners of the roughness range, where the
 /// correction's interpolation is hardest: both NDFs, (0.05, 1.9) and
 /// (0.11, 1.9) and (0.3, 1.9) (version 14), 60, 75, 85, 86, 88 and 89 degrees and 20 degrees (inside the

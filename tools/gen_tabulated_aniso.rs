@@ -35,7 +35,7 @@
 //! (every block; about 80 minutes on 2 threads). Environment switches:
 //! `PAIRS=n:jx:jy,...` solves the listed blocks only (experiments: the
 //! others are 0, and the header's command line says so);
-//! `REUSE=PATH` copies the blocks an earlier table (version 12, 13 or 14)
+//! `REUSE=PATH` copies the blocks an earlier table (version 12 to 15)
 //! has on the same grid and stretch, which this code computes bit for
 //! bit, and solves the others (the committed version 15 was made so from
 //! version 14, 14 from 13 and 13 from 12: its header names the runs);
@@ -62,11 +62,11 @@ use msbsdf::multiple::compensation::{
 use msbsdf::multiple::compensation_aniso_tables::{AN_A, AN_MU, AN_PHI, CONDUCTOR_E_ANISO};
 use msbsdf::multiple::tabulated::{
     CORR_A, CORR_GRID_PLAIN, CORR_LEN, CORR_MAGIC, CORR_MAX, CORR_MU, CORR_MU_FINE,
-    CORR_MU_FINE_FROM, CORR_PAIR_MAX, CORR_PHI, CORR_PHI_STRETCHED, CORR_PROXY_V, CORR_STRETCH_POW,
-    CORR_STRETCH_RATIO, CORR_STRETCH_RATIO_ROUGH, CORR_STRETCH_ROUGH_FROM, CORR_VALUES, CorrGrid,
-    HEADER_BYTES, Tabulated, corr_azimuth_dir, corr_decode, corr_dir_weights, corr_encode,
-    corr_grid, corr_grid_alpha, corr_index, corr_node_dir, corr_pair_grid, corr_proxy,
-    corr_stretch, dcorr_dir_weights, dcorr_node_dir,
+    CORR_MU_FINE_FROM, CORR_PAIR_MAX, CORR_PHI, CORR_PHI_STRETCHED, CORR_PROXY_V, CORR_STRETCH_MAX,
+    CORR_STRETCH_POW, CORR_STRETCH_RATIO, CORR_STRETCH_RATIO_ROUGH, CORR_STRETCH_ROUGH_FROM,
+    CORR_VALUES, CorrGrid, HEADER_BYTES, Tabulated, corr_azimuth_dir, corr_decode,
+    corr_dir_weights, corr_encode, corr_grid, corr_grid_alpha, corr_index, corr_node_dir,
+    corr_pair_grid, corr_proxy, corr_stretch, dcorr_dir_weights, dcorr_node_dir,
 };
 use msbsdf::ndf::{Ndf, NdfKind};
 use msbsdf::rng::Rng;
@@ -375,6 +375,20 @@ fn main() {
         let (th, ph) = (v[4].to_radians(), v[5].to_radians());
         let wi = Vec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos());
         println!("{:+.4}", glass_albedo(&t, &s, wi, ax, ay, eta) - 1.0);
+        // MC=N: the mean of N sample weights (independent of the quadrature).
+        if let Some(count) = std::env::var("MC").ok().and_then(|v| v.parse::<u64>().ok()) {
+            let mut rng = Rng::new(7, 11);
+            let (mut sum, mut sq) = (0.0f64, 0.0f64);
+            for _ in 0..count.max(2) {
+                let w = t.sample(wi, &mut rng).weight.x as f64;
+                sum += w;
+                sq += w * w;
+            }
+            let n = count.max(2) as f64;
+            let mean = sum / n;
+            let se = ((sq / n - mean * mean).max(0.0) / n).sqrt();
+            println!("sampled {:+.4} +- {se:.4}", mean - 1.0);
+        }
         if args.iter().any(|a| a == "--parts") {
             let u = t.without_aniso_correction();
             println!(
@@ -464,13 +478,13 @@ fn main() {
         jobs.retain(|j| keep.contains(j));
     }
     // `REUSE=PATH`: the blocks whose grid and stretch an earlier table
-    // (version 12, 13 or 14) shares are copied from it: this code computes
+    // (version 12 to 15) shares are copied from it: this code computes
     // them bit for bit (the same nodes, rows, balancing and solve); only
     // the others are solved. The header's command line says so.
     let reuse = std::env::var("REUSE").ok().map(|path| {
         let raw = std::fs::read(&path).expect("read the REUSE table");
         let old = OldLayout::of(&raw)
-            .expect("REUSE needs a version-12, -13 or -14 conductor correction table");
+            .expect("REUSE needs a version-12 to -15 conductor correction table");
         jobs.retain(|&(_, jx, jy)| !old.shares(jx, jy));
         (path, raw, old)
     });
@@ -510,12 +524,12 @@ fn main() {
     }
     let command: Vec<String> = args.iter().skip(1).cloned().collect();
     let header = format!(
-        "ANISO_CORRECTION v15 (MSBSDF_MODEL_TABULATED): per [ndf: Beckmann, GGX][roughness \
+        "ANISO_CORRECTION v16 (MSBSDF_MODEL_TABULATED): per [ndf: Beckmann, GGX][roughness \
          pair (jx <= jy) of {CORR_A} x {CORR_A}: alpha = 2 (j / {})^2][azimuth n: {CORR_PHI} \
          nodes, {CORR_PHI_STRETCHED} in the stretched blocks (tabulated::corr_pair_grid), of the diamond angle rho |y| / (|x| + rho |y|) from 0 to 1, rho the block's \
          stretch (tabulated::corr_stretch: 1 up to alpha_y / alpha_x = {CORR_STRETCH_RATIO}, \
          {CORR_STRETCH_RATIO_ROUGH} where the rougher axis is at node {CORR_STRETCH_ROUGH_FROM} or above, \
-         above it (alpha_y / alpha_x)^{CORR_STRETCH_POW}; tabulated::corr_dirs)][mu: \
+         above it (alpha_y / alpha_x)^{CORR_STRETCH_POW}, at most {CORR_STRETCH_MAX}; tabulated::corr_dirs)][mu: \
          {CORR_MU}] (tabulated::corr_grid_mu_at: ENERGY_COMPENSATED's anisotropic cosine grid \
          with its intervals {} to {} halved) the two factors \
          u = s sqrt(t), v = s sqrt(b) of the lobe's table and peaked parts \
@@ -606,6 +620,8 @@ struct OldLayout {
     /// Stretch ratio threshold of the stretched blocks (`None`: none),
     /// and the lower threshold and the rougher node from which it holds.
     ratio: Option<(usize, Option<(usize, usize)>)>,
+    /// The stretched blocks' grid.
+    stretched: CorrGrid,
 }
 
 /// The stretched blocks' grid of versions 13 and 14.
@@ -616,6 +632,14 @@ const V14_STRETCHED: CorrGrid = CorrGrid {
     tail: 0,
 };
 
+/// The stretched blocks' grid of version 15 (that of version 16).
+const V15_STRETCHED: CorrGrid = CorrGrid {
+    phi: 25,
+    mu: 21,
+    fine: 4,
+    tail: 1,
+};
+
 impl OldLayout {
     /// The layout of `raw` from its magic, checked against its size.
     fn of(raw: &[u8]) -> Option<OldLayout> {
@@ -623,16 +647,25 @@ impl OldLayout {
             OldLayout {
                 version: 12,
                 ratio: None,
+                stretched: V14_STRETCHED,
             }
         } else if raw.starts_with(b"MSBSDF-TABULATED-ANISO-F-v13\n") {
             OldLayout {
                 version: 13,
                 ratio: Some((8, None)),
+                stretched: V14_STRETCHED,
             }
         } else if raw.starts_with(b"MSBSDF-TABULATED-ANISO-F-v14\n") {
             OldLayout {
                 version: 14,
                 ratio: Some((8, Some((5, 20)))),
+                stretched: V14_STRETCHED,
+            }
+        } else if raw.starts_with(b"MSBSDF-TABULATED-ANISO-F-v15\n") {
+            OldLayout {
+                version: 15,
+                ratio: Some((8, Some((5, 20)))),
+                stretched: V15_STRETCHED,
             }
         } else {
             return None;
@@ -659,18 +692,30 @@ impl OldLayout {
             _ => r,
         };
         if lo > 0 && (b > r * a || a > r * b) {
-            V14_STRETCHED
+            self.stretched
         } else {
             CORR_GRID_PLAIN
         }
     }
 
+    /// The old table's stretch of its block `(lo, hi)`, `lo <= hi`: 1 on
+    /// the plain grid, else `(alpha_hi / alpha_lo)^0.5 = hi / lo`
+    /// (versions 12-15 had no `CORR_STRETCH_MAX`).
+    fn stretch_of(&self, lo: usize, hi: usize) -> f32 {
+        if self.grid_of(lo, hi) == CORR_GRID_PLAIN {
+            1.0
+        } else {
+            hi as f32 / lo as f32
+        }
+    }
+
     /// Whether the old table's block `(jx, jy)` has the new one's grid
-    /// and stretch (`corr_stretch` depends on the pair and
-    /// `CORR_STRETCH_POW` only; the grids compare every field).
+    /// and stretch (the grids compare every field; `corr_stretch` within
+    /// f32 rounding).
     fn shares(&self, jx: usize, jy: usize) -> bool {
         let (lo, hi) = (jx.min(jy), jx.max(jy));
-        self.grid_of(lo, hi) == corr_pair_grid(lo, hi)
+        let (old, new) = (self.stretch_of(lo, hi), corr_stretch(lo, hi));
+        self.grid_of(lo, hi) == corr_pair_grid(lo, hi) && (old - new).abs() <= 1e-5 * new
     }
 
     /// Blocks per NDF that [`OldLayout::copy_shared_blocks`] copies.

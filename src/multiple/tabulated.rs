@@ -309,7 +309,7 @@ pub const CORR_VALUES: usize = 2;
 /// [`CORR_LEN`].
 pub const CORR_FILE_BYTES: usize = HEADER_BYTES + 2 * CORR_VALUES * CORR_LEN;
 /// First bytes of the correction table file.
-pub const CORR_MAGIC: &[u8; 29] = b"MSBSDF-TABULATED-ANISO-F-v15\n";
+pub const CORR_MAGIC: &[u8; 29] = b"MSBSDF-TABULATED-ANISO-F-v16\n";
 
 /// Exponent of the peaked part's proxy ([`corr_proxy_ln`]) per NDF index
 /// (Beckmann, GGX): the correction table stores `v exp(CORR_PROXY_V L)`
@@ -414,6 +414,17 @@ pub const CORR_STRETCH_POW: f32 = 0.5;
 // `corr_read_stretch` takes `ratio^CORR_STRETCH_POW` as a square root.
 const _: () = assert!(CORR_STRETCH_POW == 0.5);
 
+/// Largest azimuth stretch of a block and of a material's read
+/// ([`corr_stretch`], `corr_read_stretch`; version 16): blocks of ratio
+/// above 100 (`alpha_x` at nodes 1 and 2, 0.0022 and 0.0089, against a
+/// rough axis) had `rho` up to 29, which left one or two of the 25
+/// azimuth nodes for 45-90 degrees: GGX (0.0022, 1.9), a node material,
+/// was +5.6% at 75 degrees, azimuth 65 (+1.5% at `rho` 14.5, (0.0089,
+/// 1.9); +0.33% at 10, (0.02, 1.9)). A cap of 8 also moved the blocks of
+/// node 3 (`rho` 8.5-10), and GGX (0.028, 1.9) near the smooth axis at
+/// 88 degrees went from -0.86% to -1.6%.
+pub const CORR_STRETCH_MAX: f32 = 10.0;
+
 /// The azimuth stretch of the conductor correction's block at roughness
 /// nodes `(jx, jy)`: a direction's azimuth coordinate in the block is
 /// the diamond angle of `(|x|, rho |y|)` (`corr_dirs`). 1 (the plain
@@ -446,7 +457,9 @@ pub fn corr_stretch(jx: usize, jy: usize) -> f32 {
         return 1.0;
     }
     let (ax, ay) = (corr_grid_alpha(jx), corr_grid_alpha(jy));
-    let rho = (ax.max(ay) / ax.min(ay)).powf(CORR_STRETCH_POW);
+    let rho = (ax.max(ay) / ax.min(ay))
+        .powf(CORR_STRETCH_POW)
+        .min(CORR_STRETCH_MAX);
     if ax <= ay { rho } else { 1.0 / rho }
 }
 
@@ -687,8 +700,17 @@ struct CorrStretch {
 /// cut along it, so a nearly isotropic material never mixes the factors of
 /// `alpha_x < alpha_y` and `alpha_x > alpha_y` (bilinear weights did: 1.4%
 /// furnace error at GGX (1.348, 1.345), 75 degrees).
+///
+/// A roughness below node 1 (`alpha` 0.0022) reads node 1 (version 16).
+/// The blocks of node 0 hold the factors `u = v = 1`, not the lobe's own
+/// `sqrt(t)`, `sqrt(b)`, and the interpolation towards them gave the
+/// peaked part far too much energy: GGX (0.0005, 0.0012) at 89 degrees,
+/// azimuth 20, had the albedo 1.112 (now 1.012; (0.0002, 0.0005), which
+/// the public API makes specular, 1.146 at 60 degrees where SINGLE's
+/// alone is 1.000), and GGX (0.0005, 1.9) at 75 degrees, azimuth 65, 1.040
+/// (now 1.003; the lobe changes little between 0.0005 and 0.0022).
 fn corr_corners(ndf: usize, ax: f32, ay: f32) -> CorrBlocks {
-    let coord = |a: f32| (a / MAX_ALPHA).clamp(0.0, 1.0).sqrt() * (CORR_A - 1) as f32;
+    let coord = |a: f32| ((a / MAX_ALPHA).clamp(0.0, 1.0).sqrt() * (CORR_A - 1) as f32).max(1.0);
     let (jx, _, fx) = split(coord(ax), CORR_A);
     let (jy, _, fy) = split(coord(ay), CORR_A);
     let tri = triangle(fx, fy);
@@ -730,7 +752,9 @@ fn corr_read_stretch(rho: f32, ax: f32, ay: f32) -> f32 {
     if rho == 1.0 {
         return 1.0;
     }
-    let own = (ay.max(1e-6) / ax.max(1e-6)).sqrt();
+    let own = (ay.max(1e-6) / ax.max(1e-6))
+        .sqrt()
+        .clamp(1.0 / CORR_STRETCH_MAX, CORR_STRETCH_MAX);
     (rho * own).sqrt()
 }
 
@@ -2640,7 +2664,9 @@ mod tests {
                     CORR_STRETCH_RATIO
                 };
                 let want = if ratio.max(1.0 / ratio) > limit {
-                    ratio.powf(CORR_STRETCH_POW)
+                    ratio
+                        .powf(CORR_STRETCH_POW)
+                        .clamp(1.0 / CORR_STRETCH_MAX, CORR_STRETCH_MAX)
                 } else {
                     1.0
                 };
@@ -2694,8 +2720,8 @@ mod tests {
     /// The stretched pairs' bit table gives what the anisotropy ratio of
     /// the nodes' roughness says (above [`CORR_STRETCH_RATIO`], neither
     /// roughness 0), for every pair, and the stretch of a stretched pair
-    /// is its ratio to [`CORR_STRETCH_POW`] (inverted when `alpha_x >
-    /// alpha_y`).
+    /// is its ratio to [`CORR_STRETCH_POW`], at most [`CORR_STRETCH_MAX`]
+    /// (inverted when `alpha_x > alpha_y`).
     #[test]
     fn stretched_pairs_follow_the_roughness_ratio() {
         let mut stretched = 0;
@@ -2713,7 +2739,7 @@ mod tests {
                 assert_eq!(rho != 1.0, want, "({jx}, {jy}): ratio {ratio}, rho {rho}");
                 if want {
                     stretched += 1;
-                    let r = ratio.powf(CORR_STRETCH_POW);
+                    let r = ratio.powf(CORR_STRETCH_POW).min(CORR_STRETCH_MAX);
                     let expect = if ax <= ay { r } else { 1.0 / r };
                     assert!((rho - expect).abs() <= 1e-6 * expect, "({jx}, {jy}): {rho}");
                 }
