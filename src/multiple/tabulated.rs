@@ -710,7 +710,10 @@ struct CorrStretch {
 /// alone is 1.000), and GGX (0.0005, 1.9) at 75 degrees, azimuth 65, 1.040
 /// (now 1.003; the lobe changes little between 0.0005 and 0.0022).
 fn corr_corners(ndf: usize, ax: f32, ay: f32) -> CorrBlocks {
-    let coord = |a: f32| ((a / MAX_ALPHA).clamp(0.0, 1.0).sqrt() * (CORR_A - 1) as f32).max(1.0);
+    // Node 1's `alpha / MAX_ALPHA` as the clamp's floor: the coordinate
+    // is at least 1 at no cost over a floor of 0.
+    const NODE1: f32 = 1.0 / ((CORR_A - 1) * (CORR_A - 1)) as f32;
+    let coord = |a: f32| (a / MAX_ALPHA).clamp(NODE1, 1.0).sqrt() * (CORR_A - 1) as f32;
     let (jx, _, fx) = split(coord(ax), CORR_A);
     let (jy, _, fy) = split(coord(ay), CORR_A);
     let tri = triangle(fx, fy);
