@@ -1492,31 +1492,26 @@ fn azimuths_arg(args: &[String]) -> usize {
         .max(2)
 }
 
-/// The polar angles of the sweeps in degrees: `--thetas A,B,...`, by
-/// default 0, 30, 60, 75, 85 and 89.
+/// The comma-separated numbers after `flag` (`--thetas 60,75`), if given.
+fn list_arg(args: &[String], flag: &str) -> Option<Vec<f32>> {
+    args.iter()
+        .position(|a| a == flag)
+        .and_then(|p| args.get(p + 1))
+        .map(|v| v.split(',').filter_map(|t| t.trim().parse().ok()).collect())
+}
+
 /// The sweeps' roughness values: `--alphas A,B,...` (pairs `alpha_x <
 /// alpha_y` of them), [`SWEEP_ALPHAS`] by default.
 fn alphas_arg(args: &[String]) -> Vec<f32> {
-    args.iter()
-        .position(|a| a == "--alphas")
-        .and_then(|p| args.get(p + 1))
-        .map(|v| {
-            v.split(',')
-                .filter_map(|t| t.trim().parse().ok())
-                .collect::<Vec<f32>>()
-        })
+    list_arg(args, "--alphas")
         .filter(|v| v.len() >= 2)
         .unwrap_or_else(|| SWEEP_ALPHAS.to_vec())
 }
+
+/// The polar angles of the sweeps in degrees: `--thetas A,B,...`, by
+/// default 0, 30, 60, 75, 85 and 89.
 fn thetas_arg(args: &[String]) -> Vec<f32> {
-    args.iter()
-        .position(|a| a == "--thetas")
-        .and_then(|p| args.get(p + 1))
-        .map(|v| {
-            v.split(',')
-                .filter_map(|t| t.trim().parse().ok())
-                .collect::<Vec<f32>>()
-        })
+    list_arg(args, "--thetas")
         .filter(|v| !v.is_empty())
         .unwrap_or_else(|| vec![0.0, 30.0, 60.0, 75.0, 85.0, 89.0])
 }
