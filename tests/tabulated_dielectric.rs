@@ -147,6 +147,46 @@ fn furnace_at_low_roughness_near_grazing() {
     assert!(worst < 0.025, "{report}");
 }
 
+/// Anisotropic glass with a roughness below the correction's node 1
+/// (0.031) against a rough axis, near grazing from both sides (glass
+/// 1.05: the dense side's grazing reflection is where the uncorrected
+/// lobe is furthest off). Until session 22 such a roughness read node 0's
+/// corners, the uncorrected lobe (factor 1): Beckmann (0.003, 1.9) from
+/// inside at 85 degrees, azimuth 11.25, had the albedo 2.53 (3.48
+/// uncorrected; now 1.039). It reads node 1 now. Measured worst 0.1699
+/// (Beckmann (0.003, 1.9) from inside at 89 degrees on the smooth axis,
+/// albedo 0.830: the single-scattering albedo along the smooth axis
+/// changes fast with `alpha_x` there, and node 1's factors, -0.3% for
+/// its own material (0.031, 1.9), do not follow it), bounded at 0.18: the
+/// issue's 0.5% is not met here.
+#[test]
+fn anisotropic_furnace_below_roughness_node_1() {
+    let mut report = String::new();
+    let mut worst: f64 = 0.0;
+    let eta = 1.05;
+    for ndf in NDFS {
+        for (ax, ay) in [(0.003f32, 1.9f32), (0.012, 1.9)] {
+            let t = tab(ndf, ax, ay, eta);
+            let s = Material::new(&desc(Model::Single, ndf, ax, ay, eta)).expect("valid");
+            for side in [1.0f32, -1.0] {
+                for theta in [85.0, 89.0] {
+                    for phi in [0.0f32, 11.25, 22.5, 45.0] {
+                        let d = incident(theta, side);
+                        let (sn, c) = phi.to_radians().sin_cos();
+                        let wi = Vec3::new(d.x * c, d.x * sn, d.z);
+                        let q = albedo_quadrature(&t, &s, wi, ax, ay, eta);
+                        report +=
+                            &format!("{ndf:?} ({ax},{ay}) side {side} {theta} {phi}: {q:.4}\n");
+                        worst = worst.max((q - 1.0).abs());
+                    }
+                }
+            }
+        }
+    }
+    println!("{report}worst |albedo - 1| = {worst:.4}");
+    assert!(worst < 0.18, "{report}");
+}
+
 /// The furnace of anisotropic glass `eta` for the roughness pairs `pairs`,
 /// both NDFs and sides, 0, 60 and 85 degrees along x and y (eval
 /// quadrature): the report and the worst `|albedo - 1|`.
