@@ -425,19 +425,18 @@ pub fn dcorr_header() -> &'static str {
 /// offset in the file of the corner's block at the lower index node (with
 /// [`CORR_MIRROR`] when the pair is stored as its transpose; the upper
 /// index node's block follows it, [`DCORR_BLOCK`] values on) with their
-/// weights (unused corners: offset of the first block, weight 0), the
+/// weights, the
 /// upper index node's weight `fe`, the roughness square's first corner
 /// `jx * ALPHA_N + jy` and the step `dx * ALPHA_N + dy` to the triangle's
 /// middle corner (their azimuth stretches are read by eval,
-/// [`DCorr::stretches`]), and the weight of the corners with an axis at
-/// roughness node 0 (which read 1).
+/// [`DCorr::stretches`]). No corner is at roughness node 0
+/// ([`dcorr_coord`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct DCorr {
     corners: [(u32, f32); 3],
     fe: f32,
     square: u8,
     mid: u8,
-    one: f32,
 }
 
 impl DCorr {
@@ -531,18 +530,12 @@ fn dcorr_corners(ndf: usize, ax: f32, ay: f32, eta: (usize, usize, f32)) -> DCor
         // Both below ALPHA_N (split's nodes are at most ALPHA_N - 2).
         square: (jx * ALPHA_N + jy) as u8,
         mid: 0,
-        one: 0.0,
     };
     let corners = triangle(fx, fy);
     let ((mx, my), _) = corners[1];
     out.mid = (mx * ALPHA_N + my) as u8;
     for (c, ((dx, dy), w)) in corners.into_iter().enumerate() {
-        let (a, b) = (jx + dx, jy + dy);
-        if a == 0 || b == 0 {
-            out.one += w;
-            continue;
-        }
-        let (lo, hi, m) = stored_pair(a, b);
+        let (lo, hi, m) = stored_pair(jx + dx, jy + dy);
         let block = ((ndf * DCORR_PAIRS + dcorr_pair(lo, hi)) * DCORR_ETA_N + e0) * DCORR_BLOCK;
         out.corners[c] = ((HEADER_BYTES + 2 * block) as u32 | m, w);
     }
@@ -605,7 +598,7 @@ fn dcorr_at(c: &DCorr, side: usize, d: &[AnisoDir; 3]) -> f32 {
     // The index and cosine weights, shared by the corners' nodes, once.
     let fi = d[0].fi;
     let acc = (acc0 * (1.0 - c.fe) + acc1 * c.fe) * Vec4::new(1.0 - fi, fi, 1.0 - fi, fi);
-    c.one + (acc.x + acc.y + acc.z + acc.w) * (CORR_MAX / (65535.0 * 65535.0))
+    (acc.x + acc.y + acc.z + acc.w) * (CORR_MAX / (65535.0 * 65535.0))
 }
 
 /// Roughness of node `a`.
