@@ -440,7 +440,13 @@ fn main() {
         return;
     }
     if args.iter().any(|a| a == "--dielectric-sweep") {
-        dielectric_sweep(azimuths_arg(&args), &thetas_arg(&args), &alphas_arg(&args));
+        let iso = args.iter().any(|a| a == "--isotropic");
+        dielectric_sweep(
+            azimuths_arg(&args),
+            &thetas_arg(&args),
+            &alphas_arg(&args),
+            iso,
+        );
         return;
     }
     if args.iter().any(|a| a == "--dielectric-eta-scan") {
@@ -1740,13 +1746,19 @@ fn conductor_sweep(azimuths: usize, thetas: &[f32], alphas: &[f32]) {
 /// 60, 75, 85 and 89 degrees (or `--thetas`) and `--azimuths N` azimuths from 0 to 90
 /// degrees (9 by default, [`azimuths_arg`]). Prints
 /// the worst, 99th and 90th percentiles and median of `|albedo - 1|` and
-/// the worst cases.
-fn dielectric_sweep(azimuths: usize, thetas: &[f32], alphas: &[f32]) {
+/// the worst cases. With `isotropic`, the roughness pairs are `(a, a)` for
+/// each `a` of `alphas` instead (isotropic glass; `--isotropic`).
+fn dielectric_sweep(azimuths: usize, thetas: &[f32], alphas: &[f32], isotropic: bool) {
     use msbsdf::multiple::tabulated_dielectric::TabulatedDielectric;
     let mut materials = Vec::new();
     for n in 0..2 {
         for (i, &ax) in alphas.iter().enumerate() {
-            for &ay in &alphas[i + 1..] {
+            let others = if isotropic {
+                &alphas[i..=i]
+            } else {
+                &alphas[i + 1..]
+            };
+            for &ay in others {
                 for e in [1.05f32, 1.2, 1.5, 2.0, 3.0] {
                     for eta in [e, 1.0 / e] {
                         materials.push((n, ax, ay, eta));
@@ -1773,6 +1785,24 @@ fn dielectric_sweep(azimuths: usize, thetas: &[f32], alphas: &[f32]) {
         .collect();
     res.sort_by(|a, b| b.2.abs().total_cmp(&a.2.abs()));
     print_spread(res.iter().map(|r| r.2));
+    // The worst per roughness pair (the list is sorted: first seen).
+    let mut pairs: Vec<(f32, f32, f64)> = Vec::new();
+    for &(i, _, d) in &res {
+        let (_, ax, ay, _) = materials[i];
+        if !pairs.iter().any(|p| (p.0, p.1) == (ax, ay)) {
+            pairs.push((ax, ay, d));
+        }
+    }
+    pairs.sort_by(|a, b| {
+        (a.0, a.1)
+            .partial_cmp(&(b.0, b.1))
+            .unwrap_or(std::cmp::Ordering::Equal)
+    });
+    let line: Vec<String> = pairs
+        .iter()
+        .map(|(ax, ay, d)| format!("({ax},{ay}) {:.4}", d.abs()))
+        .collect();
+    println!("worst per roughness pair: {}", line.join(", "));
     for &(i, wi, d) in res.iter().take(15) {
         let (n, ax, ay, eta) = materials[i];
         println!(
