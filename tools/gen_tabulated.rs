@@ -680,10 +680,6 @@ fn main() {
         dielectric::ir(&args);
         return;
     }
-    if let Some(p) = args.iter().position(|a| a == "--dielectric-scale-pack") {
-        dielectric::scale_pack_main(&args, &args[p + 1..]);
-        return;
-    }
     if args.iter().any(|a| a == "--dielectric-scale") {
         dielectric::scale_main(&args);
         return;
@@ -1148,8 +1144,7 @@ fn conductor_pack_main(args: &[String], rest: &[String]) {
 
 /// A table file's conversion to its next version, which stores its first
 /// block another way: a symmetric lobe's `i <= j` half only
-/// (`--conductor-pack`, `--dielectric-pack`), 16-bit scales
-/// (`--dielectric-scale-pack`) or 24-bit lobe values
+/// (`--conductor-pack`, `--dielectric-pack`) or 24-bit lobe values
 /// (`--dielectric-lobe-pack`, and `--dielectric-pack` after the half).
 struct Repack<'a> {
     /// The command-line flag (its usage line).
@@ -1234,7 +1229,9 @@ mod dielectric {
     use msbsdf::Rng;
     use msbsdf::bsdf::ScatterModel;
     use msbsdf::facet::Facet;
-    use msbsdf::multiple::compensation::{lower_hemisphere_nodes, single_albedo};
+    use msbsdf::multiple::compensation::{
+        broad_reflection_nodes, lower_hemisphere_nodes, single_albedo,
+    };
     use msbsdf::multiple::heitz::Heitz;
     use msbsdf::multiple::tabulated::{MU_N, hat_moment, project_exit};
     use msbsdf::multiple::tabulated_dielectric::{
@@ -1481,10 +1478,18 @@ mod dielectric {
     /// scaled albedo is the target at every node; a product keeps both
     /// reciprocity rules. The scales are written as 16-bit steps
     /// ([`scale_steps`]).
+    ///
+    /// Options: `--ng N` the reflection sets' and transmission grid's size
+    /// (48); `--broad N` instead integrates both over the tests' nodes
+    /// (`compensation::glass_albedo`: [`broad_reflection_nodes`] `N x N`
+    /// and [`lower_hemisphere_nodes`] `N / 3 x 2 N / 3`); `--only N,A,E`
+    /// solves one node (NDF, roughness and index node) and prints its rows
+    /// instead of writing the table.
     pub fn scale_main(args: &[String]) {
         use msbsdf::multiple::tabulated_dielectric::{
-            SCALE_ALPHA_N, SCALE_ETA_N, SCALE_MAX, SCALE_MU_N, TabulatedDielectric, header,
-            scale_grid_alpha, scale_grid_eta, scale_grid_mu, scale_index,
+            SCALE_ALPHA_N, SCALE_ETA_N, SCALE_FINE_INTERVALS, SCALE_FINE_SPLIT, SCALE_MAX,
+            SCALE_MU_N, TabulatedDielectric, header, scale_grid_alpha, scale_grid_eta,
+            scale_grid_mu, scale_index,
         };
         let scale_max = SCALE_MAX as f64;
         let quad: usize = arg(args, "--quad", 128);
@@ -1497,11 +1502,22 @@ mod dielectric {
         let t0 = std::time::Instant::now();
         let fm = SCALE_MU_N;
         let fine_x = |mu: f32| (mu.clamp(0.0, 1.0).sqrt() * (fm - 1) as f32) as f64;
-        let jobs: Vec<(usize, usize, usize)> = (0..NDF_N)
-            .flat_map(|n| {
-                (1..SCALE_ALPHA_N).flat_map(move |a| (0..SCALE_ETA_N).map(move |e| (n, a, e)))
-            })
-            .collect();
+        let ng: usize = arg(args, "--ng", 48);
+        let broad: usize = arg(args, "--broad", 0);
+        // `--only N,A,E`: one node's solve, its rows printed, nothing written.
+        let only: Option<Vec<usize>> = args
+            .iter()
+            .position(|a| a == "--only")
+            .and_then(|p| args.get(p + 1))
+            .map(|v| v.split(',').filter_map(|t| t.parse().ok()).collect());
+        let jobs: Vec<(usize, usize, usize)> = match &only {
+            Some(v) if v.len() == 3 => vec![(v[0], v[1], v[2])],
+            _ => (0..NDF_N)
+                .flat_map(|n| {
+                    (1..SCALE_ALPHA_N).flat_map(move |a| (0..SCALE_ETA_N).map(move |e| (n, a, e)))
+                })
+                .collect(),
+        };
         let res = parallel(&jobs, "dielectric scale", threads, |_, &(n, a, e)| {
             let (alpha, eta) = (scale_grid_alpha(a), scale_grid_eta(e));
             let ndf = Ndf::new(NDFS[n], alpha, alpha);
@@ -1518,7 +1534,6 @@ mod dielectric {
                 row[side * fm + y0] += v * (1.0 - fr);
                 row[side * fm + y0 + 1] += v * fr;
             };
-            let ng = 48usize;
             for sd in 0..2 {
                 let flip = |v: Vec3| {
                     if sd == 1 {
@@ -1532,8 +1547,20 @@ mod dielectric {
                     let up = dir(mu);
                     let wi = flip(up);
                     let row = &mut m[sd * fm + i];
+                    if broad > 0 {
+                        // The tests' quadrature (`compensation::glass_albedo`).
+                        let (nz, np) = (broad / 3, 2 * broad / 3);
+                        broad_reflection_nodes(alpha, alpha, up, broad, (nz, np), |wo, w| {
+                            let g = tab.multiple_unscaled(wi, flip(wo)) as f64;
+                            add(row, sd, wo.z, g * w);
+                        });
+                        lower_hemisphere_nodes(nz, np, |wo, w| {
+                            let g = tab.multiple_unscaled(wi, flip(wo)) as f64;
+                            add(row, 1 - sd, -wo.z, g * w);
+                        });
+                    }
                     // Reflection: visible normals (F = 1) and cosine lobe.
-                    for strategy in 0..2 {
+                    for strategy in 0..if broad > 0 { 0 } else { 2 } {
                         for p in 0..ng {
                             for q in 0..ng {
                                 let u1 = (p as f32 + 0.5) / ng as f32;
@@ -1563,7 +1590,7 @@ mod dielectric {
                         }
                     }
                     // Transmission: grid over the other hemisphere.
-                    let (nz, np) = (ng, 2 * ng);
+                    let (nz, np) = if broad > 0 { (0, 0) } else { (ng, 2 * ng) };
                     lower_hemisphere_nodes(nz, np, |wo, w| {
                         let g = tab.multiple_unscaled(wi, flip(wo)) as f64;
                         add(row, 1 - sd, -wo.z, g * w);
@@ -1603,8 +1630,24 @@ mod dielectric {
                     (r / target[x] - 1.0).abs()
                 })
                 .fold(0.0f64, f64::max);
+            if only.is_some() {
+                for x in 0..2 * fm {
+                    let r: f64 = (0..2 * fm).map(|y| sc[x] * m[x][y] * sc[y]).sum();
+                    let raw: f64 = m[x].iter().sum();
+                    eprintln!(
+                        "side {} mu {:.5}: target {:.5} unscaled {raw:.5} scale {:.4} scaled {r:.5}",
+                        x / fm,
+                        scale_grid_mu(x % fm),
+                        target[x],
+                        sc[x]
+                    );
+                }
+            }
             (sc, before, after)
         });
+        if only.is_some() {
+            return;
+        }
         // Roughness node 0 (no multiple scattering) keeps 1.
         let mut scale = vec![scale_steps(1.0); SCALE_LEN];
         let (mut before, mut after) = (0.0f64, 0.0f64);
@@ -1639,7 +1682,7 @@ mod dielectric {
              E_ss: SINGLE reflection + transmission quadrature {quad} x {quad} (compensation::single_albedo)\n\
              albedo of the unscaled lobe vs 1 - E_ss: worst relative deviation {before:.3e} (targets > 1e-3); after scaling: {after:.3e} (targets > 1e-4, rows not empty; scales within [0, {scale_max}] during the solve, 0 where the target is 0: {zeros} nodes)\n\
              scales between {smin:.4} and {smax:.4}\n\
-             grid: ndf {NDF_N} x alpha {SCALE_ALPHA_N} x eta {SCALE_ETA_N} x side 2 x mu {SCALE_MU_N}\n\
+             grid: ndf {NDF_N} x alpha {SCALE_ALPHA_N} (uniform in sqrt(alpha / 2) with 25 nodes, its first {SCALE_FINE_INTERVALS} intervals split in {SCALE_FINE_SPLIT}) x eta {SCALE_ETA_N} x side 2 x mu {SCALE_MU_N}\n\
              wall time: {:.0} s on {threads} threads\n\
              {SCALE_STORAGE}\n",
             String::from_utf8_lossy(SCALE_MAGIC),
@@ -1658,7 +1701,8 @@ mod dielectric {
         );
     }
 
-    /// How version 2 of the scale table stores the scales (a header line).
+    /// How versions 2 and 3 of the scale table store the scales (a header
+    /// line).
     const SCALE_STORAGE: &str = "storage: little-endian u16 q per scale, s = q * SCALE_STEP \
         (4 / 65535; s / SCALE_STEP rounded to nearest)";
 
@@ -1669,61 +1713,6 @@ mod dielectric {
         let q = (s / SCALE_STEP as f64).round();
         assert!((0.0..=65535.0).contains(&q), "scale {s} outside [0, 4]");
         q as u16
-    }
-
-    /// The 16-bit values ([`scale_steps`]) of version 1's f32 scales;
-    /// panics unless every one is within half a step of the f32 (the worst
-    /// difference is printed, with the library's f32 product `q
-    /// SCALE_STEP`).
-    fn pack_scales(v1: &[f32]) -> Vec<u8> {
-        let step = SCALE_STEP as f64;
-        // Worst |q step - s| (exact), as the library computes it (f32),
-        // and relative to s.
-        let (mut exact, mut lib, mut rel, mut at) = (0.0f64, 0.0f64, 0.0f64, 0);
-        let mut out = Vec::with_capacity(2 * v1.len());
-        for (i, &s) in v1.iter().enumerate() {
-            let q = scale_steps(s as f64);
-            let d = (q as f64 * step - s as f64).abs();
-            if d > exact {
-                (exact, at) = (d, i);
-            }
-            let dl = ((q as f32 * SCALE_STEP) as f64 - s as f64).abs();
-            lib = lib.max(dl);
-            if s > 0.0 {
-                rel = rel.max(dl / s as f64);
-            }
-            out.extend(q.to_le_bytes());
-        }
-        eprintln!(
-            "worst |q SCALE_STEP - s| {exact:.4e} ({:.4} steps; value {at}, s = {}); \
-             as f32 q * SCALE_STEP: {lib:.4e} ({:.4} steps), relative {rel:.4e}",
-            exact / step,
-            v1[at],
-            lib / step,
-        );
-        assert!(exact <= 0.5 * step, "a value off by more than half a step");
-        out
-    }
-
-    /// `--dielectric-scale-pack PATH`: rewrites a version-1 scale table
-    /// (f32 scales) as version 2 (16-bit steps, [`pack_scales`]) into
-    /// `--out`, its header kept with a line saying how it was converted.
-    pub fn scale_pack_main(args: &[String], rest: &[String]) {
-        super::repack(
-            args,
-            rest,
-            &super::Repack {
-                flag: "--dielectric-scale-pack",
-                out: "data/tabulated_dielectric_scale.bin",
-                old_magic: b"MSBSDF-TABULATED-DIELECTRIC-SCALE-v1\n",
-                magic: SCALE_MAGIC,
-                file_bytes: SCALE_FILE_BYTES,
-                block_len: SCALE_LEN,
-                rest_len: 0,
-                layout: SCALE_STORAGE,
-            },
-            pack_scales,
-        );
     }
 
     /// Mean of two estimates weighted by the (hat-weighted) numbers of

@@ -147,7 +147,7 @@ use crate::multiple::tabulated::{
 };
 use crate::multiple::tabulated::{
     DIELECTRIC_BLEND_S2, MAX_ALPHA, MU_N, albedo_mu_split, alpha_proj2, cos_phi, cosine_sample,
-    grid_dirs3, ndf_index, split, split_root, text_header,
+    grid_dirs3, ndf_index, split, split_at, split_root, text_header,
 };
 use crate::ndf::Ndf;
 use crate::rng::Rng;
@@ -224,9 +224,19 @@ pub const ALBEDO_AT: usize = HEADER_BYTES + LOBE_BYTES * LOBE_LEN;
 /// Total size of the table file in bytes.
 pub const FILE_BYTES: usize = ALBEDO_AT + 4 * ALBEDO_LEN;
 
-/// Roughness nodes of the furnace scale table (uniform in
-/// `sqrt(alpha / MAX_ALPHA)`, the first is 0).
-pub const SCALE_ALPHA_N: usize = 25;
+/// Nodes of the grid uniform in `sqrt(alpha / MAX_ALPHA)` that the furnace
+/// scale table's roughness nodes refine (the first is 0).
+const SCALE_ROOT_N: usize = 25;
+/// The scale table splits the first `SCALE_FINE_INTERVALS` intervals of
+/// its `sqrt(alpha)` grid (roughness 0 to 0.031) into
+/// `SCALE_FINE_SPLIT` each (version 3): below 0.031 the scales change
+/// fastest with roughness, and on the plain grid (nodes 0.0035, 0.0139)
+/// GGX glass 0.009 at 89 degrees was 2.7% dark.
+pub const SCALE_FINE_INTERVALS: usize = 3;
+/// See [`SCALE_FINE_INTERVALS`].
+pub const SCALE_FINE_SPLIT: usize = 3;
+/// Roughness nodes of the furnace scale table ([`scale_grid_alpha`]).
+pub const SCALE_ALPHA_N: usize = SCALE_ROOT_N + SCALE_FINE_INTERVALS * (SCALE_FINE_SPLIT - 1);
 /// Relative index nodes of the furnace scale table (uniform in `ln E`).
 pub const SCALE_ETA_N: usize = 21;
 /// Cosine nodes of the furnace scale table (uniform in `sqrt(mu)`).
@@ -235,15 +245,36 @@ pub const SCALE_MU_N: usize = 32;
 /// (side 0 thin, 1 dense), each a little-endian `u16` `q` for the scale
 /// `q SCALE_STEP` (see [`SCALE_STEP`]).
 pub const SCALE_LEN: usize = NDF_N * SCALE_ALPHA_N * SCALE_ETA_N * 2 * SCALE_MU_N;
-/// First bytes of the scale table file (version 1 stored f32 scales).
-pub const SCALE_MAGIC: &[u8; 37] = b"MSBSDF-TABULATED-DIELECTRIC-SCALE-v2\n";
+/// First bytes of the scale table file (version 1 stored f32 scales,
+/// version 2 had the plain `sqrt(alpha)` grid of 25 roughness nodes).
+pub const SCALE_MAGIC: &[u8; 37] = b"MSBSDF-TABULATED-DIELECTRIC-SCALE-v3\n";
 /// Total size of the scale table file in bytes.
 pub const SCALE_FILE_BYTES: usize = HEADER_BYTES + 2 * SCALE_LEN;
 
-/// Roughness of node `a` of the scale table.
+/// Roughness of node `a` of the scale table: node `x` of the grid uniform
+/// in `sqrt(alpha / MAX_ALPHA)` (25 nodes), `x = a /
+/// SCALE_FINE_SPLIT` in its first [`SCALE_FINE_INTERVALS`] intervals
+/// ([`scale_alpha_x`] inverted).
 pub fn scale_grid_alpha(a: usize) -> f32 {
-    let s = a as f32 / (SCALE_ALPHA_N - 1) as f32;
+    let fine = SCALE_FINE_INTERVALS * SCALE_FINE_SPLIT;
+    let x = if a <= fine {
+        a as f32 / SCALE_FINE_SPLIT as f32
+    } else {
+        (a - fine + SCALE_FINE_INTERVALS) as f32
+    };
+    let s = x / (SCALE_ROOT_N - 1) as f32;
     MAX_ALPHA * s * s
+}
+
+/// Continuous node coordinate on the scale table's roughness grid
+/// ([`scale_grid_alpha`]) of a roughness's coordinate `root`
+/// (`alpha_root`, in `[0, 1]`): `x + (SCALE_FINE_SPLIT - 1) min(x,
+/// SCALE_FINE_INTERVALS)`, `x` the coordinate on the plain grid (a
+/// minimum and a multiply-add more than the plain grid).
+#[inline(always)]
+pub fn scale_alpha_x(root: f32) -> f32 {
+    let x = root * (SCALE_ROOT_N - 1) as f32;
+    x + (SCALE_FINE_SPLIT - 1) as f32 * x.min(SCALE_FINE_INTERVALS as f32)
 }
 
 /// Relative index of node `e` of the scale table.
@@ -952,7 +983,7 @@ const _: () = assert!(LOBE_BYTES * LOBE_LEN <= u32::MAX as usize);
 /// each vertex.
 #[inline]
 fn scale_tri(ndf: usize, root: f32, eta_r: f32) -> Tri {
-    let (a0, fa) = split_root(root, SCALE_ALPHA_N);
+    let (a0, fa) = split_at(scale_alpha_x(root), SCALE_ALPHA_N);
     let (e0, fe) = split_root(eta_r, SCALE_ETA_N);
     triangle(fa, fe).map(|((da, de), w)| (scale_index(ndf, a0 + da, e0 + de, 0, 0) as u32, w))
 }
