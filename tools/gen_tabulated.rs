@@ -1672,13 +1672,27 @@ mod dielectric {
             .find(|l| l.starts_with("commit:"))
             .unwrap_or("commit: ?")
             .to_string();
+        let quadrature = if broad > 0 {
+            format!(
+                "reflection compensation::broad_reflection_nodes {broad} x {broad} normals and a {} x {} grid, transmission compensation::lower_hemisphere_nodes {} x {}",
+                broad / 3,
+                2 * broad / 3,
+                broad / 3,
+                2 * broad / 3
+            )
+        } else {
+            format!(
+                "reflection 2 x {ng} x {ng} (GGX visible normals of the same roughness with F = 1, for both NDFs, and cosine; balance heuristic), transmission {ng} x {}",
+                2 * ng
+            )
+        };
         let head = format!(
             "{}\
              MSBSDF_MODEL_TABULATED dielectric furnace scales (layout: src/multiple/tabulated_dielectric.rs)\n\
              command: cargo run --release --example gen_tabulated -- {}\n\
              commit: {}\n\
              lobe table: data/tabulated_dielectric.bin, {table_commit}\n\
-             quadrature: reflection 2 x 48 x 48 (GGX visible normals of the same roughness with F = 1, for both NDFs, and cosine; balance heuristic), transmission 48 x 96; deterministic, no seeds\n\
+             quadrature: {quadrature}; deterministic, no seeds\n\
              E_ss: SINGLE reflection + transmission quadrature {quad} x {quad} (compensation::single_albedo)\n\
              albedo of the unscaled lobe vs 1 - E_ss: worst relative deviation {before:.3e} (targets > 1e-3); after scaling: {after:.3e} (targets > 1e-4, rows not empty; scales within [0, {scale_max}] during the solve, 0 where the target is 0: {zeros} nodes)\n\
              scales between {smin:.4} and {smax:.4}\n\
