@@ -1769,6 +1769,24 @@ mod tests {
         assert!(checked > 500, "{checked} cells not 0");
     }
 
+    /// The scale table's roughness coordinate (`scale_alpha_x`, what init
+    /// and anisotropic eval read) is the generator's grid
+    /// (`scale_grid_alpha`) inverted: each node's roughness reads its own
+    /// node within 1e-4, the split intervals are a third of the plain
+    /// grid's below 0.031, and the last node is `MAX_ALPHA`.
+    #[test]
+    fn scale_roughness_nodes_read_their_own_node() {
+        for a in 0..SCALE_ALPHA_N {
+            let x = scale_alpha_x(alpha_root(scale_grid_alpha(a)));
+            assert!((x - a as f32).abs() < 1e-4, "node {a}: coordinate {x}");
+        }
+        assert_eq!(scale_grid_alpha(SCALE_ALPHA_N - 1), MAX_ALPHA);
+        let plain = |x: f32| MAX_ALPHA * (x / 24.0).powi(2);
+        assert!((scale_grid_alpha(1) - plain(1.0 / 3.0)).abs() < 1e-7);
+        assert!((scale_grid_alpha(9) - plain(3.0)).abs() < 1e-7);
+        assert!((scale_grid_alpha(10) - plain(4.0)).abs() < 1e-7);
+    }
+
     /// Init's and eval's reads of the 16-bit scale table (`node_scales`,
     /// `scale_pair`) against the scales `scale_value` returns, at the
     /// scale triangle's corners: `node_scales` within half a step (and
