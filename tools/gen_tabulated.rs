@@ -1482,7 +1482,8 @@ mod dielectric {
     /// Options: `--ng N` the reflection sets' and transmission grid's size
     /// (48); `--broad N` instead integrates both over the tests' nodes
     /// (`compensation::glass_albedo`: [`broad_reflection_nodes`] `N x N`
-    /// and [`lower_hemisphere_nodes`] `N / 3 x 2 N / 3`); `--only N,A,E`
+    /// and [`lower_hemisphere_nodes`] `N / 3 x 2 N / 3`, `2 N` for `N`
+    /// above roughness 1; `--broad 400` is the tests' quadrature); `--only N,A,E`
     /// solves one node (NDF, roughness and index node) and prints its rows
     /// instead of writing the table.
     pub fn scale_main(args: &[String]) {
@@ -1548,9 +1549,11 @@ mod dielectric {
                     let wi = flip(up);
                     let row = &mut m[sd * fm + i];
                     if broad > 0 {
-                        // The tests' quadrature (`compensation::glass_albedo`).
-                        let (nz, np) = (broad / 3, 2 * broad / 3);
-                        broad_reflection_nodes(alpha, alpha, up, broad, (nz, np), |wo, w| {
+                        // The tests' quadrature (`compensation::glass_albedo`:
+                        // twice as fine above roughness 1).
+                        let nb = if alpha > 1.0 { 2 * broad } else { broad };
+                        let (nz, np) = (nb / 3, 2 * nb / 3);
+                        broad_reflection_nodes(alpha, alpha, up, nb, (nz, np), |wo, w| {
                             let g = tab.multiple_unscaled(wi, flip(wo)) as f64;
                             add(row, sd, wo.z, g * w);
                         });
@@ -1674,7 +1677,7 @@ mod dielectric {
             .to_string();
         let quadrature = if broad > 0 {
             format!(
-                "reflection compensation::broad_reflection_nodes {broad} x {broad} normals and a {} x {} grid, transmission compensation::lower_hemisphere_nodes {} x {}",
+                "reflection compensation::broad_reflection_nodes {broad} x {broad} normals and a {} x {} grid, transmission compensation::lower_hemisphere_nodes {} x {}; twice as many per axis above roughness 1 (the tests' compensation::glass_albedo with --broad 400)",
                 broad / 3,
                 2 * broad / 3,
                 broad / 3,
