@@ -117,6 +117,37 @@ fn white_furnace_both_sides_eval_and_sample() {
     assert!(worst[1][1] < 5e-3, "{report}");
 }
 
+/// White furnace of glass 1.05 seen from inside near grazing incidence
+/// (80-89 degrees), where the inside reflection's multiply scattered lobe
+/// is largest, at the scale table's roughness nodes 0.28 and 1.84 and at
+/// 0.8, 1.2 and 1.9 between nodes. Until session 23 the scale generator's
+/// quadrature (2 x 48 x 48 reflection, 48 x 96 transmission) put the
+/// unscaled albedo from 89 degrees at roughness 2 at 1.211 where finer
+/// ones converge to 1.29: GGX 1.9 was +6.4% at 89 degrees (the sample
+/// mean agreed), +6.2% at the node 1.84. The table is now generated over
+/// the tests' own quadrature (`--broad 400`). Measured now: worst 0.56%
+/// (Beckmann 0.8 at 89 degrees, between roughness nodes; GGX 1.9 +0.17%),
+/// bounded at 0.7%: the 0.5% is not met here.
+#[test]
+fn furnace_of_glass_1_05_from_inside_near_grazing() {
+    let mut report = String::new();
+    let mut worst: f64 = 0.0;
+    let eta = 1.05;
+    for ndf in NDFS {
+        for alpha in [0.28125f32, 0.8, 1.2, 1.84, 1.9] {
+            let t = tab(ndf, alpha, alpha, eta);
+            let s = Material::new(&desc(Model::Single, ndf, alpha, alpha, eta)).expect("valid");
+            for theta in [80.0, 85.0, 88.0, 89.0] {
+                let q = albedo_quadrature(&t, &s, incident(theta, -1.0), alpha, alpha, eta);
+                report += &format!("{ndf:?} {alpha} {theta}: {:+.4}\n", q - 1.0);
+                worst = worst.max((q - 1.0).abs());
+            }
+        }
+    }
+    println!("{report}worst |albedo - 1| = {worst:.4}");
+    assert!(worst < 0.007, "{report}");
+}
+
 /// White furnace below the roughness 0.05 at grazing incidence (80-89
 /// degrees, glass 1.5 from both sides, eval quadrature), where `E_ss`
 /// nears 1 and the furnace scales change fastest with the roughness.
