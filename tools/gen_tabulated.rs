@@ -1477,7 +1477,8 @@ mod dielectric {
     /// the lobe by `s(wi) s(wo)` interpolated linearly in `sqrt(mu)`, so the
     /// scaled albedo is the target at every node; a product keeps both
     /// reciprocity rules. The scales are written as 16-bit steps
-    /// ([`scale_steps`]).
+    /// ([`scale_steps`]). The committed table (since session 23) uses
+    /// `--broad 400` below.
     ///
     /// Options: `--ng N` the reflection sets' and transmission grid's size
     /// (48); `--broad N` instead integrates both over the tests' nodes
@@ -1548,7 +1549,8 @@ mod dielectric {
                     let up = dir(mu);
                     let wi = flip(up);
                     let row = &mut m[sd * fm + i];
-                    if broad > 0 {
+                    // The transmission grid's size.
+                    let (tz, tp) = if broad > 0 {
                         // The tests' quadrature (`compensation::glass_albedo`:
                         // twice as fine above roughness 1).
                         let nb = if alpha > 1.0 { 2 * broad } else { broad };
@@ -1557,44 +1559,42 @@ mod dielectric {
                             let g = tab.multiple_unscaled(wi, flip(wo)) as f64;
                             add(row, sd, wo.z, g * w);
                         });
-                        lower_hemisphere_nodes(nz, np, |wo, w| {
-                            let g = tab.multiple_unscaled(wi, flip(wo)) as f64;
-                            add(row, 1 - sd, -wo.z, g * w);
-                        });
-                    }
-                    // Reflection: visible normals (F = 1) and cosine lobe.
-                    for strategy in 0..if broad > 0 { 0 } else { 2 } {
-                        for p in 0..ng {
-                            for q in 0..ng {
-                                let u1 = (p as f32 + 0.5) / ng as f32;
-                                let u2 = (q as f32 + 0.5) / ng as f32;
-                                let wo = if strategy == 0 {
-                                    let h = proposal.sample_visible(up, u1, u2);
-                                    msbsdf::frame::reflect(up, h)
-                                } else {
-                                    let r = u1.sqrt();
-                                    let ph = 2.0 * std::f32::consts::PI * u2;
-                                    Vec3::new(
-                                        r * ph.cos(),
-                                        r * ph.sin(),
-                                        (1.0 - u1).max(0.0).sqrt(),
-                                    )
-                                };
-                                if wo.z <= 0.0 {
-                                    continue;
-                                }
-                                let pv = single1.pdf(up, wo) as f64;
-                                let pc = wo.z as f64 / PI;
-                                let g = tab.multiple_unscaled(wi, flip(wo)) as f64;
-                                if pv + pc > 0.0 {
-                                    add(row, sd, wo.z, g / ((ng * ng) as f64 * (pv + pc)));
+                        (nz, np)
+                    } else {
+                        // Reflection: visible normals (F = 1) and cosine lobe.
+                        for strategy in 0..2 {
+                            for p in 0..ng {
+                                for q in 0..ng {
+                                    let u1 = (p as f32 + 0.5) / ng as f32;
+                                    let u2 = (q as f32 + 0.5) / ng as f32;
+                                    let wo = if strategy == 0 {
+                                        let h = proposal.sample_visible(up, u1, u2);
+                                        msbsdf::frame::reflect(up, h)
+                                    } else {
+                                        let r = u1.sqrt();
+                                        let ph = 2.0 * std::f32::consts::PI * u2;
+                                        Vec3::new(
+                                            r * ph.cos(),
+                                            r * ph.sin(),
+                                            (1.0 - u1).max(0.0).sqrt(),
+                                        )
+                                    };
+                                    if wo.z <= 0.0 {
+                                        continue;
+                                    }
+                                    let pv = single1.pdf(up, wo) as f64;
+                                    let pc = wo.z as f64 / PI;
+                                    let g = tab.multiple_unscaled(wi, flip(wo)) as f64;
+                                    if pv + pc > 0.0 {
+                                        add(row, sd, wo.z, g / ((ng * ng) as f64 * (pv + pc)));
+                                    }
                                 }
                             }
                         }
-                    }
+                        (ng, 2 * ng)
+                    };
                     // Transmission: grid over the other hemisphere.
-                    let (nz, np) = if broad > 0 { (0, 0) } else { (ng, 2 * ng) };
-                    lower_hemisphere_nodes(nz, np, |wo, w| {
+                    lower_hemisphere_nodes(tz, tp, |wo, w| {
                         let g = tab.multiple_unscaled(wi, flip(wo)) as f64;
                         add(row, 1 - sd, -wo.z, g * w);
                     });
