@@ -148,6 +148,51 @@ fn furnace_of_glass_1_05_from_inside_near_grazing() {
     assert!(worst < 0.007, "{report}");
 }
 
+/// White furnace of isotropic glass across the range near grazing
+/// incidence, at random cases (fixed seed): NDF, roughness log-uniform in
+/// [0.002, 1.9], relative index `E` log-uniform in [1.05, 3] seen from
+/// either side, `theta` uniform in [80, 89] degrees (eval quadrature).
+/// The other furnace tests sit at chosen points; this one finds what lies
+/// between the tables' nodes. The 0.5% is not met: the worst are
+/// glass of low index seen from inside, between the scale table's
+/// roughness nodes (where the interpolated lobe's albedo and `1 - E_ss`
+/// part fastest, Beckmann 0.3 glass 1.05 from inside at 89 degrees
+/// +2.6%) and at the crease of the lobe table's interpolation triangles
+/// in `(roughness, index)` (GGX 0.889 glass 1.126 from inside at 88
+/// degrees +1.9%). Measured: worst 1.15% (Beckmann 0.278 glass 1.248
+/// from inside at 86 degrees), 90th percentile 0.23%, 2 of 240 cases over
+/// 0.5%; bounded at 1.3% and 0.3%.
+#[test]
+fn isotropic_furnace_at_random_cases_near_grazing() {
+    let mut rng = Rng::new(1128, 5);
+    let mut rows: Vec<(f64, String)> = Vec::new();
+    for _ in 0..240 {
+        let mut u = || rng.next_f32();
+        let ndf = NDFS[(u() < 0.5) as usize];
+        let alpha = (0.002f32.ln() + u() * (1.9f32.ln() - 0.002f32.ln())).exp();
+        let e = (1.05f32.ln() + u() * (3.0f32.ln() - 1.05f32.ln())).exp();
+        let eta = if u() < 0.5 { e } else { 1.0 / e };
+        let side = if u() < 0.5 { 1.0 } else { -1.0 };
+        let theta = 80.0 + 9.0 * u() as f64;
+        let t = tab(ndf, alpha, alpha, eta);
+        let s = Material::new(&desc(Model::Single, ndf, alpha, alpha, eta)).expect("valid");
+        let q = albedo_quadrature(&t, &s, incident(theta, side), alpha, alpha, eta);
+        let row = format!(
+            "{ndf:?} {alpha:.4} eta {eta:.4} side {side} theta {theta:.2}: {:+.4}",
+            q - 1.0
+        );
+        rows.push(((q - 1.0).abs(), row));
+    }
+    rows.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let n = rows.len();
+    let (worst, p90) = (rows[0].0, rows[n / 10].0);
+    let over = rows.iter().filter(|r| r.0 > 0.005).count();
+    let report: String = rows.iter().take(12).map(|r| format!("{}\n", r.1)).collect();
+    println!("{report}worst {worst:.4}, 90th percentile {p90:.4}, over 0.5%: {over} of {n}");
+    assert!(worst < 0.013, "worst {worst:.4}\n{report}");
+    assert!(p90 < 0.003, "90th percentile {p90:.4}\n{report}");
+}
+
 /// White furnace below the roughness 0.05 at grazing incidence (80-89
 /// degrees, glass 1.5 from both sides, eval quadrature), where `E_ss`
 /// nears 1 and the furnace scales change fastest with the roughness.

@@ -1486,7 +1486,9 @@ mod dielectric {
     /// and [`lower_hemisphere_nodes`] `N / 3 x 2 N / 3`, `2 N` for `N`
     /// above roughness 1; `--broad 400` is the tests' quadrature); `--only N,A,E`
     /// solves one node (NDF, roughness and index node) and prints its rows
-    /// instead of writing the table.
+    /// instead of writing the table, with `--alpha A` at roughness `A`
+    /// instead of the node's (what the scales between two nodes would
+    /// have to be).
     pub fn scale_main(args: &[String]) {
         use msbsdf::multiple::tabulated_dielectric::{
             SCALE_ALPHA_N, SCALE_ETA_N, SCALE_FINE_INTERVALS, SCALE_FINE_SPLIT, SCALE_MAX,
@@ -1512,6 +1514,11 @@ mod dielectric {
             .position(|a| a == "--only")
             .and_then(|p| args.get(p + 1))
             .map(|v| v.split(',').filter_map(|t| t.parse().ok()).collect());
+        let at_alpha: Option<f32> = only
+            .as_ref()
+            .and_then(|_| args.iter().position(|a| a == "--alpha"))
+            .and_then(|p| args.get(p + 1))
+            .and_then(|v| v.parse().ok());
         let jobs: Vec<(usize, usize, usize)> = match &only {
             Some(v) if v.len() == 3 => vec![(v[0], v[1], v[2])],
             _ => (0..NDF_N)
@@ -1522,6 +1529,8 @@ mod dielectric {
         };
         let res = parallel(&jobs, "dielectric scale", threads, |_, &(n, a, e)| {
             let (alpha, eta) = (scale_grid_alpha(a), scale_grid_eta(e));
+            // `--only ... --alpha A`: the node's solve at roughness A.
+            let alpha = at_alpha.unwrap_or(alpha);
             let ndf = Ndf::new(NDFS[n], alpha, alpha);
             let tab = TabulatedDielectric::new(ndf, Facet::Dielectric { eta });
             // Reflection proposal: GGX visible normals (see above).

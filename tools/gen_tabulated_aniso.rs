@@ -1452,7 +1452,8 @@ fn dielectric_eta_scan(quad: usize) {
 /// and the multiply scattered reflection over 400 x 400 normals, 800 x 800
 /// above alpha 1, the transmission over a third by two thirds of that in
 /// directions). Prints the worst `|albedo - 1|` per range of `E` and the
-/// worst cases.
+/// worst cases. `--isotropic`: `alpha_y = alpha_x` (log-uniform in
+/// [0.002, 1.9]); `--grazing`: `theta` uniform in [80, 89] degrees.
 fn dielectric_random(args: &[String]) {
     use msbsdf::multiple::tabulated_dielectric::TabulatedDielectric;
     let count: usize = args
@@ -1461,16 +1462,24 @@ fn dielectric_random(args: &[String]) {
         .and_then(|p| args.get(p + 1))
         .and_then(|v| v.parse().ok())
         .unwrap_or(200);
+    let isotropic = args.iter().any(|a| a == "--isotropic");
+    let grazing = args.iter().any(|a| a == "--grazing");
     let mut rng = Rng::new(2026, 11);
     let cases: Vec<(usize, f32, f32, f32, Vec3)> = (0..count)
         .map(|_| {
             let mut u = || rng.next_f32();
             let n = (u() < 0.5) as usize;
-            let la = |v: f32| (0.05f32.ln() + v * (1.9f32.ln() - 0.05f32.ln())).exp();
-            let (ax, ay) = (la(u()), la(u()));
+            let lo: f32 = if isotropic { 0.002 } else { 0.05 };
+            let la = |v: f32| (lo.ln() + v * (1.9f32.ln() - lo.ln())).exp();
+            let ax = la(u());
+            let ay = if isotropic { ax } else { la(u()) };
             let e = (1.05f32.ln() + u() * (3.0f32.ln() - 1.05f32.ln())).exp();
             let eta = if u() < 0.5 { e } else { 1.0 / e };
-            let mu = 89f32.to_radians().cos() + u() * (1.0 - 89f32.to_radians().cos());
+            let mu = if grazing {
+                (80.0 + 9.0 * u()).to_radians().cos()
+            } else {
+                89f32.to_radians().cos() + u() * (1.0 - 89f32.to_radians().cos())
+            };
             let phi = u() * std::f32::consts::TAU;
             let st = (1.0 - mu * mu).max(0.0).sqrt();
             let side = if u() < 0.5 { 1.0 } else { -1.0 };
