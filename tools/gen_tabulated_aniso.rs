@@ -35,10 +35,12 @@
 //! (every block; about 80 minutes on 2 threads). Environment switches:
 //! `PAIRS=n:jx:jy,...` solves the listed blocks only (experiments: the
 //! others are 0, and the header's command line says so);
-//! `REUSE=PATH` copies the blocks an earlier table (version 12 to 16)
+//! `REUSE=PATH` copies the blocks an earlier table (version 12 to 17)
 //! has on the same grid and stretch, which this code computes bit for
-//! bit, and solves the others (the committed version 15 was made so from
-//! version 14, 14 from 13 and 13 from 12: its header names the runs);
+//! bit, and solves the others (the committed version 18 is version 17
+//! without node 0's blocks, every block copied; 17 was made so from 16,
+//! 16 from 15, 15 from 14, 14 from 13 and 13 from 12: its header names
+//! the runs);
 //! `-- --dielectric [--quad N]` writes the dielectric tier's
 //! `data/tabulated_aniso_dielectric.bin` the same way ([`dielectric`]);
 //! `-- --dielectric-random [COUNT]` measures anisotropic glass's furnace
@@ -490,8 +492,9 @@ fn main() {
     let t0 = std::time::Instant::now();
     // Jobs: (ndf, jx, jy) with jx <= jy (the stored pairs), the dearest
     // (both axes rough: nothing skipped) first.
+    // Node 0's pairs are not stored (`tabulated::CORR_PAIRS`).
     let mut jobs: Vec<(usize, usize, usize)> = (0..2)
-        .flat_map(|n| (0..CORR_A).flat_map(move |jx| (jx..CORR_A).map(move |jy| (n, jx, jy))))
+        .flat_map(|n| (1..CORR_A).flat_map(move |jx| (jx..CORR_A).map(move |jy| (n, jx, jy))))
         .collect();
     jobs.sort_by_key(|&(_, jx, _)| usize::MAX - jx);
     // Experiments: `PAIRS=n:jx:jy,...` solves those blocks only (the
@@ -510,16 +513,16 @@ fn main() {
         jobs.retain(|j| keep.contains(j));
     }
     // `REUSE=PATH`: the blocks whose grid and stretch an earlier table
-    // (version 12 to 16) shares are copied from it: this code computes
+    // (version 12 to 17) shares are copied from it: this code computes
     // them bit for bit (the same nodes, rows, balancing and solve); only
     // the others are solved. The header's command line says so.
     let reuse = std::env::var("REUSE").ok().map(|path| {
         let raw = std::fs::read(&path).expect("read the REUSE table");
         let old = OldLayout::of(&raw)
-            .expect("REUSE needs a version-12 to -16 conductor correction table");
+            .expect("REUSE needs a version-12 to -17 conductor correction table");
         // Version 16 and earlier solved every block alike: the
         // low-roughness ones (`low_block`) are solved again.
-        jobs.retain(|&(_, jx, jy)| !old.shares(jx, jy) || low_block(jx, jy));
+        jobs.retain(|&(_, jx, jy)| !old.shares(jx, jy) || (old.version < 17 && low_block(jx, jy)));
         (path, raw, old)
     });
     let threads: usize = std::env::var("THREADS")
@@ -549,17 +552,24 @@ fn main() {
             for i in 0..nmu {
                 let at = corr_index(n, jx, jy, k, i);
                 for (c, &v) in block[k * nmu + i].iter().enumerate() {
-                    lo[c] = lo[c].min(v);
-                    hi[c] = hi[c].max(v);
                     table[CORR_VALUES * at + c] = corr_encode(v, CORR_PAIR_MAX);
                 }
             }
         }
     }
+    // The stored range over every block (solved or copied).
+    for pair in table.chunks_exact(CORR_VALUES) {
+        for (c, &q) in pair.iter().enumerate() {
+            let v = msbsdf::multiple::tabulated::corr_decode(q, CORR_PAIR_MAX);
+            lo[c] = lo[c].min(v);
+            hi[c] = hi[c].max(v);
+        }
+    }
     let command: Vec<String> = args.iter().skip(1).cloned().collect();
     let header = format!(
-        "ANISO_CORRECTION v17 (MSBSDF_MODEL_TABULATED): per [ndf: Beckmann, GGX][roughness \
-         pair (jx <= jy) of {CORR_A} x {CORR_A}: alpha = 2 (j / {})^2][azimuth n: {CORR_PHI} \
+        "ANISO_CORRECTION v18 (MSBSDF_MODEL_TABULATED): per [ndf: Beckmann, GGX][roughness \
+         pair (1 <= jx <= jy) of {CORR_A} x {CORR_A}: alpha = 2 (j / {})^2; node 0's pairs \
+         are not stored, a roughness below node 1 reads node 1][azimuth n: {CORR_PHI} \
          nodes, {CORR_PHI_STRETCHED} in the stretched blocks (tabulated::corr_pair_grid), of the diamond angle rho |y| / (|x| + rho |y|) from 0 to 1, rho the block's \
          stretch (tabulated::corr_stretch: 1 up to alpha_y / alpha_x = {CORR_STRETCH_RATIO}, \
          {CORR_STRETCH_RATIO_ROUGH} where the rougher axis is at node {CORR_STRETCH_ROUGH_FROM} or above, \
@@ -582,8 +592,7 @@ fn main() {
          lobe over compensation::broad_reflection_nodes: those normals and a {} x {} \
          direction grid split by node density), s by the \
          symmetric Sinkhorn iteration on the integrated interpolation weights (residual 1e-6 \
-         or 3000 steps); no random numbers. Factors [1, 1] where an axis has roughness < 1e-3; \
-         diagonal nodes at alpha_y (1 + 1e-4); s clamped to [{S_MIN}, {CORR_MAX}]. Stored range u \
+         or 3000 steps); no random numbers. Diagonal nodes at alpha_y (1 + 1e-4); s clamped to [{S_MIN}, {CORR_MAX}]. Stored range u \
          {:.4} - {:.4}, v {:.4} - {:.4}; worst |albedo - (1 - E_ss)| at the nodes with the \
          stored values {:.2e}; {} clamped factors s, {} stored values at the top of the \
          range; at most {} Sinkhorn steps.\n\
@@ -622,19 +631,19 @@ fn main() {
             let old = old.trim_end_matches('\0');
             let keep: Vec<&str> = old
                 .lines()
-                .filter(|l| {
-                    ["Command:", "Commit:", "REUSE:"]
-                        .iter()
-                        .any(|p| l.starts_with(p))
-                })
+                .filter(|l| ["Command:", "Commit:"].iter().any(|p| l.starts_with(p)))
                 .collect();
+            // Its own REUSE line (the runs before it) and statistics stay
+            // in its header: the chain outgrew the 4096 bytes (version 18).
             format!(
                 "{header}REUSE: the blocks of the same grid and stretch ({} per NDF) copied \
-                 from {p}, a version-{} table made by the same code for them (its {}); the \
-                 statistics above cover the blocks solved here\n",
+                 from {p}, a version-{} table made by the same code for them (its {}; its \
+                 header, with the runs before it and its statistics, is in the repository's \
+                 history of this file); the statistics above cover the {} blocks solved here\n",
                 layout.shared(),
                 layout.version,
-                keep.join("; ")
+                keep.join("; "),
+                jobs.len()
             )
         }
         None => header,
@@ -714,6 +723,14 @@ impl OldLayout {
                 stretched: V15_STRETCHED,
                 cap: 10.0,
             }
+        } else if raw.starts_with(b"MSBSDF-TABULATED-ANISO-F-v17\n") {
+            // Version 16's layout (its low-roughness blocks solved anew).
+            OldLayout {
+                version: 17,
+                ratio: Some((8, Some((5, 20)))),
+                stretched: V15_STRETCHED,
+                cap: 10.0,
+            }
         } else {
             return None;
         };
@@ -723,7 +740,8 @@ impl OldLayout {
         (raw.len() == HEADER_BYTES + 2 * CORR_VALUES * 2 * nodes).then_some(old)
     }
 
-    /// The stored pairs `lo <= hi` in file order.
+    /// The stored pairs `lo <= hi` in file order (node 0's too: versions
+    /// 12 to 17 stored them).
     fn pairs() -> impl Iterator<Item = (usize, usize)> {
         (0..CORR_A).flat_map(|lo| (lo..CORR_A).map(move |hi| (lo, hi)))
     }
@@ -758,9 +776,12 @@ impl OldLayout {
 
     /// Whether the old table's block `(jx, jy)` has the new one's grid
     /// and stretch (the grids compare every field; `corr_stretch` within
-    /// f32 rounding).
+    /// f32 rounding); node 0's blocks are not in the new layout.
     fn shares(&self, jx: usize, jy: usize) -> bool {
         let (lo, hi) = (jx.min(jy), jx.max(jy));
+        if lo == 0 {
+            return false;
+        }
         let (old, new) = (self.stretch_of(lo, hi), corr_stretch(lo, hi));
         self.grid_of(lo, hi) == corr_pair_grid(lo, hi) && (old - new).abs() <= 1e-5 * new
     }

@@ -240,10 +240,13 @@ pub fn aniso_peak(ndf: usize, alpha_max: f32) -> (f32, f32) {
 /// in `sqrt(alpha / MAX_ALPHA)`: ENERGY_COMPENSATED's 16 nodes and the
 /// midpoints between them).
 pub const CORR_A: usize = 31;
-/// Stored roughness pairs `(alpha_x node <= alpha_y node)` per NDF; the
-/// others by the symmetry `(alpha_x, alpha_y, phi) -> (alpha_y, alpha_x,
-/// pi/2 - phi)`.
-pub const CORR_PAIRS: usize = CORR_A * (CORR_A + 1) / 2;
+/// Stored roughness pairs `(1 <= alpha_x node <= alpha_y node)` per NDF;
+/// the others by the symmetry `(alpha_x, alpha_y, phi) -> (alpha_y,
+/// alpha_x, pi/2 - phi)`. Pairs with node 0 (roughness 0) are not stored
+/// (version 18): a roughness below node 1 reads node 1 ([`corr_corners`],
+/// since version 16), so their blocks (factors 1) were never read: 75,888
+/// bytes.
+pub const CORR_PAIRS: usize = (CORR_A - 1) * CORR_A / 2;
 /// Azimuth nodes of the conductor's correction (uniform in the diamond
 /// angle, `corr_dir`): 17. The albedo table's 7
 /// (`compensation_aniso_tables::AN_PHI`) left `E_ss` interpolated between
@@ -309,7 +312,7 @@ pub const CORR_VALUES: usize = 2;
 /// [`CORR_LEN`].
 pub const CORR_FILE_BYTES: usize = HEADER_BYTES + 2 * CORR_VALUES * CORR_LEN;
 /// First bytes of the correction table file.
-pub const CORR_MAGIC: &[u8; 29] = b"MSBSDF-TABULATED-ANISO-F-v17\n";
+pub const CORR_MAGIC: &[u8; 29] = b"MSBSDF-TABULATED-ANISO-F-v18\n";
 
 /// Exponent of the peaked part's proxy ([`corr_proxy_ln`]) per NDF index
 /// (Beckmann, GGX): the correction table stores `v exp(CORR_PROXY_V L)`
@@ -575,14 +578,14 @@ pub fn corr_grid(rho: f32) -> CorrGrid {
     }
 }
 
-/// First node of the stored pair `(lo, hi)`'s block (`lo <= hi`) in an
-/// NDF's blocks, `[lo][hi]`: the blocks in [`corr_pair`] order, each of
-/// [`corr_pair_grid`]'s nodes (material
-/// init reads three: one load each).
+/// First node of the stored pair `(lo, hi)`'s block (`1 <= lo <= hi`) in
+/// an NDF's blocks, `[lo][hi]`: the blocks in [`corr_pair`] order, each of
+/// [`corr_pair_grid`]'s nodes (material init reads three: one load each).
+/// Row `lo = 0` is not stored ([`CORR_PAIRS`]) and holds 0.
 const CORR_BLOCK_AT: [[u32; CORR_A]; CORR_A] = {
     let mut out = [[0u32; CORR_A]; CORR_A];
     let mut at = 0;
-    let mut lo = 0;
+    let mut lo = 1;
     while lo < CORR_A {
         let mut hi = lo;
         while hi < CORR_A {
@@ -596,10 +599,11 @@ const CORR_BLOCK_AT: [[u32; CORR_A]; CORR_A] = {
 };
 
 /// Index of the value of `(ndf, jx, jy, phi node k, mu node i)` for any
-/// `jx`, `jy` (through the symmetry for `jx > jy`: azimuth node `k` of
-/// `(jx, jy)` is node `n - 1 - k` of `(jy, jx)`, `n` the block's
-/// [`corr_pair_grid`]).
+/// `jx`, `jy` from 1 (through the symmetry for `jx > jy`: azimuth node `k`
+/// of `(jx, jy)` is node `n - 1 - k` of `(jy, jx)`, `n` the block's
+/// [`corr_pair_grid`]). Panics for a node 0, which is not stored.
 pub const fn corr_index(ndf: usize, jx: usize, jy: usize, k: usize, i: usize) -> usize {
+    assert!(jx >= 1 && jy >= 1, "node 0's pairs are not stored");
     let (lo, hi, k) = if jx <= jy {
         (jx, jy, k)
     } else {
@@ -716,6 +720,8 @@ fn corr_corners(ndf: usize, ax: f32, ay: f32) -> CorrBlocks {
     let coord = |a: f32| (a / MAX_ALPHA).clamp(NODE1, 1.0).sqrt() * (CORR_A - 1) as f32;
     let (jx, _, fx) = split(coord(ax), CORR_A);
     let (jy, _, fy) = split(coord(ay), CORR_A);
+    // Node 0's pairs are not stored (`CORR_BLOCK_AT`).
+    debug_assert!(jx >= 1 && jy >= 1, "({ax}, {ay}) reads node 0");
     let tri = triangle(fx, fy);
     let corners = tri.map(|((dx, dy), w)| {
         let (lo, hi, m) = stored_pair(jx + dx, jy + dy);
@@ -2748,7 +2754,7 @@ mod tests {
                 }
             }
         }
-        // 350 stored blocks of 992 (both NDFs, jx <= jy) are stretched:
+        // 350 stored blocks of 930 (both NDFs, 1 <= jx <= jy) are stretched:
         // 175 pairs per NDF, twice that over the full square.
         assert_eq!(stretched, 350);
     }
@@ -2762,7 +2768,7 @@ mod tests {
     #[test]
     fn the_normal_stores_one_pair_per_block() {
         for ndf in 0..NDF_N {
-            for jx in 0..CORR_A {
+            for jx in 1..CORR_A {
                 for jy in jx..CORR_A {
                     let top = corr_pair_grid(jx, jy).mu - 1;
                     let first = corr_values(corr_index(ndf, jx, jy, 0, top));
@@ -2839,7 +2845,7 @@ mod tests {
         let mut next = 0;
         let mut stretched = 0;
         for ndf in 0..NDF_N {
-            for lo in 0..CORR_A {
+            for lo in 1..CORR_A {
                 for hi in lo..CORR_A {
                     let g = corr_pair_grid(lo, hi);
                     let (n, nmu) = (g.phi, g.mu);
@@ -2866,8 +2872,39 @@ mod tests {
         assert_eq!(stretched, 350);
         assert_eq!(
             CORR_LEN,
-            NDF_N * (321 * CORR_PHI * CORR_MU + 175 * CORR_PHI_STRETCHED * CORR_MU_STRETCHED)
+            NDF_N * (290 * CORR_PHI * CORR_MU + 175 * CORR_PHI_STRETCHED * CORR_MU_STRETCHED)
         );
         assert_eq!(RAW_CORR.len(), HEADER_BYTES + 2 * CORR_VALUES * CORR_LEN);
+    }
+
+    /// Node 0's pairs are not stored (version 18), so no material may read
+    /// them: roughness from 0 to node 1 on either axis, against node-1,
+    /// mid-grid and maximal roughness on the other, gives corners from
+    /// node 1 on (`corr_corners`' debug assertion), and below node 1 the
+    /// same corners and weights as node 1 itself.
+    #[test]
+    fn no_material_reads_node_0_of_the_conductor_correction() {
+        let node1 = corr_grid_alpha(1);
+        let low = [
+            0.0,
+            1e-9,
+            1e-6,
+            1e-4,
+            1e-3,
+            0.5 * node1,
+            0.999 * node1,
+            node1,
+        ];
+        for ndf in 0..NDF_N {
+            for &a in &low {
+                for b in [node1, 0.3, MAX_ALPHA] {
+                    for (ax, ay) in [(a, b), (b, a)] {
+                        let got = corr_corners(ndf, ax, ay).corners;
+                        let (nx, ny) = (ax.max(node1), ay.max(node1));
+                        assert_eq!(got, corr_corners(ndf, nx, ny).corners, "({ax}, {ay})");
+                    }
+                }
+            }
+        }
     }
 }
