@@ -716,17 +716,14 @@ impl OldLayout {
                 stretched: V15_STRETCHED,
                 cap: f32::INFINITY,
             }
-        } else if raw.starts_with(b"MSBSDF-TABULATED-ANISO-F-v16\n") {
+        } else if let Some(version) = [16, 17]
+            .into_iter()
+            .find(|v| raw.starts_with(format!("MSBSDF-TABULATED-ANISO-F-v{v}\n").as_bytes()))
+        {
+            // Version 17 has version 16's layout (its low-roughness blocks
+            // solved anew).
             OldLayout {
-                version: 16,
-                ratio: Some((8, Some((5, 20)))),
-                stretched: V15_STRETCHED,
-                cap: 10.0,
-            }
-        } else if raw.starts_with(b"MSBSDF-TABULATED-ANISO-F-v17\n") {
-            // Version 16's layout (its low-roughness blocks solved anew).
-            OldLayout {
-                version: 17,
+                version,
                 ratio: Some((8, Some((5, 20)))),
                 stretched: V15_STRETCHED,
                 cap: 10.0,
