@@ -243,8 +243,8 @@ pub const CORR_A: usize = 31;
 /// Stored roughness pairs `(1 <= alpha_x node <= alpha_y node)` per NDF;
 /// the others by the symmetry `(alpha_x, alpha_y, phi) -> (alpha_y,
 /// alpha_x, pi/2 - phi)`. Pairs with node 0 (roughness 0) are not stored
-/// (version 18): a roughness below node 1 reads node 1 ([`corr_corners`],
-/// since version 16), so their blocks (factors 1) were never read: 75,888
+/// (version 18): a roughness below node 1 reads node 1 (`corr_corners`,
+/// since version 16), so their blocks were never read: 75,888
 /// bytes.
 pub const CORR_PAIRS: usize = (CORR_A - 1) * CORR_A / 2;
 /// Azimuth nodes of the conductor's correction (uniform in the diamond
