@@ -1492,8 +1492,8 @@ mod dielectric {
     pub fn scale_main(args: &[String]) {
         use msbsdf::multiple::tabulated_dielectric::{
             SCALE_ALPHA_N, SCALE_ETA_N, SCALE_FINE_INTERVALS, SCALE_FINE_SPLIT, SCALE_MAX,
-            SCALE_MU_N, TabulatedDielectric, header, scale_grid_alpha, scale_grid_eta,
-            scale_grid_mu, scale_index,
+            SCALE_MU_N, SCALE_ROOT_N, TabulatedDielectric, header, scale_grid_alpha,
+            scale_grid_eta, scale_grid_mu, scale_index,
         };
         let scale_max = SCALE_MAX as f64;
         let quad: usize = arg(args, "--quad", 128);
@@ -1708,7 +1708,7 @@ mod dielectric {
              E_ss: SINGLE reflection + transmission quadrature {quad} x {quad} (compensation::single_albedo)\n\
              albedo of the unscaled lobe vs 1 - E_ss: worst relative deviation {before:.3e} (targets > 1e-3); after scaling: {after:.3e} (targets > 1e-4, rows not empty; scales within [0, {scale_max}] during the solve, 0 where the target is 0: {zeros} nodes)\n\
              scales between {smin:.4} and {smax:.4}\n\
-             grid: ndf {NDF_N} x alpha {SCALE_ALPHA_N} (uniform in sqrt(alpha / 2) with 25 nodes, its first {SCALE_FINE_INTERVALS} intervals split in {SCALE_FINE_SPLIT}) x eta {SCALE_ETA_N} x side 2 x mu {SCALE_MU_N}\n\
+             grid: ndf {NDF_N} x alpha {SCALE_ALPHA_N} (uniform in sqrt(alpha / 2) with {SCALE_ROOT_N} nodes, its first {SCALE_FINE_INTERVALS} intervals split in {SCALE_FINE_SPLIT}) x eta {SCALE_ETA_N} x side 2 x mu {SCALE_MU_N}\n\
              wall time: {:.0} s on {threads} threads\n\
              {SCALE_STORAGE}\n",
             String::from_utf8_lossy(SCALE_MAGIC),

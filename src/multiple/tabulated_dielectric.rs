@@ -225,20 +225,35 @@ pub const ALBEDO_AT: usize = HEADER_BYTES + LOBE_BYTES * LOBE_LEN;
 pub const FILE_BYTES: usize = ALBEDO_AT + 4 * ALBEDO_LEN;
 
 /// Nodes of the grid uniform in `sqrt(alpha / MAX_ALPHA)` that the furnace
-/// scale table's roughness nodes refine (the first is 0).
-const SCALE_ROOT_N: usize = 25;
+/// scale table's roughness nodes refine (the first is 0):
+/// [`SCALE_PER_LOBE_INTERVAL`] intervals per interval of the lobe table.
+pub const SCALE_ROOT_N: usize = SCALE_PER_LOBE_INTERVAL * (ALPHA_N - 1) + 1;
 /// The scale table splits the first `SCALE_FINE_INTERVALS` intervals of
-/// its `sqrt(alpha)` grid (roughness 0 to 0.031) into
-/// `SCALE_FINE_SPLIT` each (version 3): below 0.031 the scales change
-/// fastest with roughness, and on the plain grid (nodes 0.0035, 0.0139)
-/// GGX glass 0.009 at 89 degrees was 2.7% dark.
-pub const SCALE_FINE_INTERVALS: usize = 3;
+/// its `sqrt(alpha)` grid (roughness 0 to 0.031, the lobe table's first
+/// interval) into `SCALE_FINE_SPLIT` each (since version 3): below 0.031
+/// the scales change fastest with roughness, and on version 2's plain
+/// grid (nodes 0.0035, 0.0139) GGX glass 0.009 at 89 degrees was 2.7%
+/// dark.
+pub const SCALE_FINE_INTERVALS: usize = 4;
 /// See [`SCALE_FINE_INTERVALS`].
 pub const SCALE_FINE_SPLIT: usize = 3;
 /// Roughness nodes of the furnace scale table ([`scale_grid_alpha`]).
 pub const SCALE_ALPHA_N: usize = SCALE_ROOT_N + SCALE_FINE_INTERVALS * (SCALE_FINE_SPLIT - 1);
-/// Relative index nodes of the furnace scale table (uniform in `ln E`).
-pub const SCALE_ETA_N: usize = 21;
+/// Scale table intervals per interval of the lobe table, in roughness
+/// (above the split intervals) and in index alike (version 4). The lobe
+/// table is interpolated on triangles of its `(sqrt(alpha), ln E)`
+/// squares, so its lobes have a crease along each square's diagonal; with
+/// as many scale intervals per lobe interval on both axes that diagonal
+/// runs along the scale squares' diagonals, and the scales, linear on the
+/// same triangles, can have a crease where the lobes do. Version 3 had 4
+/// per index interval against 3 per roughness interval: the furnace
+/// peaked at the lobes' crease, GGX 0.889 glass 1.126 from inside at 88
+/// degrees +1.86% (0.00% at the scale nodes 1.106 and 1.165 beside it).
+pub const SCALE_PER_LOBE_INTERVAL: usize = 4;
+/// Relative index nodes of the furnace scale table (uniform in `ln E`;
+/// the lobe table's [`ETA_N`] and [`SCALE_PER_LOBE_INTERVAL`] - 1
+/// between each two).
+pub const SCALE_ETA_N: usize = SCALE_PER_LOBE_INTERVAL * (ETA_N - 1) + 1;
 /// Cosine nodes of the furnace scale table (uniform in `sqrt(mu)`).
 pub const SCALE_MU_N: usize = 32;
 /// Values of the furnace scale table `[ndf][alpha][eta][side][mu]`
@@ -246,13 +261,14 @@ pub const SCALE_MU_N: usize = 32;
 /// `q SCALE_STEP` (see [`SCALE_STEP`]).
 pub const SCALE_LEN: usize = NDF_N * SCALE_ALPHA_N * SCALE_ETA_N * 2 * SCALE_MU_N;
 /// First bytes of the scale table file (version 1 stored f32 scales,
-/// version 2 had the plain `sqrt(alpha)` grid of 25 roughness nodes).
-pub const SCALE_MAGIC: &[u8; 37] = b"MSBSDF-TABULATED-DIELECTRIC-SCALE-v3\n";
+/// version 2 had the plain `sqrt(alpha)` grid of 25 roughness nodes,
+/// version 3 split its first 3 intervals in 3: 31 nodes).
+pub const SCALE_MAGIC: &[u8; 37] = b"MSBSDF-TABULATED-DIELECTRIC-SCALE-v4\n";
 /// Total size of the scale table file in bytes.
 pub const SCALE_FILE_BYTES: usize = HEADER_BYTES + 2 * SCALE_LEN;
 
 /// Roughness of node `a` of the scale table: node `x` of the grid uniform
-/// in `sqrt(alpha / MAX_ALPHA)` (25 nodes), `x = a /
+/// in `sqrt(alpha / MAX_ALPHA)` ([`SCALE_ROOT_N`] nodes), `x = a /
 /// SCALE_FINE_SPLIT` in its first [`SCALE_FINE_INTERVALS`] intervals
 /// ([`scale_alpha_x`] inverted).
 pub fn scale_grid_alpha(a: usize) -> f32 {
@@ -1773,7 +1789,10 @@ mod tests {
     /// and anisotropic eval read) is the generator's grid
     /// (`scale_grid_alpha`) inverted: each node's roughness reads its own
     /// node within 1e-4, the split intervals are a third of the plain
-    /// grid's below 0.031, and the last node is `MAX_ALPHA`.
+    /// grid's below 0.031, and the last node is `MAX_ALPHA`. Both axes
+    /// refine the lobe table's grid by [`SCALE_PER_LOBE_INTERVAL`] above
+    /// roughness 0.031 (version 4): every lobe roughness node from 0.031
+    /// and every lobe index node is a scale node.
     #[test]
     fn scale_roughness_nodes_read_their_own_node() {
         for a in 0..SCALE_ALPHA_N {
@@ -1781,10 +1800,32 @@ mod tests {
             assert!((x - a as f32).abs() < 1e-4, "node {a}: coordinate {x}");
         }
         assert_eq!(scale_grid_alpha(SCALE_ALPHA_N - 1), MAX_ALPHA);
-        let plain = |x: f32| MAX_ALPHA * (x / 24.0).powi(2);
+        let m = (SCALE_ROOT_N - 1) as f32;
+        let plain = |x: f32| MAX_ALPHA * (x / m).powi(2);
+        let fine = SCALE_FINE_INTERVALS * SCALE_FINE_SPLIT;
         assert!((scale_grid_alpha(1) - plain(1.0 / 3.0)).abs() < 1e-7);
-        assert!((scale_grid_alpha(9) - plain(3.0)).abs() < 1e-7);
-        assert!((scale_grid_alpha(10) - plain(4.0)).abs() < 1e-7);
+        assert!((scale_grid_alpha(fine) - plain(SCALE_FINE_INTERVALS as f32)).abs() < 1e-7);
+        assert!(
+            (scale_grid_alpha(fine + 1) - plain(SCALE_FINE_INTERVALS as f32 + 1.0)).abs() < 1e-7
+        );
+        // The lobe table's nodes among the scale table's.
+        assert_eq!(SCALE_FINE_INTERVALS, SCALE_PER_LOBE_INTERVAL);
+        for j in 1..ALPHA_N {
+            let a = fine + SCALE_PER_LOBE_INTERVAL * (j - 1);
+            let want = grid_alpha(j);
+            assert!(
+                (scale_grid_alpha(a) - want).abs() <= 1e-6 * want,
+                "roughness node {j}"
+            );
+        }
+        for e in 0..ETA_N {
+            let want = grid_eta(e);
+            let got = scale_grid_eta(SCALE_PER_LOBE_INTERVAL * e);
+            assert!(
+                (got - want).abs() <= 1e-5 * want,
+                "index node {e}: {got} vs {want}"
+            );
+        }
     }
 
     /// Init's and eval's reads of the 16-bit scale table (`node_scales`,
