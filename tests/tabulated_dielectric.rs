@@ -184,7 +184,7 @@ fn furnace_of_glass_1_05_from_inside_near_grazing() {
 /// glass of low index seen from inside, between the scale table's
 /// roughness nodes (where the interpolated lobe's albedo and `1 - E_ss`
 /// part fastest, Beckmann 0.3 glass 1.05 from inside at 89 degrees
-/// +2.6%) and at the crease of the lobe table's interpolation triangles
+/// +2.6%, +1.98% since scale table version 4) and at the crease of the lobe table's interpolation triangles
 /// in `(roughness, index)` (GGX 0.889 glass 1.126 from inside at 88
 /// degrees +1.9%, 0.41% since scale table version 4). Measured: worst
 /// 1.26% (1.15% with scale table version 3), 90th percentile 0.16%
@@ -256,7 +256,8 @@ fn furnace_at_low_roughness_near_grazing() {
 /// lobe is furthest off). Until session 22 such a roughness read node 0's
 /// corners, the uncorrected lobe (factor 1): Beckmann (0.003, 1.9) from
 /// inside at 85 degrees, azimuth 11.25, had the albedo 2.53 (3.48
-/// uncorrected; now 1.039). It reads node 1 now. Measured worst 0.1540
+/// uncorrected; now 1.039). It reads node 1 now. Measured worst 0.1540,
+/// 0.1512 since scale table version 4
 /// (Beckmann (0.003, 1.9) from inside at 89 degrees on the smooth axis,
 /// albedo 0.846; 0.830 with the scale table's version 2: the
 /// single-scattering albedo along the smooth axis changes fast with
