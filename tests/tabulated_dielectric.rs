@@ -13,7 +13,7 @@ use msbsdf::multiple::heitz::Heitz;
 use msbsdf::multiple::tabulated::{MU_N, grid_mu, hat_moment, project_exit};
 use msbsdf::multiple::tabulated_dielectric::{
     self, PEAK, R_DENSE, R_THIN, T_THIN, dcorr_grid_eta, grid_alpha, grid_eta, lobe_index,
-    lobe_value,
+    lobe_norm, lobe_value,
 };
 use msbsdf::ndf::{Ndf, NdfKind};
 use msbsdf::single::{G2Form, Single};
@@ -95,7 +95,10 @@ fn furnace_report(rows: &[(f64, String)]) -> (String, f64) {
 /// keeps all the energy (reflected plus transmitted albedo 1). Alpha 0.1,
 /// 0.5, 1 and 1.9: the quadrature of eval is within 0.5% of 1 (measured
 /// worst 0.34% to alpha 1, 0.46% at alpha 1.9, GGX glass from inside at 89
-/// degrees), and the mean of 100,000 sample weights within 0.5% plus 3
+/// degrees; to alpha 1: 0.14% with scale table version 4, 0.498% with
+/// the lobe table's version 5, whose normalised lobes moved GGX 0.1 glass
+/// 1.5 from inside at 85 degrees from +0.05% to +0.50%, between roughness
+/// nodes), and the mean of 100,000 sample weights within 0.5% plus 3
 /// standard errors. The sample weights are heavier than the conductor's
 /// (relative standard deviation up to 1.2 for rough glass at grazing
 /// angles): the standard error is asserted below 4e-3 to alpha 1, so the
@@ -158,7 +161,8 @@ fn white_furnace_both_sides_eval_and_sample() {
 /// the tests' own quadrature (`--broad 400`). Measured: worst 0.56%
 /// (Beckmann 0.8 at 89 degrees, between roughness nodes; GGX 1.9 +0.17%)
 /// with scale table version 3, 0.45% with version 4 (4 scale nodes per
-/// lobe interval); bounded at 0.7%.
+/// lobe interval), 0.47% with the lobe table's version 5 (normalised
+/// lobes); bounded at 0.7%.
 #[test]
 fn furnace_of_glass_1_05_from_inside_near_grazing() {
     let dirs = [80.0, 85.0, 88.0, 89.0].map(|theta| incident(theta, -1.0));
@@ -184,11 +188,14 @@ fn furnace_of_glass_1_05_from_inside_near_grazing() {
 /// glass of low index seen from inside, between the scale table's
 /// roughness nodes (where the interpolated lobe's albedo and `1 - E_ss`
 /// part fastest, Beckmann 0.3 glass 1.05 from inside at 89 degrees
-/// +2.6%, +1.98% since scale table version 4) and at the crease of the lobe table's interpolation triangles
-/// in `(roughness, index)` (GGX 0.889 glass 1.126 from inside at 88
-/// degrees +1.9%, 0.41% since scale table version 4). Measured: worst
-/// 1.26% (1.15% with scale table version 3), 90th percentile 0.16%
-/// (0.23%), 2 of 240 cases over 0.5%; bounded at 1.3% and 0.3%.
+/// +2.6%, +1.98% since scale table version 4, +1.0% since the lobe
+/// table's version 5 normalised the lobes) and at the crease of the lobe
+/// table's interpolation triangles in `(roughness, index)` (GGX 0.889
+/// glass 1.126 from inside at 88 degrees +1.9%, 0.41% since scale table
+/// version 4). Measured: worst 0.64% (1.15% with scale table version 3,
+/// 1.26% with version 4 and the walk's lobes), 90th percentile 0.14%
+/// (0.23%, 0.16%), 1 of 240 cases over 0.5%; bounded at 0.8% and 0.2%
+/// (1.3% and 0.3% until version 5).
 #[test]
 fn isotropic_furnace_at_random_cases_near_grazing() {
     let mut rng = Rng::new(1128, 5);
@@ -215,15 +222,16 @@ fn isotropic_furnace_at_random_cases_near_grazing() {
     let over = rows.iter().filter(|r| r.0.abs() > 0.005).count();
     let (report, _) = furnace_report(&rows[..12]);
     println!("{report}worst {worst:.4}, 90th percentile {p90:.4}, over 0.5%: {over} of {n}");
-    assert!(worst < 0.013, "worst {worst:.4}\n{report}");
-    assert!(p90 < 0.003, "90th percentile {p90:.4}\n{report}");
+    assert!(worst < 0.008, "worst {worst:.4}\n{report}");
+    assert!(p90 < 0.002, "90th percentile {p90:.4}\n{report}");
 }
 
 /// White furnace below the roughness 0.05 at grazing incidence (80-89
 /// degrees, glass 1.5 from both sides, eval quadrature), where `E_ss`
 /// nears 1 and the furnace scales change fastest with the roughness.
 /// Measured: worst 0.22% (Beckmann 0.0055 from inside at 89 degrees;
-/// 0.21% with scale table version 4), bounded at 0.3%. Until session 22 the scale solve's lower clamp (0.25)
+/// 0.21% with scale table version 4, 0.20% with the lobe table's
+/// version 5), bounded at 0.3%. Until session 22 the scale solve's lower clamp (0.25)
 /// left the lobe a quarter of its energy where `E_ss` is 1: Beckmann
 /// 0.0055 from inside at 88.5 degrees was +4.0%. Until session 23 the
 /// scale table had no roughness node between 0.0035 and 0.0139: GGX 0.01
@@ -257,7 +265,7 @@ fn furnace_at_low_roughness_near_grazing() {
 /// corners, the uncorrected lobe (factor 1): Beckmann (0.003, 1.9) from
 /// inside at 85 degrees, azimuth 11.25, had the albedo 2.53 (3.48
 /// uncorrected; now 1.039). It reads node 1 now. Measured worst 0.1540,
-/// 0.1512 since scale table version 4
+/// 0.1512 since scale table version 4, 0.1371 since the lobe table's version 5
 /// (Beckmann (0.003, 1.9) from inside at 89 degrees on the smooth axis,
 /// albedo 0.846; 0.830 with the scale table's version 2: the
 /// single-scattering albedo along the smooth axis changes fast with
@@ -363,6 +371,13 @@ fn anisotropic_furnace_at_correction_nodes() {
 /// +1.0% at 1.241, +1.7% at 1.263 and +0.03% at the node 1.297: the
 /// parabola of a linear interpolation (within 0.1 points of `4 t (1 - t)`
 /// times 1.7%), four times deeper than between 1.166 and 1.229 (0.4%).
+/// Scale table version 4 (session 24): 0.0135, 0.0099, 0.0089, 0.0079,
+/// 0.0180, 0.0080, 0.0058, 0.0035. The lobe table's version 5 (session
+/// 25, normalised lobes, scales and correction regenerated on them):
+/// 0.0151, 0.0104, 0.0127, 0.0062, 0.0059, 0.0090, 0.0058, 0.0035, the
+/// worst 0.0180 -> 0.0151 but two intervals worse; their bounds went from
+/// 0.015 and 0.011 to 0.016 and 0.014, the one at 1.262 from 0.019 to
+/// 0.008 (the isotropic furnace is what version 5 was made for).
 #[test]
 fn anisotropic_furnace_between_index_nodes() {
     let (a3, a6, a2, a4) = (grid_alpha(3), grid_alpha(6), grid_alpha(2), grid_alpha(4));
@@ -371,11 +386,11 @@ fn anisotropic_furnace_between_index_nodes() {
     // 8-9 and 11-12.
     let mid = |e: usize| (dcorr_grid_eta(e) * dcorr_grid_eta(e + 1)).sqrt();
     for (eta, bound) in [
-        (mid(0), 0.015f64),
+        (mid(0), 0.016f64),
         (mid(1), 0.012),
-        (mid(2), 0.011),
+        (mid(2), 0.014),
         (mid(3), 0.01),
-        (mid(4), 0.019),
+        (mid(4), 0.008),
         (mid(6), 0.01),
         (mid(8), 0.007),
         (mid(11), 0.005),
@@ -744,10 +759,23 @@ fn suite_error_against_reference_values() {
 /// from the fresh variance, the Q samples) plus 3% for the generator's
 /// furnace scaling `s_i s_j` (it moves cells by the albedo's Monte Carlo
 /// noise and the hat smoothing).
+/// Term `k` of the walk's lobe cell `(i, j)`: the stored value divided by
+/// the node's normalisation factors of its two cosines (`lobe_norm`; a
+/// transmission cell's `i` is on the thin side, `j` on the dense side).
+fn walk_cell(nd: usize, a: usize, e: usize, lobe: usize, i: usize, j: usize, k: usize) -> f64 {
+    let (si, sj) = match lobe {
+        R_THIN => (0, 0),
+        R_DENSE => (1, 1),
+        _ => (0, 1),
+    };
+    let n = lobe_norm(nd, a, e, si, i) * lobe_norm(nd, a, e, sj, j);
+    lobe_value(lobe_index(nd, a, e, lobe, i, j) + k) as f64 / n as f64
+}
+
 #[test]
 fn table_cells_reestimated_with_the_library_walk() {
     let header = tabulated_dielectric::header();
-    assert!(header.starts_with("MSBSDF-TABULATED-DIELECTRIC-v4"));
+    assert!(header.starts_with("MSBSDF-TABULATED-DIELECTRIC-v5"));
     let walks_table: f64 = header
         .lines()
         .find_map(|l| l.strip_prefix("walks: "))
@@ -823,13 +851,16 @@ fn table_cells_reestimated_with_the_library_walk() {
                 // Q_xy / (2 pi H_y) by SINGLE's (F = 1) samples.
                 let (q, q_var) =
                     peak_projection(&single1, up, y, norm, nq, &mut Rng::new(8081, stream));
-                let b = lobe_index(nd, a, e, lobe, x, y);
-                stored += wgt * (lobe_value(b) as f64 + lobe_value(b + PEAK) as f64 * q);
-                var_q += (wgt * lobe_value(b + PEAK) as f64).powi(2) * q_var;
+                let (c0, peak) = (
+                    walk_cell(nd, a, e, lobe, x, y, 0),
+                    walk_cell(nd, a, e, lobe, x, y, PEAK),
+                );
+                stored += wgt * (c0 + peak * q);
+                var_q += (wgt * peak).powi(2) * q_var;
             }
         }
         if lobe == T_THIN {
-            stored = lobe_value(lobe_index(nd, a, e, T_THIN, i, j)) as f64;
+            stored = walk_cell(nd, a, e, T_THIN, i, j, 0);
         }
         let se = (var / n as f64 + var / walks_table + var_q).sqrt();
         report += &format!(

@@ -680,6 +680,14 @@ fn main() {
         dielectric::ir(&args);
         return;
     }
+    if let Some(p) = args.iter().position(|a| a == "--dielectric-v5") {
+        dielectric::v5_main(&args, &args[p + 1..]);
+        return;
+    }
+    if args.iter().any(|a| a == "--dielectric-normalize") {
+        dielectric::normalize_main(&args);
+        return;
+    }
     if args.iter().any(|a| a == "--dielectric-scale") {
         dielectric::scale_main(&args);
         return;
@@ -1137,6 +1145,7 @@ fn conductor_pack_main(args: &[String], rest: &[String]) {
             block_len: FULL_LOBE_LEN,
             rest_len: ALBEDO_LEN + FRESNEL_LEN,
             layout: PACKED,
+            ones: 0,
         },
         |full| f32_bytes(pack(full)),
     );
@@ -1161,6 +1170,10 @@ struct Repack<'a> {
     rest_len: usize,
     /// The header line saying how the new version stores the block.
     layout: &'a str,
+    /// Floats of 1 appended after the copied blocks: the dielectric
+    /// table's normalisation block (version 5), every factor 1 until
+    /// `--dielectric-normalize` runs on the table.
+    ones: usize,
 }
 
 /// Rewrites the table file named by `rest[0]` (`spec.old_magic`, a block
@@ -1202,6 +1215,7 @@ fn repack(args: &[String], rest: &[String], spec: &Repack, pack: fn(&[f32]) -> V
     );
     let mut payload = pack(block);
     payload.extend(f32_bytes(kept.iter().copied()));
+    payload.extend(f32_bytes(std::iter::repeat_n(1.0, spec.ones)));
     write_bytes(
         &out,
         &header,
@@ -1236,9 +1250,9 @@ mod dielectric {
     use msbsdf::multiple::tabulated::{MU_N, hat_moment, project_exit};
     use msbsdf::multiple::tabulated_dielectric::{
         ALBEDO_LEN, ALPHA_N, ETA_N, FILE_BYTES, HEADER_BYTES, K, LOBE_BYTES, LOBE_LEN, MAGIC,
-        NDF_N, NODES, PEAK, R_CELL, R_DENSE, R_TERMS, R_THIN, SCALE_FILE_BYTES, SCALE_LEN,
-        SCALE_MAGIC, SCALE_STEP, T_THIN, albedo_index, grid_alpha, grid_eta, lobe_decode,
-        lobe_encode, lobe_index, node,
+        NDF_N, NODES, NORM_LEN, PEAK, R_CELL, R_DENSE, R_TERMS, R_THIN, SCALE_FILE_BYTES,
+        SCALE_LEN, SCALE_MAGIC, SCALE_STEP, T_THIN, albedo_index, grid_alpha, grid_eta,
+        lobe_decode, lobe_encode, lobe_index, node,
     };
     use msbsdf::ndf::Ndf;
     use msbsdf::single::{G2Form, Single};
@@ -1325,21 +1339,28 @@ mod dielectric {
                 s.ms[1] += w;
             }
         }
-        let eta_rel = if dense { 1.0 / eta } else { eta };
+        s.ess = ess(ndf, if dense { 1.0 / eta } else { eta }, up, quad);
+        s
+    }
+
+    /// SINGLE's reflected plus transmitted albedo `E_ss` of an isotropic
+    /// `ndf` at relative index `eta_rel` from `up` (`z > 0`), by
+    /// `single_albedo`'s `quad x quad` quadrature.
+    fn ess(ndf: Ndf, eta_rel: f32, up: Vec3, quad: usize) -> f64 {
         let single = Single::new(
             ndf,
             Facet::Dielectric { eta: eta_rel },
             G2Form::HeightCorrelated,
         );
-        s.ess = single_albedo(
+        let alpha = ndf.alpha_x;
+        single_albedo(
             |x, y| single.eval(x, y, &mut Rng::new(0, 0)).x,
             alpha,
             alpha,
             up,
             Some(eta_rel),
             quad,
-        );
-        s
+        )
     }
 
     /// The raw sums as little-endian f64, job after job.
@@ -1458,6 +1479,295 @@ mod dielectric {
         std::hint::black_box(acc);
     }
 
+    /// How [`lobe_rows`] integrates over `wo`: `broad > 0` the tests'
+    /// nodes (`broad_reflection_nodes` `broad x broad` and
+    /// `lower_hemisphere_nodes` `broad / 3 x 2 broad / 3`, twice as fine per
+    /// axis above roughness 1), otherwise `ng x ng` visible normals and
+    /// cosine directions for reflection and an `ng x 2 ng` grid for
+    /// transmission (`--dielectric-scale`'s doc).
+    #[derive(Clone, Copy)]
+    struct Quadrature {
+        ng: usize,
+        broad: usize,
+    }
+
+    /// `M(x, y)`: the albedo of `tab`'s unscaled multiply scattered lobe
+    /// (`multiple_unscaled`, exactly as eval reads it) from source node `x =
+    /// (side, i)` (side 0 the outside, `z > 0`; cosine `mu(i)`) split onto
+    /// the hat functions of the grid of `n` cosines per side uniform in
+    /// `sqrt(mu)` at `wo`'s side and cosine, `y = (side, j)`; `2 n x 2 n`.
+    fn lobe_rows(
+        tab: &msbsdf::multiple::tabulated_dielectric::TabulatedDielectric,
+        alpha: f32,
+        q: Quadrature,
+        n: usize,
+        mu: impl Fn(usize) -> f32,
+    ) -> Vec<Vec<f64>> {
+        let Quadrature { ng, broad } = q;
+        let fm = n;
+        let fine_x = |mu: f32| (mu.clamp(0.0, 1.0).sqrt() * (fm - 1) as f32) as f64;
+        // Reflection proposal: GGX visible normals (see `scale_main`).
+        let proposal = Ndf::new(msbsdf::ndf::NdfKind::Ggx, alpha, alpha);
+        let single1 = Single::new(proposal, CONDUCTOR_F1, G2Form::HeightCorrelated);
+        let mut m = vec![vec![0.0f64; 2 * fm]; 2 * fm];
+        let add = |row: &mut Vec<f64>, side: usize, mu: f32, v: f64| {
+            let x = fine_x(mu);
+            let y0 = (x as usize).min(fm - 2);
+            let fr = x - y0 as f64;
+            row[side * fm + y0] += v * (1.0 - fr);
+            row[side * fm + y0 + 1] += v * fr;
+        };
+        for sd in 0..2 {
+            let flip = |v: Vec3| {
+                if sd == 1 {
+                    Vec3::new(v.x, v.y, -v.z)
+                } else {
+                    v
+                }
+            };
+            for i in 0..fm {
+                let mu = mu(i);
+                let up = dir(mu);
+                let wi = flip(up);
+                let row = &mut m[sd * fm + i];
+                // The transmission grid's size.
+                let (tz, tp) = if broad > 0 {
+                    // The tests' quadrature (`compensation::glass_albedo`:
+                    // twice as fine above roughness 1).
+                    let nb = if alpha > 1.0 { 2 * broad } else { broad };
+                    let (nz, np) = (nb / 3, 2 * nb / 3);
+                    broad_reflection_nodes(alpha, alpha, up, nb, (nz, np), |wo, w| {
+                        let g = tab.multiple_unscaled(wi, flip(wo)) as f64;
+                        add(row, sd, wo.z, g * w);
+                    });
+                    (nz, np)
+                } else {
+                    // Reflection: visible normals (F = 1) and cosine lobe.
+                    for strategy in 0..2 {
+                        for p in 0..ng {
+                            for q in 0..ng {
+                                let u1 = (p as f32 + 0.5) / ng as f32;
+                                let u2 = (q as f32 + 0.5) / ng as f32;
+                                let wo = if strategy == 0 {
+                                    let h = proposal.sample_visible(up, u1, u2);
+                                    msbsdf::frame::reflect(up, h)
+                                } else {
+                                    let r = u1.sqrt();
+                                    let ph = 2.0 * std::f32::consts::PI * u2;
+                                    Vec3::new(
+                                        r * ph.cos(),
+                                        r * ph.sin(),
+                                        (1.0 - u1).max(0.0).sqrt(),
+                                    )
+                                };
+                                if wo.z <= 0.0 {
+                                    continue;
+                                }
+                                let pv = single1.pdf(up, wo) as f64;
+                                let pc = wo.z as f64 / PI;
+                                let g = tab.multiple_unscaled(wi, flip(wo)) as f64;
+                                if pv + pc > 0.0 {
+                                    add(row, sd, wo.z, g / ((ng * ng) as f64 * (pv + pc)));
+                                }
+                            }
+                        }
+                    }
+                    (ng, 2 * ng)
+                };
+                // Transmission: grid over the other hemisphere.
+                lower_hemisphere_nodes(tz, tp, |wo, w| {
+                    let g = tab.multiple_unscaled(wi, flip(wo)) as f64;
+                    add(row, 1 - sd, -wo.z, g * w);
+                });
+            }
+        }
+        m
+    }
+
+    /// `--dielectric-v5 PATH`: rewrites a version-4 table (no
+    /// normalisation block) as version 5 into `--out`: the same lobe and
+    /// albedo bytes, every normalisation factor 1 (the walk's lobes), its
+    /// header kept with a line saying how it was converted. Build the
+    /// library with it before `--dielectric-normalize`.
+    pub fn v5_main(args: &[String], rest: &[String]) {
+        const OLD_MAGIC: &[u8] = b"MSBSDF-TABULATED-DIELECTRIC-v4\n";
+        let out: String = arg(args, "--out", "data/tabulated_dielectric.bin".to_string());
+        let Some(path) = rest.first() else {
+            eprintln!("--dielectric-v5 PATH (a version-4 dielectric table)");
+            std::process::exit(2);
+        };
+        let raw = std::fs::read(path).expect("read the table to convert");
+        assert!(
+            raw.starts_with(OLD_MAGIC),
+            "not a version-4 dielectric table"
+        );
+        assert_eq!(
+            raw.len(),
+            FILE_BYTES - 4 * NORM_LEN,
+            "size of a version-4 table"
+        );
+        let old = String::from_utf8_lossy(&raw[OLD_MAGIC.len()..HEADER_BYTES]);
+        let head = format!(
+            "{}{}converted from version 4 (the lines above) by: cargo run --release --example \
+             gen_tabulated -- {} (commit {})\n{UNNORMALISED}\n",
+            String::from_utf8_lossy(MAGIC),
+            old.trim_end_matches('\0'),
+            args[1..].join(" "),
+            git_commit(),
+        );
+        let mut payload = raw[HEADER_BYTES..].to_vec();
+        payload.extend(super::f32_bytes(std::iter::repeat_n(1.0, NORM_LEN)));
+        super::write_bytes(&out, &head, MAGIC, HEADER_BYTES, FILE_BYTES, &payload);
+    }
+
+    /// `--dielectric-normalize`: rewrites the compiled lobe table (which
+    /// must hold the walk's lobes: every normalisation factor 1, as
+    /// `--dielectric` and `--dielectric-v5` write it) with each node's
+    /// lobes normalised, into `--out`. Per node (NDF, roughness node >= 1,
+    /// index node), [`lobe_rows`] integrates the library's unscaled lobe at
+    /// the node's own material (`--broad N`, 400 by default, or `--ng N`)
+    /// from every cosine node of both sides (`mu` at least 1e-5) onto the
+    /// lobe grid's hat functions: `M(x, y)`, row sums `A(x)`. The target
+    /// albedo is `max(A, floor)^power` (`--floor` 1e-3, `--power` 0.3):
+    /// from `u = sqrt(target / A)`, `--iterations` (4) Jacobi steps of the
+    /// symmetric scaling `u_x <- u_x sqrt(target_x / sum_y u_x M(x, y)
+    /// u_y)` on the rows with `A >= floor`. The stored cells `(i, j)` are
+    /// multiplied by `u(side_i, i) u(side_j, j)` and `u` is written to the
+    /// normalisation block. Why: the furnace scale table makes the albedo
+    /// `1 - E_ss` at its nodes and is linear between them; with the walk's
+    /// lobes the lobe interpolated between two roughness nodes had an
+    /// albedo dominated by the larger one (glass 1.05 from inside at 89
+    /// degrees: ten times), so the scale it needed dipped and rose within
+    /// one interval (`--dielectric-scale --only N,A,E --alpha X --between`
+    /// measures it). The power trades that against the opposite error: with
+    /// the albedo 1 at every node (power 0) the scales carry all of `1 -
+    /// E_ss`'s variation in roughness, and their linear interpolation
+    /// overshoots where it is convex (module docs of `tabulated_dielectric`,
+    /// `docs/tabulated_dielectric.md`). The albedos block (the sampler's)
+    /// is kept: the walk's.
+    pub fn normalize_main(args: &[String]) {
+        use msbsdf::multiple::tabulated::grid_mu;
+        use msbsdf::multiple::tabulated_dielectric::{
+            TabulatedDielectric, albedo_value, header, lobe_norm, lobe_value,
+        };
+        let threads: usize = arg(args, "--threads", 2);
+        let ng: usize = arg(args, "--ng", 48);
+        let broad: usize = arg(args, "--broad", 400);
+        let floor: f64 = arg(args, "--floor", 1e-3);
+        let iters: usize = arg(args, "--iterations", 4);
+        let power: f64 = arg(args, "--power", 0.3);
+        let out: String = arg(args, "--out", "data/tabulated_dielectric.bin".to_string());
+        let t0 = std::time::Instant::now();
+        let jobs: Vec<(usize, usize, usize)> = (0..NDF_N)
+            .flat_map(|n| (1..ALPHA_N).flat_map(move |a| (0..ETA_N).map(move |e| (n, a, e))))
+            .collect();
+        // The albedos are the walk's lobes' only when the compiled table
+        // is not normalised yet (`--dielectric-v5` writes one).
+        let normalised = jobs
+            .iter()
+            .any(|&(n, a, e)| (0..2).any(|sd| (0..MU_N).any(|i| lobe_norm(n, a, e, sd, i) != 1.0)));
+        if normalised {
+            eprintln!(
+                "--dielectric-normalize: the compiled table is normalised already; build with \
+                 the walk's table (--dielectric-v5 on version 4) first"
+            );
+            std::process::exit(2);
+        }
+        let n2 = 2 * MU_N;
+        let res = parallel(&jobs, "dielectric normalize", threads, |_, &(n, a, e)| {
+            let (alpha, eta) = (grid_alpha(a), grid_eta(e));
+            let ndf = Ndf::new(NDFS[n], alpha, alpha);
+            let tab = TabulatedDielectric::new(ndf, Facet::Dielectric { eta });
+            let q = Quadrature { ng, broad };
+            let m = lobe_rows(&tab, alpha, q, MU_N, |i| grid_mu(i).max(1e-5));
+            // Target `max(A, floor)^power`, `A` the lobe's albedo from the
+            // node; a few Jacobi steps of the symmetric scaling from
+            // `u = sqrt(target / A)`, not a solve to convergence: where a
+            // side's reflection is weak the converged scaling has a free
+            // gauge (one side times c, the other over c; GGX 2 glass 1.05
+            // to the albedo 1: 620 and 0.017 at normal incidence), which
+            // turns the thin side's transmission into reflection.
+            let albedo: Vec<f64> = (0..n2).map(|x| m[x].iter().sum::<f64>()).collect();
+            let target: Vec<f64> = albedo.iter().map(|a| a.max(floor).powf(power)).collect();
+            let mut u: Vec<f64> = (0..n2)
+                .map(|x| (target[x] / albedo[x].max(floor)).sqrt())
+                .collect();
+            for _ in 0..iters {
+                let now: Vec<f64> = (0..n2)
+                    .map(|x| (0..n2).map(|y| u[x] * m[x][y] * u[y]).sum::<f64>())
+                    .collect();
+                for x in 0..n2 {
+                    if albedo[x] >= floor && now[x] > 0.0 {
+                        u[x] *= (target[x] / now[x]).sqrt();
+                    }
+                }
+            }
+            let after_of = |x: usize| (0..n2).map(|y| u[x] * m[x][y] * u[y]).sum::<f64>();
+            let after = (0..n2)
+                .filter(|&x| albedo[x] >= floor)
+                .map(|x| (after_of(x) / target[x] - 1.0).abs())
+                .fold(0.0f64, f64::max);
+            (u, after)
+        });
+        let mut lobe: Vec<f32> = (0..LOBE_LEN).map(lobe_value).collect();
+        let mut norm = vec![1.0f32; NORM_LEN];
+        let mut after = 0.0f64;
+        let (mut umin, mut umax) = (f64::INFINITY, 0.0f64);
+        for (&(n, a, e), (u, af)) in jobs.iter().zip(&res) {
+            after = after.max(*af);
+            for &v in u {
+                (umin, umax) = (umin.min(v), umax.max(v));
+            }
+            // Lobe, side of mu_i, side of mu_o, cell width.
+            for (l, si, so, width) in [
+                (R_THIN, 0, 0, R_CELL),
+                (R_DENSE, 1, 1, R_CELL),
+                (T_THIN, 0, 1, K),
+            ] {
+                for i in 0..MU_N {
+                    // A reflection lobe stores i <= j only.
+                    let j0 = if l == T_THIN { 0 } else { i };
+                    for j in j0..MU_N {
+                        let f = (u[si * MU_N + i] * u[so * MU_N + j]) as f32;
+                        let at = lobe_index(n, a, e, l, i, j);
+                        for v in &mut lobe[at..at + width] {
+                            *v *= f;
+                        }
+                    }
+                }
+            }
+            for sd in 0..2 {
+                for i in 0..MU_N {
+                    norm[(node(n, a, e) * 2 + sd) * MU_N + i] = u[sd * MU_N + i] as f32;
+                }
+            }
+        }
+        let old = header();
+        let kept: String = old
+            .lines()
+            .skip(1)
+            .filter(|l| !l.starts_with("normalisation:"))
+            .map(|l| format!("{l}\n"))
+            .collect();
+        let head = format!(
+            "{}{kept}\
+             normalisation: cargo run --release --example gen_tabulated -- {} (commit {}): per node the lobes times u(mu_i) u(mu_o) towards the albedo max(A, {floor})^{power} from every cosine node of both sides, A the walk's lobe's ({iters} symmetric Jacobi steps from u = sqrt(target / A); factors {umin:.4e} .. {umax:.4e}); albedo after vs the target: worst relative deviation {after:.3e} (A >= {floor}); quadrature {}; {:.0} s on {threads} threads\n",
+            String::from_utf8_lossy(MAGIC),
+            args[1..].join(" "),
+            git_commit(),
+            if broad > 0 {
+                format!("--broad {broad}")
+            } else {
+                format!("--ng {ng}")
+            },
+            t0.elapsed().as_secs_f64(),
+        );
+        let mut payload = lobe_bytes(&lobe);
+        payload.extend(super::f32_bytes((0..ALBEDO_LEN).map(albedo_value)));
+        payload.extend(super::f32_bytes(norm));
+        super::write_bytes(&out, &head, MAGIC, HEADER_BYTES, FILE_BYTES, &payload);
+    }
+
     /// `--dielectric-scale`: the furnace scale table
     /// `data/tabulated_dielectric_scale.bin` from the committed lobe table
     /// (compiled into the library). Per NDF, scale-grid roughness and index
@@ -1488,7 +1798,11 @@ mod dielectric {
     /// solves one node (NDF, roughness and index node) and prints its rows
     /// instead of writing the table, with `--alpha A` at roughness `A`
     /// instead of the node's (what the scales between two nodes would
-    /// have to be).
+    /// have to be); `--between` with them also solves the two scale nodes
+    /// around `A` (at index node `E`) and prints the furnace at `A` with
+    /// their scales interpolated linearly in the roughness coordinate, as
+    /// eval reads them (at the scale grid's cosines, the scales' 16-bit
+    /// rounding left out).
     pub fn scale_main(args: &[String]) {
         use msbsdf::multiple::tabulated_dielectric::{
             SCALE_ALPHA_N, SCALE_ETA_N, SCALE_FINE_INTERVALS, SCALE_FINE_SPLIT, SCALE_MAX,
@@ -1505,7 +1819,6 @@ mod dielectric {
         );
         let t0 = std::time::Instant::now();
         let fm = SCALE_MU_N;
-        let fine_x = |mu: f32| (mu.clamp(0.0, 1.0).sqrt() * (fm - 1) as f32) as f64;
         let ng: usize = arg(args, "--ng", 48);
         let broad: usize = arg(args, "--broad", 0);
         // `--only N,A,E`: one node's solve, its rows printed, nothing written.
@@ -1519,144 +1832,116 @@ mod dielectric {
             .and_then(|_| args.iter().position(|a| a == "--alpha"))
             .and_then(|p| args.get(p + 1))
             .and_then(|v| v.parse().ok());
-        let jobs: Vec<(usize, usize, usize)> = match &only {
-            Some(v) if v.len() == 3 => vec![(v[0], v[1], v[2])],
+        // `--between` (with `--only N,A,E --alpha X`): also the two scale
+        // nodes around X, and the furnace with their scales interpolated
+        // as eval does.
+        let between = at_alpha.filter(|_| args.iter().any(|a| a == "--between"));
+        let mut jobs: Vec<(usize, usize, usize, f32)> = match &only {
+            Some(v) if v.len() == 3 => {
+                vec![(v[0], v[1], v[2], at_alpha.unwrap_or(scale_grid_alpha(v[1])))]
+            }
             _ => (0..NDF_N)
                 .flat_map(|n| {
-                    (1..SCALE_ALPHA_N).flat_map(move |a| (0..SCALE_ETA_N).map(move |e| (n, a, e)))
+                    (1..SCALE_ALPHA_N).flat_map(move |a| {
+                        (0..SCALE_ETA_N).map(move |e| (n, a, e, scale_grid_alpha(a)))
+                    })
                 })
                 .collect(),
         };
-        let res = parallel(&jobs, "dielectric scale", threads, |_, &(n, a, e)| {
-            let (alpha, eta) = (scale_grid_alpha(a), scale_grid_eta(e));
-            // `--only ... --alpha A`: the node's solve at roughness A.
-            let alpha = at_alpha.unwrap_or(alpha);
-            let ndf = Ndf::new(NDFS[n], alpha, alpha);
-            let tab = TabulatedDielectric::new(ndf, Facet::Dielectric { eta });
-            // Reflection proposal: GGX visible normals (see above).
-            let proposal = Ndf::new(msbsdf::ndf::NdfKind::Ggx, alpha, alpha);
-            let single1 = Single::new(proposal, CONDUCTOR_F1, G2Form::HeightCorrelated);
-            let mut m = vec![vec![0.0f64; 2 * fm]; 2 * fm];
-            let mut target = vec![0.0f64; 2 * fm];
-            let add = |row: &mut Vec<f64>, side: usize, mu: f32, v: f64| {
-                let x = fine_x(mu);
-                let y0 = (x as usize).min(fm - 2);
-                let fr = x - y0 as f64;
-                row[side * fm + y0] += v * (1.0 - fr);
-                row[side * fm + y0 + 1] += v * fr;
-            };
-            for sd in 0..2 {
-                let flip = |v: Vec3| {
-                    if sd == 1 {
-                        Vec3::new(v.x, v.y, -v.z)
-                    } else {
-                        v
+        let mut w_hi = 0.0f64;
+        if let Some(x) = between {
+            let c = msbsdf::multiple::tabulated_dielectric::scale_alpha_x(
+                (x / msbsdf::multiple::tabulated::MAX_ALPHA).sqrt(),
+            );
+            let lo = (c as usize).min(SCALE_ALPHA_N - 2);
+            w_hi = (c - lo as f32) as f64;
+            let (n, e) = (jobs[0].0, jobs[0].2);
+            jobs.push((n, lo, e, scale_grid_alpha(lo)));
+            jobs.push((n, lo + 1, e, scale_grid_alpha(lo + 1)));
+        }
+        let res = parallel(
+            &jobs,
+            "dielectric scale",
+            threads,
+            |_, &(n, _, e, alpha)| {
+                let eta = scale_grid_eta(e);
+                let ndf = Ndf::new(NDFS[n], alpha, alpha);
+                let tab = TabulatedDielectric::new(ndf, Facet::Dielectric { eta });
+                let quadrature = Quadrature { ng, broad };
+                let m = lobe_rows(&tab, alpha, quadrature, fm, |i| scale_grid_mu(i).max(1e-3));
+                let mut target = vec![0.0f64; 2 * fm];
+                for sd in 0..2 {
+                    for i in 0..fm {
+                        let up = dir(scale_grid_mu(i).max(1e-3));
+                        let eta_rel = if sd == 1 { 1.0 / eta } else { eta };
+                        target[sd * fm + i] = (1.0 - ess(ndf, eta_rel, up, quad)).max(0.0);
                     }
-                };
-                for i in 0..fm {
-                    let mu = scale_grid_mu(i).max(1e-3);
-                    let up = dir(mu);
-                    let wi = flip(up);
-                    let row = &mut m[sd * fm + i];
-                    // The transmission grid's size.
-                    let (tz, tp) = if broad > 0 {
-                        // The tests' quadrature (`compensation::glass_albedo`:
-                        // twice as fine above roughness 1).
-                        let nb = if alpha > 1.0 { 2 * broad } else { broad };
-                        let (nz, np) = (nb / 3, 2 * nb / 3);
-                        broad_reflection_nodes(alpha, alpha, up, nb, (nz, np), |wo, w| {
-                            let g = tab.multiple_unscaled(wi, flip(wo)) as f64;
-                            add(row, sd, wo.z, g * w);
-                        });
-                        (nz, np)
-                    } else {
-                        // Reflection: visible normals (F = 1) and cosine lobe.
-                        for strategy in 0..2 {
-                            for p in 0..ng {
-                                for q in 0..ng {
-                                    let u1 = (p as f32 + 0.5) / ng as f32;
-                                    let u2 = (q as f32 + 0.5) / ng as f32;
-                                    let wo = if strategy == 0 {
-                                        let h = proposal.sample_visible(up, u1, u2);
-                                        msbsdf::frame::reflect(up, h)
-                                    } else {
-                                        let r = u1.sqrt();
-                                        let ph = 2.0 * std::f32::consts::PI * u2;
-                                        Vec3::new(
-                                            r * ph.cos(),
-                                            r * ph.sin(),
-                                            (1.0 - u1).max(0.0).sqrt(),
-                                        )
-                                    };
-                                    if wo.z <= 0.0 {
-                                        continue;
-                                    }
-                                    let pv = single1.pdf(up, wo) as f64;
-                                    let pc = wo.z as f64 / PI;
-                                    let g = tab.multiple_unscaled(wi, flip(wo)) as f64;
-                                    if pv + pc > 0.0 {
-                                        add(row, sd, wo.z, g / ((ng * ng) as f64 * (pv + pc)));
-                                    }
-                                }
-                            }
-                        }
-                        (ng, 2 * ng)
-                    };
-                    // Transmission: grid over the other hemisphere.
-                    lower_hemisphere_nodes(tz, tp, |wo, w| {
-                        let g = tab.multiple_unscaled(wi, flip(wo)) as f64;
-                        add(row, 1 - sd, -wo.z, g * w);
-                    });
-                    let eta_rel = if sd == 1 { 1.0 / eta } else { eta };
-                    let single = Single::new(
-                        ndf,
-                        Facet::Dielectric { eta: eta_rel },
-                        G2Form::HeightCorrelated,
-                    );
-                    let ess = single_albedo(
-                        |x, y| single.eval(x, y, &mut Rng::new(0, 0)).x,
-                        alpha,
-                        alpha,
-                        up,
-                        Some(eta_rel),
-                        quad,
-                    );
-                    target[sd * fm + i] = (1.0 - ess).max(0.0);
+                }
+                let before = (0..2 * fm)
+                    .filter(|&x| target[x] > 1e-3)
+                    .map(|x| (m[x].iter().sum::<f64>() / target[x] - 1.0).abs())
+                    .fold(0.0f64, f64::max);
+                // Scales are kept within [0, SCALE_MAX] (the encoding's range)
+                // during the solve, and a node whose target is 0 (`E_ss` = 1:
+                // low roughness near grazing) gets 0. Until session 22 the
+                // solve's result was clamped to [0.25, 4] afterwards, which
+                // left Beckmann alpha 0.005 glass 1.5 at 88 degrees (E_ss = 1)
+                // a quarter of its unscaled lobe: albedo 1.036.
+                let sc: Vec<f64> = sinkhorn_within(&target, |x, y| m[x][y], Some((0.0, scale_max)));
+                let after = (0..2 * fm)
+                    .filter(|&x| target[x] > 1e-4 && m[x].iter().sum::<f64>() > 0.0)
+                    .map(|x| {
+                        let r: f64 = (0..2 * fm).map(|y| sc[x] * m[x][y] * sc[y]).sum();
+                        (r / target[x] - 1.0).abs()
+                    })
+                    .fold(0.0f64, f64::max);
+                if only.is_some() && between.is_none() {
+                    for x in 0..2 * fm {
+                        let r: f64 = (0..2 * fm).map(|y| sc[x] * m[x][y] * sc[y]).sum();
+                        let raw: f64 = m[x].iter().sum();
+                        eprintln!(
+                            "side {} mu {:.5}: target {:.5} unscaled {raw:.5} scale {:.4} scaled {r:.5}",
+                            x / fm,
+                            scale_grid_mu(x % fm),
+                            target[x],
+                            sc[x]
+                        );
+                    }
+                }
+                (sc, before, after, m, target)
+            },
+        );
+        if between.is_some() {
+            let (_, _, _, m, target) = &res[0];
+            let s: Vec<f64> = (0..2 * fm)
+                .map(|x| (1.0 - w_hi) * res[1].0[x] + w_hi * res[2].0[x])
+                .collect();
+            let mut worst = (0.0f64, 0);
+            for x in 0..2 * fm {
+                let r: f64 = (0..2 * fm).map(|y| s[x] * m[x][y] * s[y]).sum();
+                let exact = res[0].0[x];
+                eprintln!(
+                    "side {} mu {:.5}: target {:.5} scale exact {exact:.4} interpolated {:.4} furnace {:+.4}%",
+                    x / fm,
+                    scale_grid_mu(x % fm),
+                    target[x],
+                    s[x],
+                    100.0 * (r - target[x])
+                );
+                if (r - target[x]).abs() > worst.0 {
+                    worst = ((r - target[x]).abs(), x);
                 }
             }
-            let before = (0..2 * fm)
-                .filter(|&x| target[x] > 1e-3)
-                .map(|x| (m[x].iter().sum::<f64>() / target[x] - 1.0).abs())
-                .fold(0.0f64, f64::max);
-            // Scales are kept within [0, SCALE_MAX] (the encoding's range)
-            // during the solve, and a node whose target is 0 (`E_ss` = 1:
-            // low roughness near grazing) gets 0. Until session 22 the
-            // solve's result was clamped to [0.25, 4] afterwards, which
-            // left Beckmann alpha 0.005 glass 1.5 at 88 degrees (E_ss = 1)
-            // a quarter of its unscaled lobe: albedo 1.036.
-            let sc: Vec<f64> = sinkhorn_within(&target, |x, y| m[x][y], Some((0.0, scale_max)));
-            let after = (0..2 * fm)
-                .filter(|&x| target[x] > 1e-4 && m[x].iter().sum::<f64>() > 0.0)
-                .map(|x| {
-                    let r: f64 = (0..2 * fm).map(|y| sc[x] * m[x][y] * sc[y]).sum();
-                    (r / target[x] - 1.0).abs()
-                })
-                .fold(0.0f64, f64::max);
-            if only.is_some() {
-                for x in 0..2 * fm {
-                    let r: f64 = (0..2 * fm).map(|y| sc[x] * m[x][y] * sc[y]).sum();
-                    let raw: f64 = m[x].iter().sum();
-                    eprintln!(
-                        "side {} mu {:.5}: target {:.5} unscaled {raw:.5} scale {:.4} scaled {r:.5}",
-                        x / fm,
-                        scale_grid_mu(x % fm),
-                        target[x],
-                        sc[x]
-                    );
-                }
-            }
-            (sc, before, after)
-        });
+            eprintln!(
+                "between scale nodes {} and {} (weight {w_hi:.3}): worst furnace {:.4}% at side {} mu {:.5}",
+                jobs[1].1,
+                jobs[2].1,
+                100.0 * worst.0,
+                worst.1 / fm,
+                scale_grid_mu(worst.1 % fm)
+            );
+            return;
+        }
         if only.is_some() {
             return;
         }
@@ -1666,7 +1951,7 @@ mod dielectric {
         let (mut smin, mut smax) = (f64::INFINITY, 0.0f64);
         // Nodes of target 0 (scale 0).
         let mut zeros = 0usize;
-        for (&(n, a, e), (sc, b, af)) in jobs.iter().zip(&res) {
+        for (&(n, a, e, _), (sc, b, af, _, _)) in jobs.iter().zip(&res) {
             before = before.max(*b);
             after = after.max(*af);
             zeros += sc.iter().filter(|&&v| v == 0.0).count();
@@ -2009,15 +2294,21 @@ mod dielectric {
         let lobe: Vec<f32> = lobe.iter().map(|v| *v as f32).collect();
         let mut payload = lobe_bytes(&pack(&lobe));
         payload.extend(super::f32_bytes(albedo.iter().map(|v| *v as f32)));
+        payload.extend(super::f32_bytes(std::iter::repeat_n(1.0, NORM_LEN)));
         super::write_bytes(
             &out,
-            &format!("{header}{PACKED}\n{LOBE_STORAGE}\n"),
+            &format!("{header}{PACKED}\n{LOBE_STORAGE}\n{UNNORMALISED}\n"),
             MAGIC,
             HEADER_BYTES,
             FILE_BYTES,
             &payload,
         );
     }
+
+    /// The normalisation block of a table the walks (or a conversion)
+    /// just wrote (a header line).
+    const UNNORMALISED: &str = "normalisation: every factor 1 (the walk's lobes as they are; \
+        gen_tabulated -- --dielectric-normalize, run with this table compiled in, normalises them)";
 
     /// How version 4 stores the lobe values (a header line).
     const LOBE_STORAGE: &str = "storage: lobe values as 24-bit floats, 3 little-endian bytes \
@@ -2131,7 +2422,8 @@ mod dielectric {
                 file_bytes: FILE_BYTES,
                 block_len: FULL_LOBE_LEN,
                 rest_len: ALBEDO_LEN,
-                layout: &format!("{PACKED}\n{LOBE_STORAGE}"),
+                layout: &format!("{PACKED}\n{LOBE_STORAGE}\n{UNNORMALISED}"),
+                ones: NORM_LEN,
             },
             |full| lobe_bytes(&pack(full)),
         );
@@ -2153,7 +2445,8 @@ mod dielectric {
                 file_bytes: FILE_BYTES,
                 block_len: LOBE_LEN,
                 rest_len: ALBEDO_LEN,
-                layout: LOBE_STORAGE,
+                layout: &format!("{LOBE_STORAGE}\n{UNNORMALISED}"),
+                ones: NORM_LEN,
             },
             lobe_bytes,
         );

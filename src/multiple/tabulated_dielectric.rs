@@ -43,6 +43,23 @@
 //! them in place, a cell's four cosine terms with four 8-byte reads and a
 //! shift in SIMD lanes ([`lobe_decode`] is the one-value form).
 //!
+//! Version 5 stores each node's lobes normalised: the walk's cell `(i,
+//! j)` times `n(i) n(j)` (each factor on its own side's cosine node,
+//! [`lobe_norm`], [`NORM_LEN`]), the factors chosen
+//! (`gen_tabulated -- --dielectric-normalize`) so that the node's albedo
+//! from cosine node `x` moves from the walk's `A(x)` towards `max(A(x),
+//! 1e-3)^0.3`. Between two roughness or index nodes eval interpolates the
+//! lobes linearly; where one node's lobe had ten times the other's albedo
+//! (glass 1.05 from inside near grazing, between roughness 0.125 and
+//! 0.281) the interpolated albedo was the larger lobe's from the first
+//! step, while `1 - E_ss` rises late, so the furnace scale the
+//! interpolated lobe needed dipped and rose within one interval, which
+//! the scale table's linear interpolation could not follow. The furnace
+//! scales put the albedo back (they are solved on the normalised lobes),
+//! so at a node eval is the walk's lobe as before; between nodes the
+//! lobes are mixed in proportions closer to equal. The sampler's albedos
+//! (below) are the walk's.
+//!
 //! The cosine coefficients are the projections of the exit directions of
 //! the walks that scattered twice or more onto hat functions in `sqrt(mu_o)`
 //! times `cos(k phi)` (the conductor table's
@@ -201,8 +218,9 @@ pub const T_THIN: usize = 2;
 /// Bytes of the text header at the start of the table file.
 pub const HEADER_BYTES: usize = 4096;
 /// First bytes of the table file (version 3 stored the lobe values as
-/// f32, version 4 as 24-bit floats: [`LOBE_BYTES`]).
-pub const MAGIC: &[u8; 31] = b"MSBSDF-TABULATED-DIELECTRIC-v4\n";
+/// f32, version 4 as 24-bit floats: [`LOBE_BYTES`]; version 5 stores each
+/// node's lobes normalised, [`NORM_LEN`]).
+pub const MAGIC: &[u8; 31] = b"MSBSDF-TABULATED-DIELECTRIC-v5\n";
 
 /// Stored `(ndf, alpha, eta)` nodes (roughness nodes 1 to `ALPHA_N - 1`).
 pub const NODES: usize = NDF_N * (ALPHA_N - 1) * ETA_N;
@@ -221,8 +239,19 @@ pub const ALBEDO_LEN: usize = NODES * NODE_ALBEDO_LEN;
 /// Byte offset in the table file of the albedo block, which follows the
 /// lobe block (the 4-byte read of the last lobe value ends in it).
 pub const ALBEDO_AT: usize = HEADER_BYTES + LOBE_BYTES * LOBE_LEN;
+/// Values (f32) of the normalisation block `[ndf][alpha >= 1][eta][side][mu]`
+/// (version 5): the factors `n(side, mu)` by which the stored lobes of a
+/// node were multiplied, a cell `(mu_i, mu_o)` by `n(mu_i) n(mu_o)` (each
+/// on its own side), which bring each node's albedo from a cosine node
+/// closer to 1 (module docs; [`lobe_norm`]). Eval does not read them: the
+/// walk's lobe is the stored value divided by the two factors (the cell
+/// re-estimation test and the tools).
+pub const NORM_LEN: usize = NODES * 2 * MU_N;
+/// Byte offset in the table file of the normalisation block, which follows
+/// the albedo block.
+pub const NORM_AT: usize = ALBEDO_AT + 4 * ALBEDO_LEN;
 /// Total size of the table file in bytes.
-pub const FILE_BYTES: usize = ALBEDO_AT + 4 * ALBEDO_LEN;
+pub const FILE_BYTES: usize = NORM_AT + 4 * NORM_LEN;
 
 /// Nodes of the grid uniform in `sqrt(alpha / MAX_ALPHA)` that the furnace
 /// scale table's roughness nodes refine (the first is 0):
@@ -941,6 +970,21 @@ pub fn lobe_value(i: usize) -> f32 {
     {
         Some(&b) => lobe_decode(b),
         None => 0.0,
+    }
+}
+
+/// The normalisation factor `n(side, mu)` of cosine node `i` of a stored
+/// node ([`NORM_LEN`]; side 0 thin, 1 dense): the walk's lobe is the
+/// stored cell `(i, j)` divided by `n(side_i, i) n(side_j, j)`. 1 for
+/// roughness node 0 and outside the table.
+pub fn lobe_norm(ndf: usize, a: usize, e: usize, side: usize, i: usize) -> f32 {
+    if a == 0 || ndf >= NDF_N || a >= ALPHA_N || e >= ETA_N || side > 1 || i >= MU_N {
+        return 1.0;
+    }
+    let at = NORM_AT + 4 * ((node(ndf, a, e) * 2 + side) * MU_N + i);
+    match RAW.get(at..).and_then(|s| s.first_chunk::<4>()) {
+        Some(&b) => f32::from_le_bytes(b),
+        None => 1.0,
     }
 }
 
@@ -1703,12 +1747,13 @@ mod tests {
     /// than the constants: 4096 header bytes, 355,200 lobe values of 3
     /// bytes (`lobe_value(i)` is the f32 of the bytes `b0 b1 b2` at
     /// `4096 + 3 i` placed above 8 zero bits), then 7,680 little-endian
-    /// f32 albedos: 1,100,416 bytes.
+    /// f32 albedos, then 3,840 little-endian f32 normalisation factors
+    /// `[ndf][alpha >= 1][eta][side][mu]` (version 5): 1,115,776 bytes.
     #[test]
     fn lobe_values_are_the_file_bytes() {
         assert_eq!(
-            (LOBE_LEN, ALBEDO_LEN, FILE_BYTES),
-            (355_200, 7_680, 1_100_416)
+            (LOBE_LEN, ALBEDO_LEN, NORM_LEN, FILE_BYTES),
+            (355_200, 7_680, 3_840, 1_115_776)
         );
         let mut pick = Rng::new(24, 24);
         let mut at = vec![
@@ -1735,6 +1780,27 @@ mod tests {
             assert_eq!(albedo_value(i).to_bits(), want.to_bits(), "albedo {i}");
         }
         assert_eq!((lobe_value(LOBE_LEN), albedo_value(ALBEDO_LEN)), (0.0, 0.0));
+        // (ndf, alpha, eta, side, mu) -> factor index, in that order.
+        let mut factors = 0;
+        for (n, a, e, sd, i, k) in [
+            (0, 1, 0, 0, 0, 0),
+            (0, 1, 0, 1, 0, 20),
+            (0, 2, 0, 0, 0, 240),
+            (1, 3, 4, 1, 7, 3_840 / 2 + 2 * 6 * 40 + 4 * 40 + 20 + 7),
+            (1, 8, 5, 1, 19, 3_839),
+        ] {
+            let o = 4096 + 3 * 355_200 + 4 * 7_680 + 4 * k;
+            let want = f32::from_le_bytes([RAW[o], RAW[o + 1], RAW[o + 2], RAW[o + 3]]);
+            assert_eq!(
+                lobe_norm(n, a, e, sd, i).to_bits(),
+                want.to_bits(),
+                "factor {k}"
+            );
+            factors += (want != 1.0) as usize;
+        }
+        assert!(factors >= 3, "the factors of a normalised table");
+        assert_eq!(lobe_norm(0, 0, 0, 0, 0), 1.0);
+        assert_eq!(lobe_norm(2, 1, 0, 0, 0), 1.0);
     }
 
     /// Eval's read of the lobe cells (`lobe_cell`: three 24-bit cells per
