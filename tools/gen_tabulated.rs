@@ -1154,7 +1154,8 @@ fn conductor_pack_main(args: &[String], rest: &[String]) {
 /// A table file's conversion to its next version, which stores its first
 /// block another way: a symmetric lobe's `i <= j` half only
 /// (`--conductor-pack`, `--dielectric-pack`) or 24-bit lobe values
-/// (`--dielectric-lobe-pack`, and `--dielectric-pack` after the half).
+/// (`--dielectric-lobe-pack`, and `--dielectric-pack` after the half), or
+/// the same bytes with a block appended (`--dielectric-v5`).
 struct Repack<'a> {
     /// The command-line flag (its usage line).
     flag: &'a str,
@@ -1494,17 +1495,16 @@ mod dielectric {
     /// `M(x, y)`: the albedo of `tab`'s unscaled multiply scattered lobe
     /// (`multiple_unscaled`, exactly as eval reads it) from source node `x =
     /// (side, i)` (side 0 the outside, `z > 0`; cosine `mu(i)`) split onto
-    /// the hat functions of the grid of `n` cosines per side uniform in
-    /// `sqrt(mu)` at `wo`'s side and cosine, `y = (side, j)`; `2 n x 2 n`.
+    /// the hat functions of the grid of `fm` cosines per side uniform in
+    /// `sqrt(mu)` at `wo`'s side and cosine, `y = (side, j)`; `2 fm x 2 fm`.
     fn lobe_rows(
         tab: &msbsdf::multiple::tabulated_dielectric::TabulatedDielectric,
         alpha: f32,
         q: Quadrature,
-        n: usize,
+        fm: usize,
         mu: impl Fn(usize) -> f32,
     ) -> Vec<Vec<f64>> {
         let Quadrature { ng, broad } = q;
-        let fm = n;
         let fine_x = |mu: f32| (mu.clamp(0.0, 1.0).sqrt() * (fm - 1) as f32) as f64;
         // Reflection proposal: GGX visible normals (see `scale_main`).
         let proposal = Ndf::new(msbsdf::ndf::NdfKind::Ggx, alpha, alpha);
@@ -1590,34 +1590,27 @@ mod dielectric {
     /// header kept with a line saying how it was converted. Build the
     /// library with it before `--dielectric-normalize`.
     pub fn v5_main(args: &[String], rest: &[String]) {
-        const OLD_MAGIC: &[u8] = b"MSBSDF-TABULATED-DIELECTRIC-v4\n";
-        let out: String = arg(args, "--out", "data/tabulated_dielectric.bin".to_string());
-        let Some(path) = rest.first() else {
-            eprintln!("--dielectric-v5 PATH (a version-4 dielectric table)");
-            std::process::exit(2);
-        };
-        let raw = std::fs::read(path).expect("read the table to convert");
-        assert!(
-            raw.starts_with(OLD_MAGIC),
-            "not a version-4 dielectric table"
+        // Version 4's payload (24-bit lobe values, then f32 albedos) is a
+        // whole number of 4-byte words: `repack` copies it bit for bit as
+        // the "rest" after an empty block and appends the factors.
+        const V4_PAYLOAD: usize = FILE_BYTES - HEADER_BYTES - 4 * NORM_LEN;
+        const _: () = assert!(V4_PAYLOAD.is_multiple_of(4));
+        super::repack(
+            args,
+            rest,
+            &super::Repack {
+                flag: "--dielectric-v5",
+                out: "data/tabulated_dielectric.bin",
+                old_magic: b"MSBSDF-TABULATED-DIELECTRIC-v4\n",
+                magic: MAGIC,
+                file_bytes: FILE_BYTES,
+                block_len: 0,
+                rest_len: V4_PAYLOAD / 4,
+                layout: UNNORMALISED,
+                ones: NORM_LEN,
+            },
+            |_| Vec::new(),
         );
-        assert_eq!(
-            raw.len(),
-            FILE_BYTES - 4 * NORM_LEN,
-            "size of a version-4 table"
-        );
-        let old = String::from_utf8_lossy(&raw[OLD_MAGIC.len()..HEADER_BYTES]);
-        let head = format!(
-            "{}{}converted from version 4 (the lines above) by: cargo run --release --example \
-             gen_tabulated -- {} (commit {})\n{UNNORMALISED}\n",
-            String::from_utf8_lossy(MAGIC),
-            old.trim_end_matches('\0'),
-            args[1..].join(" "),
-            git_commit(),
-        );
-        let mut payload = raw[HEADER_BYTES..].to_vec();
-        payload.extend(super::f32_bytes(std::iter::repeat_n(1.0, NORM_LEN)));
-        super::write_bytes(&out, &head, MAGIC, HEADER_BYTES, FILE_BYTES, &payload);
     }
 
     /// `--dielectric-normalize`: rewrites the compiled lobe table (which
