@@ -1791,16 +1791,18 @@ mod dielectric {
     /// solves one node (NDF, roughness and index node) and prints its rows
     /// instead of writing the table, with `--alpha A` at roughness `A`
     /// instead of the node's (what the scales between two nodes would
-    /// have to be); `--between` with them also solves the two scale nodes
-    /// around `A` (at index node `E`) and prints the furnace at `A` with
-    /// their scales interpolated linearly in the roughness coordinate, as
-    /// eval reads them (at the scale grid's cosines, the scales' 16-bit
-    /// rounding left out).
+    /// have to be) and `--eta X` at relative index `X` (at least 1)
+    /// instead of the node's; `--between` with them also solves the three
+    /// scale nodes of the scale triangle holding `(A, X)` (`X` the index
+    /// node's when `--eta` is not given) and prints the furnace there with
+    /// their scales interpolated on the triangle, as eval reads them (at the
+    /// scale grid's cosines, the scales' 16-bit rounding left out).
     pub fn scale_main(args: &[String]) {
         use msbsdf::multiple::tabulated_dielectric::{
-            SCALE_ALPHA_N, SCALE_ETA_N, SCALE_FINE_INTERVALS, SCALE_FINE_SPLIT, SCALE_MAX,
-            SCALE_MU_N, SCALE_ROOT_N, TabulatedDielectric, header, scale_grid_alpha,
-            scale_grid_eta, scale_grid_mu, scale_index,
+            SCALE_ALPHA_N, SCALE_ETA_N, SCALE_ETA_PLAIN_N, SCALE_ETA_SPLIT, SCALE_FINE_INTERVALS,
+            SCALE_FINE_SPLIT, SCALE_MAX, SCALE_MU_N, SCALE_PER_LOBE_INTERVAL, SCALE_ROOT_N,
+            TabulatedDielectric, eta_coord, header, scale_grid_alpha, scale_grid_eta,
+            scale_grid_mu, scale_index,
         };
         let scale_max = SCALE_MAX as f64;
         let quad: usize = arg(args, "--quad", 128);
@@ -1825,39 +1827,91 @@ mod dielectric {
             .and_then(|_| args.iter().position(|a| a == "--alpha"))
             .and_then(|p| args.get(p + 1))
             .and_then(|v| v.parse().ok());
-        // `--between` (with `--only N,A,E --alpha X`): also the two scale
-        // nodes around X, and the furnace with their scales interpolated
-        // as eval does.
-        let between = at_alpha.filter(|_| args.iter().any(|a| a == "--between"));
-        let mut jobs: Vec<(usize, usize, usize, f32)> = match &only {
-            Some(v) if v.len() == 3 => {
-                vec![(v[0], v[1], v[2], at_alpha.unwrap_or(scale_grid_alpha(v[1])))]
-            }
+        let at_eta: Option<f32> = only
+            .as_ref()
+            .and_then(|_| args.iter().position(|a| a == "--eta"))
+            .and_then(|p| args.get(p + 1))
+            .and_then(|v| v.parse().ok())
+            .map(|e: f32| e.max(1.0 / e));
+        // `--between` (with `--only N,A,E --alpha X [--eta Y]`): also the
+        // three scale nodes of the triangle holding (X, Y), and the furnace
+        // with their scales interpolated as eval does.
+        let between = only.is_some() && args.iter().any(|a| a == "--between");
+        // (NDF, roughness node, index node, roughness, index).
+        let mut jobs: Vec<(usize, usize, usize, f32, f32)> = match &only {
+            Some(v) if v.len() == 3 => vec![(
+                v[0],
+                v[1],
+                v[2],
+                at_alpha.unwrap_or(scale_grid_alpha(v[1])),
+                at_eta.unwrap_or(scale_grid_eta(v[2])),
+            )],
             _ => (0..NDF_N)
                 .flat_map(|n| {
                     (1..SCALE_ALPHA_N).flat_map(move |a| {
-                        (0..SCALE_ETA_N).map(move |e| (n, a, e, scale_grid_alpha(a)))
+                        (0..SCALE_ETA_N)
+                            .map(move |e| (n, a, e, scale_grid_alpha(a), scale_grid_eta(e)))
                     })
                 })
                 .collect(),
         };
-        let mut w_hi = 0.0f64;
-        if let Some(x) = between {
-            let c = msbsdf::multiple::tabulated_dielectric::scale_alpha_x(
-                (x / msbsdf::multiple::tabulated::MAX_ALPHA).sqrt(),
+        // The corners' weights (jobs 1 to 3) for `--between`.
+        let mut weights = [0.0f64; 3];
+        if between {
+            let (n, _, _, alpha, eta) = jobs[0];
+            let ca = msbsdf::multiple::tabulated_dielectric::scale_alpha_x(
+                (alpha / msbsdf::multiple::tabulated::MAX_ALPHA).sqrt(),
             );
-            let lo = (c as usize).min(SCALE_ALPHA_N - 2);
-            w_hi = (c - lo as f32) as f64;
-            let (n, e) = (jobs[0].0, jobs[0].2);
-            jobs.push((n, lo, e, scale_grid_alpha(lo)));
-            jobs.push((n, lo + 1, e, scale_grid_alpha(lo + 1)));
+            let ce = msbsdf::multiple::tabulated_dielectric::scale_eta_x(
+                eta_coord(eta) * SCALE_PER_LOBE_INTERVAL as f32,
+            );
+            let a0 = (ca as usize).min(SCALE_ALPHA_N - 2);
+            let e0 = (ce as usize).min(SCALE_ETA_N - 2);
+            let (fa, fe) = (ca - a0 as f32, ce - e0 as f32);
+            // The library's cut of the square (`tabulated::triangle`).
+            let corners = if fa >= fe {
+                [((0, 0), 1.0 - fa), ((1, 0), fa - fe), ((1, 1), fe)]
+            } else {
+                [((0, 0), 1.0 - fe), ((0, 1), fe - fa), ((1, 1), fa)]
+            };
+            for (k, ((da, de), w)) in corners.into_iter().enumerate() {
+                let (a, e) = (a0 + da, e0 + de);
+                weights[k] = w as f64;
+                jobs.push((n, a, e, scale_grid_alpha(a), scale_grid_eta(e)));
+            }
+        }
+        // `--keep V4.bin`: the nodes of version 4's plain index grid are
+        // copied from it (the generator is deterministic: a full run with
+        // the same lobe table computes the same values), only the split
+        // intervals' inner nodes are solved.
+        let keep: Option<(Vec<u8>, String)> = args
+            .iter()
+            .position(|a| a == "--keep")
+            .and_then(|p| args.get(p + 1))
+            .map(|path| {
+                let raw = std::fs::read(path).expect("read --keep table");
+                assert!(
+                    raw.starts_with(b"MSBSDF-TABULATED-DIELECTRIC-SCALE-v4\n")
+                        && raw.len()
+                            == HEADER_BYTES
+                                + 2 * NDF_N * SCALE_ALPHA_N * SCALE_ETA_PLAIN_N * 2 * fm,
+                    "--keep: not a version-4 scale table"
+                );
+                (raw, path.clone())
+            });
+        // The plain node of version 4 that index node `e` is, if any.
+        let plain_node = |e: usize| {
+            let c = eta_coord(scale_grid_eta(e)) * SCALE_PER_LOBE_INTERVAL as f32;
+            ((c - c.round()).abs() < 1e-3).then_some(c.round() as usize)
+        };
+        if keep.is_some() && only.is_none() {
+            jobs.retain(|&(_, _, e, _, _)| plain_node(e).is_none());
         }
         let res = parallel(
             &jobs,
             "dielectric scale",
             threads,
-            |_, &(n, _, e, alpha)| {
-                let eta = scale_grid_eta(e);
+            |_, &(n, _, _, alpha, eta)| {
                 let ndf = Ndf::new(NDFS[n], alpha, alpha);
                 let tab = TabulatedDielectric::new(ndf, Facet::Dielectric { eta });
                 let quadrature = Quadrature { ng, broad };
@@ -1888,7 +1942,7 @@ mod dielectric {
                         (r / target[x] - 1.0).abs()
                     })
                     .fold(0.0f64, f64::max);
-                if only.is_some() && between.is_none() {
+                if only.is_some() && !between {
                     for x in 0..2 * fm {
                         let r: f64 = (0..2 * fm).map(|y| sc[x] * m[x][y] * sc[y]).sum();
                         let raw: f64 = m[x].iter().sum();
@@ -1904,10 +1958,10 @@ mod dielectric {
                 (sc, before, after, m, target)
             },
         );
-        if between.is_some() {
+        if between {
             let (_, _, _, m, target) = &res[0];
             let s: Vec<f64> = (0..2 * fm)
-                .map(|x| (1.0 - w_hi) * res[1].0[x] + w_hi * res[2].0[x])
+                .map(|x| (0..3).map(|k| weights[k] * res[k + 1].0[x]).sum())
                 .collect();
             let mut worst = (0.0f64, 0);
             for x in 0..2 * fm {
@@ -1925,10 +1979,15 @@ mod dielectric {
                     worst = ((r - target[x]).abs(), x);
                 }
             }
+            let corner =
+                |k: usize| format!("({}, {}) {:.3}", jobs[k + 1].1, jobs[k + 1].2, weights[k]);
             eprintln!(
-                "between scale nodes {} and {} (weight {w_hi:.3}): worst furnace {:.4}% at side {} mu {:.5}",
-                jobs[1].1,
-                jobs[2].1,
+                "roughness {} index {}, scale nodes (roughness, index) weight {}, {}, {}: worst furnace {:.4}% at side {} mu {:.5}",
+                jobs[0].3,
+                jobs[0].4,
+                corner(0),
+                corner(1),
+                corner(2),
                 100.0 * worst.0,
                 worst.1 / fm,
                 scale_grid_mu(worst.1 % fm)
@@ -1940,11 +1999,27 @@ mod dielectric {
         }
         // Roughness node 0 (no multiple scattering) keeps 1.
         let mut scale = vec![scale_steps(1.0); SCALE_LEN];
+        if let Some((raw, _)) = &keep {
+            for n in 0..NDF_N {
+                for a in 0..SCALE_ALPHA_N {
+                    for e in 0..SCALE_ETA_N {
+                        let Some(c) = plain_node(e) else { continue };
+                        for x in 0..2 * fm {
+                            let at =
+                                (((n * SCALE_ALPHA_N + a) * SCALE_ETA_PLAIN_N + c) * 2 * fm) + x;
+                            let b = HEADER_BYTES + 2 * at;
+                            scale[scale_index(n, a, e, x / fm, x % fm)] =
+                                u16::from_le_bytes([raw[b], raw[b + 1]]);
+                        }
+                    }
+                }
+            }
+        }
         let (mut before, mut after) = (0.0f64, 0.0f64);
         let (mut smin, mut smax) = (f64::INFINITY, 0.0f64);
         // Nodes of target 0 (scale 0).
         let mut zeros = 0usize;
-        for (&(n, a, e, _), (sc, b, af, _, _)) in jobs.iter().zip(&res) {
+        for (&(n, a, e, _, _), (sc, b, af, _, _)) in jobs.iter().zip(&res) {
             before = before.max(*b);
             after = after.max(*af);
             zeros += sc.iter().filter(|&&v| v == 0.0).count();
@@ -1976,6 +2051,23 @@ mod dielectric {
                 2 * ng
             )
         };
+        let kept = match &keep {
+            Some((raw, path)) => {
+                let old = String::from_utf8_lossy(&raw[..HEADER_BYTES]);
+                let line = |key: &str| {
+                    old.lines()
+                        .find(|l| l.starts_with(key))
+                        .unwrap_or("?")
+                        .to_string()
+                };
+                format!(
+                    "kept: the plain grid's index nodes copied from {path} (version 4; its {}; {}), the split intervals' inner nodes solved here\n",
+                    line("command:"),
+                    line("commit:")
+                )
+            }
+            None => String::new(),
+        };
         let head = format!(
             "{}\
              MSBSDF_MODEL_TABULATED dielectric furnace scales (layout: src/multiple/tabulated_dielectric.rs)\n\
@@ -1986,7 +2078,8 @@ mod dielectric {
              E_ss: SINGLE reflection + transmission quadrature {quad} x {quad} (compensation::single_albedo)\n\
              albedo of the unscaled lobe vs 1 - E_ss: worst relative deviation {before:.3e} (targets > 1e-3); after scaling: {after:.3e} (targets > 1e-4, rows not empty; scales within [0, {scale_max}] during the solve, 0 where the target is 0: {zeros} nodes)\n\
              scales between {smin:.4} and {smax:.4}\n\
-             grid: ndf {NDF_N} x alpha {SCALE_ALPHA_N} (uniform in sqrt(alpha / 2) with {SCALE_ROOT_N} nodes, its first {SCALE_FINE_INTERVALS} intervals split in {SCALE_FINE_SPLIT}) x eta {SCALE_ETA_N} x side 2 x mu {SCALE_MU_N}\n\
+             grid: ndf {NDF_N} x alpha {SCALE_ALPHA_N} (uniform in sqrt(alpha / 2) with {SCALE_ROOT_N} nodes, its first {SCALE_FINE_INTERVALS} intervals split in {SCALE_FINE_SPLIT}) x eta {SCALE_ETA_N} (uniform in ln E with {SCALE_ETA_PLAIN_N} nodes, its first two intervals split in {SCALE_ETA_SPLIT:?}) x side 2 x mu {SCALE_MU_N}\n\
+             {kept}\
              wall time: {:.0} s on {threads} threads\n\
              {SCALE_STORAGE}\n",
             String::from_utf8_lossy(SCALE_MAGIC),

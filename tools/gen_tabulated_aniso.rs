@@ -443,10 +443,14 @@ fn main() {
     }
     if args.iter().any(|a| a == "--dielectric-sweep") {
         let iso = args.iter().any(|a| a == "--isotropic");
+        let etas = list_arg(&args, "--etas")
+            .filter(|v| !v.is_empty())
+            .unwrap_or_else(|| SWEEP_ETAS.to_vec());
         dielectric_sweep(
             azimuths_arg(&args),
             &thetas_arg(&args),
             &alphas_arg(&args),
+            &etas,
             iso,
         );
         return;
@@ -1766,16 +1770,26 @@ fn conductor_sweep(azimuths: usize, thetas: &[f32], alphas: &[f32]) {
     }
 }
 
+/// Relative indices `E` of the dielectric sweep (each seen from both
+/// sides: `E` and `1 / E`); `--etas A,B,...` replaces them.
+const SWEEP_ETAS: [f32; 5] = [1.05, 1.2, 1.5, 2.0, 3.0];
+
 /// `--dielectric-sweep`: the furnace of anisotropic glass on a fixed grid
 /// (no random numbers) that reaches the corners of the range: both NDFs,
 /// roughness pairs `alpha_x < alpha_y` of {0.05, 0.11, 0.3, 0.6, 1, 1.9},
-/// indices 1.05, 1.2, 1.5, 2 and 3 seen from both sides, `wi` at 0, 30,
+/// indices 1.05, 1.2, 1.5, 2 and 3 (or `--etas`) seen from both sides, `wi` at 0, 30,
 /// 60, 75, 85 and 89 degrees (or `--thetas`) and `--azimuths N` azimuths from 0 to 90
 /// degrees (9 by default, [`azimuths_arg`]). Prints
 /// the worst, 99th and 90th percentiles and median of `|albedo - 1|` and
 /// the worst cases. With `isotropic`, the roughness pairs are `(a, a)` for
 /// each `a` of `alphas` instead (isotropic glass; `--isotropic`).
-fn dielectric_sweep(azimuths: usize, thetas: &[f32], alphas: &[f32], isotropic: bool) {
+fn dielectric_sweep(
+    azimuths: usize,
+    thetas: &[f32],
+    alphas: &[f32],
+    etas: &[f32],
+    isotropic: bool,
+) {
     use msbsdf::multiple::tabulated_dielectric::TabulatedDielectric;
     let mut materials = Vec::new();
     for n in 0..2 {
@@ -1786,7 +1800,7 @@ fn dielectric_sweep(azimuths: usize, thetas: &[f32], alphas: &[f32], isotropic: 
                 &alphas[i + 1..]
             };
             for &ay in others {
-                for e in [1.05f32, 1.2, 1.5, 2.0, 3.0] {
+                for &e in etas {
                     for eta in [e, 1.0 / e] {
                         materials.push((n, ax, ay, eta));
                     }

@@ -279,10 +279,24 @@ pub const SCALE_ALPHA_N: usize = SCALE_ROOT_N + SCALE_FINE_INTERVALS * (SCALE_FI
 /// peaked at the lobes' crease, GGX 0.889 glass 1.126 from inside at 88
 /// degrees +1.86% (0.00% at the scale nodes 1.106 and 1.165 beside it).
 pub const SCALE_PER_LOBE_INTERVAL: usize = 4;
-/// Relative index nodes of the furnace scale table (uniform in `ln E`;
-/// the lobe table's [`ETA_N`] and [`SCALE_PER_LOBE_INTERVAL`] - 1
-/// between each two).
-pub const SCALE_ETA_N: usize = SCALE_PER_LOBE_INTERVAL * (ETA_N - 1) + 1;
+/// Index nodes of the plain grid uniform in `ln E` that the furnace scale
+/// table's index nodes refine: the lobe table's [`ETA_N`] and
+/// [`SCALE_PER_LOBE_INTERVAL`] - 1 between each two.
+pub const SCALE_ETA_PLAIN_N: usize = SCALE_PER_LOBE_INTERVAL * (ETA_N - 1) + 1;
+/// The scale table splits the first two intervals of its plain index grid
+/// (1.05 to 1.107 and 1.107 to 1.166) into 3 and 2 (since version 5):
+/// there the scales change fastest with the index and are far from linear
+/// in `ln E` (Beckmann 0.716 from outside at 85 degrees: 1.25 at 1.05,
+/// 0.99 at 1.07, 0.80 at 1.107), and on the plain grid the furnace was off
+/// by up to 4.8% between the nodes 1.05 and 1.107 (Beckmann 0.4 glass
+/// 1.0695 from outside at 89 degrees: +4.5%) and 1% between 1.107 and
+/// 1.166. The lobe table's crease (see [`SCALE_PER_LOBE_INTERVAL`]) is
+/// not followed in these intervals.
+pub const SCALE_ETA_SPLIT: [usize; 2] = [3, 2];
+/// Relative index nodes of the furnace scale table ([`scale_grid_eta`]):
+/// the plain grid's [`SCALE_ETA_PLAIN_N`] and the split intervals' inner
+/// nodes.
+pub const SCALE_ETA_N: usize = SCALE_ETA_PLAIN_N + SCALE_ETA_SPLIT[0] + SCALE_ETA_SPLIT[1] - 2;
 /// Cosine nodes of the furnace scale table (uniform in `sqrt(mu)`).
 pub const SCALE_MU_N: usize = 32;
 /// Values of the furnace scale table `[ndf][alpha][eta][side][mu]`
@@ -291,8 +305,11 @@ pub const SCALE_MU_N: usize = 32;
 pub const SCALE_LEN: usize = NDF_N * SCALE_ALPHA_N * SCALE_ETA_N * 2 * SCALE_MU_N;
 /// First bytes of the scale table file (version 1 stored f32 scales,
 /// version 2 had the plain `sqrt(alpha)` grid of 25 roughness nodes,
-/// version 3 split its first 3 intervals in 3: 31 nodes).
-pub const SCALE_MAGIC: &[u8; 37] = b"MSBSDF-TABULATED-DIELECTRIC-SCALE-v4\n";
+/// version 3 split its first 3 intervals in 3: 31 nodes; version 4 had
+/// 4 intervals per lobe interval on both axes and 21 index nodes uniform
+/// in `ln E`; version 5 splits the first two index intervals,
+/// [`SCALE_ETA_SPLIT`]).
+pub const SCALE_MAGIC: &[u8; 37] = b"MSBSDF-TABULATED-DIELECTRIC-SCALE-v5\n";
 /// Total size of the scale table file in bytes.
 pub const SCALE_FILE_BYTES: usize = HEADER_BYTES + 2 * SCALE_LEN;
 
@@ -322,10 +339,30 @@ pub fn scale_alpha_x(root: f32) -> f32 {
     x + (SCALE_FINE_SPLIT - 1) as f32 * x.min(SCALE_FINE_INTERVALS as f32)
 }
 
-/// Relative index of node `e` of the scale table.
+/// Relative index of node `e` of the scale table: node `c` of the plain
+/// grid uniform in `ln E` ([`SCALE_ETA_PLAIN_N`] nodes), `c` fractional in
+/// the split intervals ([`scale_eta_x`] inverted).
 pub fn scale_grid_eta(e: usize) -> f32 {
-    let t = e as f32 / (SCALE_ETA_N - 1) as f32;
+    let [s0, s1] = SCALE_ETA_SPLIT;
+    let c = if e <= s0 {
+        e as f32 / s0 as f32
+    } else if e <= s0 + s1 {
+        1.0 + (e - s0) as f32 / s1 as f32
+    } else {
+        (e + 2 - s0 - s1) as f32
+    };
+    let t = c / (SCALE_ETA_PLAIN_N - 1) as f32;
     (ETA_MIN.ln() + t * (ETA_MAX.ln() - ETA_MIN.ln())).exp()
+}
+
+/// Continuous node coordinate on the scale table's index grid
+/// ([`scale_grid_eta`]) of a coordinate `c` on its plain grid (in `[0,
+/// SCALE_ETA_PLAIN_N - 1]`): the split intervals stretched by their
+/// splits. Init only.
+#[inline]
+pub fn scale_eta_x(c: f32) -> f32 {
+    let [s0, s1] = SCALE_ETA_SPLIT;
+    s0 as f32 * c.min(1.0) + s1 as f32 * (c - 1.0).clamp(0.0, 1.0) + (c - 2.0).max(0.0)
 }
 
 /// Cosine of node `i` of the scale table.
@@ -1385,7 +1422,8 @@ impl TabulatedDielectric {
         let alpha_rms = (0.5 * (ndf.alpha_x * ndf.alpha_x + ndf.alpha_y * ndf.alpha_y)).sqrt();
         let alpha = split(alpha_coord(alpha_rms), ALPHA_N);
         let eta = split(eta_coord(e), ETA_N);
-        let scale_eta = eta_coord(e) * (1.0 / (ETA_N - 1) as f32);
+        let scale_eta = scale_eta_x(eta_coord(e) * SCALE_PER_LOBE_INTERVAL as f32)
+            * (1.0 / (SCALE_ETA_N - 1) as f32);
         TabulatedDielectric {
             single: Single::new(ndf, facet, G2Form::HeightCorrelated),
             ndf,
@@ -1884,9 +1922,34 @@ mod tests {
                 "roughness node {j}"
             );
         }
+        // The index grid: each node's index reads its own node, and the
+        // split intervals' nodes are equally spaced in `ln E`.
+        for e in 0..SCALE_ETA_N {
+            let c = eta_coord(scale_grid_eta(e)) * SCALE_PER_LOBE_INTERVAL as f32;
+            let x = scale_eta_x(c);
+            assert!(
+                (x - e as f32).abs() < 1e-4,
+                "index node {e}: coordinate {x}"
+            );
+        }
+        let [s0, s1] = SCALE_ETA_SPLIT;
+        let step = |e: usize| scale_grid_eta(e + 1).ln() - scale_grid_eta(e).ln();
+        let plain = step(SCALE_ETA_N - 2);
+        for e in 0..SCALE_ETA_N - 1 {
+            let want = plain
+                / if e < s0 {
+                    s0 as f32
+                } else if e < s0 + s1 {
+                    s1 as f32
+                } else {
+                    1.0
+                };
+            assert!((step(e) - want).abs() < 1e-4 * plain, "index interval {e}");
+        }
         for e in 0..ETA_N {
             let want = grid_eta(e);
-            let got = scale_grid_eta(SCALE_PER_LOBE_INTERVAL * e);
+            let x = scale_eta_x((SCALE_PER_LOBE_INTERVAL * e) as f32);
+            let got = scale_grid_eta(x.round() as usize);
             assert!(
                 (got - want).abs() <= 1e-5 * want,
                 "index node {e}: {got} vs {want}"
