@@ -179,6 +179,36 @@ fn furnace_of_glass_1_05_from_inside_near_grazing() {
     assert!(worst < 0.007, "{report}");
 }
 
+/// White furnace of isotropic glass between the scale table's lowest
+/// index nodes, near grazing from both sides: the indices at the midpoints
+/// of the split intervals' thirds and halves (1.059, 1.078, 1.097 between
+/// 1.05 and 1.107; 1.122 and 1.151 between 1.107 and 1.166), roughness
+/// 0.2, 0.3 and 0.45, 80 to 89 degrees. There the exact furnace scales are
+/// far from linear in `ln E`; with the plain index grid (scale table
+/// version 4, no index between 1.05 and 1.2 in any test) Beckmann 0.45
+/// glass 1.078 from outside at 89 degrees was +4.1%. Measured since
+/// version 5 (the two intervals split in 3 and 2): worst 1.62%
+/// (Beckmann 0.3 glass 1.078 from inside at 80 degrees, between
+/// roughness nodes), bounded at 1.8%: the 0.5% is not met here.
+#[test]
+fn furnace_between_the_lowest_index_nodes() {
+    let dirs: Vec<Vec3> = [1.0f32, -1.0]
+        .into_iter()
+        .flat_map(|side| [80.0, 85.0, 89.0].map(|theta| incident(theta, side)))
+        .collect();
+    let mut rows = Vec::new();
+    for ndf in NDFS {
+        for a in [0.2f32, 0.3, 0.45] {
+            for e in [1.0592f32, 1.0779, 1.0969, 1.1216, 1.1508] {
+                rows.extend(furnace_rows(ndf, a, a, e, &dirs));
+            }
+        }
+    }
+    let (report, worst) = furnace_report(&rows);
+    println!("{report}worst |albedo - 1| = {worst:.4}");
+    assert!(worst < 0.018, "{report}");
+}
+
 /// White furnace of isotropic glass across the range near grazing
 /// incidence, at random cases (fixed seed): NDF, roughness log-uniform in
 /// [0.002, 1.9], relative index `E` log-uniform in [1.05, 3] seen from
@@ -377,7 +407,11 @@ fn anisotropic_furnace_at_correction_nodes() {
 /// 0.0151, 0.0104, 0.0127, 0.0062, 0.0059, 0.0090, 0.0058, 0.0035, the
 /// worst 0.0180 -> 0.0151 but two intervals worse; their bounds went from
 /// 0.015 and 0.011 to 0.016 and 0.014, the one at 1.262 from 0.019 to
-/// 0.008 (the isotropic furnace is what version 5 was made for).
+/// 0.008 (the isotropic furnace is what version 5 was made for). The
+/// scale table's version 5 (session 26, the two lowest index intervals
+/// split, correction regenerated): 0.0109, 0.0105, 0.0102, 0.0062,
+/// 0.0059, 0.0090, 0.0058, 0.0035; the bounds at 1.064 and 1.136 back
+/// down to 0.012.
 #[test]
 fn anisotropic_furnace_between_index_nodes() {
     let (a3, a6, a2, a4) = (grid_alpha(3), grid_alpha(6), grid_alpha(2), grid_alpha(4));
@@ -386,9 +420,9 @@ fn anisotropic_furnace_between_index_nodes() {
     // 8-9 and 11-12.
     let mid = |e: usize| (dcorr_grid_eta(e) * dcorr_grid_eta(e + 1)).sqrt();
     for (eta, bound) in [
-        (mid(0), 0.016f64),
+        (mid(0), 0.012f64),
         (mid(1), 0.012),
-        (mid(2), 0.014),
+        (mid(2), 0.012),
         (mid(3), 0.01),
         (mid(4), 0.008),
         (mid(6), 0.01),

@@ -79,6 +79,7 @@
 //! `data/tabulated_dielectric_scale.bin`
 //! (`gen_tabulated -- --dielectric-scale`): factors `s(side, mu)` on a
 //! finer grid ([`SCALE_ALPHA_N`] roughness values, [`SCALE_ETA_N`] indices,
+//! finer still between 1.05 and 1.166 ([`SCALE_ETA_SPLIT`]),
 //! [`SCALE_MU_N`] cosines per side; 16-bit multiples of [`SCALE_STEP`],
 //! 6.1e-5, read in place) such that `f_ms(wi, wo) s(wi) s(wo)` has
 //! the multiply scattered albedo `1 - E_ss(mu_i)` at every node (`E_ss` =
