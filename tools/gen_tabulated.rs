@@ -1797,6 +1797,12 @@ mod dielectric {
     /// node's when `--eta` is not given) and prints the furnace there with
     /// their scales interpolated on the triangle, as eval reads them (at the
     /// scale grid's cosines, the scales' 16-bit rounding left out).
+    /// `--keep V4.bin` copies the nodes of a version-4 table's plain index
+    /// grid (which version 5 keeps) and solves only the split intervals'
+    /// inner nodes (`SCALE_ETA_SPLIT`; the committed version 5, from
+    /// `git show 1838739:data/tabulated_dielectric_scale.bin`): the
+    /// generator is deterministic, so with the same lobe table a full run
+    /// computes the same values for the kept nodes.
     pub fn scale_main(args: &[String]) {
         use msbsdf::multiple::tabulated_dielectric::{
             SCALE_ALPHA_N, SCALE_ETA_N, SCALE_ETA_PLAIN_N, SCALE_ETA_SPLIT, SCALE_FINE_INTERVALS,
