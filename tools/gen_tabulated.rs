@@ -1865,23 +1865,8 @@ mod dielectric {
         let mut weights = [0.0f64; 3];
         if between {
             let (n, _, _, alpha, eta) = jobs[0];
-            let ca = msbsdf::multiple::tabulated_dielectric::scale_alpha_x(
-                (alpha / msbsdf::multiple::tabulated::MAX_ALPHA).sqrt(),
-            );
-            let ce = msbsdf::multiple::tabulated_dielectric::scale_eta_x(
-                eta_coord(eta) * SCALE_PER_LOBE_INTERVAL as f32,
-            );
-            let a0 = (ca as usize).min(SCALE_ALPHA_N - 2);
-            let e0 = (ce as usize).min(SCALE_ETA_N - 2);
-            let (fa, fe) = (ca - a0 as f32, ce - e0 as f32);
-            // The library's cut of the square (`tabulated::triangle`).
-            let corners = if fa >= fe {
-                [((0, 0), 1.0 - fa), ((1, 0), fa - fe), ((1, 1), fe)]
-            } else {
-                [((0, 0), 1.0 - fe), ((0, 1), fe - fa), ((1, 1), fa)]
-            };
-            for (k, ((da, de), w)) in corners.into_iter().enumerate() {
-                let (a, e) = (a0 + da, e0 + de);
+            let corners = msbsdf::multiple::tabulated_dielectric::scale_corners(alpha, eta);
+            for (k, ((a, e), w)) in corners.into_iter().enumerate() {
                 weights[k] = w as f64;
                 jobs.push((n, a, e, scale_grid_alpha(a), scale_grid_eta(e)));
             }

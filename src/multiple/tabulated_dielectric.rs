@@ -1081,9 +1081,34 @@ const _: () = assert!(LOBE_BYTES * LOBE_LEN <= u32::MAX as usize);
 /// each vertex.
 #[inline]
 fn scale_tri(ndf: usize, root: f32, eta_r: f32) -> Tri {
+    scale_triangle(root, eta_r).map(|((a, e), w)| (scale_index(ndf, a, e, 0, 0) as u32, w))
+}
+
+/// The scale table's triangle of `root` and `eta_r` ([`scale_tri`]) as
+/// its vertices' `(roughness node, index node)` and barycentric weights.
+#[inline(always)]
+fn scale_triangle(root: f32, eta_r: f32) -> [((usize, usize), f32); 3] {
     let (a0, fa) = split_at(scale_alpha_x(root), SCALE_ALPHA_N);
     let (e0, fe) = split_root(eta_r, SCALE_ETA_N);
-    triangle(fa, fe).map(|((da, de), w)| (scale_index(ndf, a0 + da, e0 + de, 0, 0) as u32, w))
+    triangle(fa, fe).map(|((da, de), w)| ((a0 + da, e0 + de), w))
+}
+
+/// A relative index's coordinate in `[0, 1]` on the scale table's index
+/// grid (`E = max(eta, 1 / eta)`; [`scale_eta_x`] of its plain grid's).
+#[inline]
+fn scale_eta_coord(e: f32) -> f32 {
+    scale_eta_x(eta_coord(e) * SCALE_PER_LOBE_INTERVAL as f32) * (1.0 / (SCALE_ETA_N - 1) as f32)
+}
+
+/// The scale table's nodes that an isotropic material of roughness
+/// `alpha` and relative index `eta` (or `1 / eta`) reads, as
+/// `(roughness node, index node)` ([`scale_grid_alpha`],
+/// [`scale_grid_eta`]) and barycentric weight: the triangle construction
+/// reads (for the table's tools, `gen_tabulated -- --dielectric-scale
+/// --between`).
+pub fn scale_corners(alpha: f32, eta: f32) -> [((usize, usize), f32); 3] {
+    let e = if eta >= 1.0 { eta } else { 1.0 / eta };
+    scale_triangle(alpha_root(alpha), scale_eta_coord(e))
 }
 
 /// The product `s(side_i, mu_i) s(side_o, mu_o)` of the furnace scales of
@@ -1423,8 +1448,7 @@ impl TabulatedDielectric {
         let alpha_rms = (0.5 * (ndf.alpha_x * ndf.alpha_x + ndf.alpha_y * ndf.alpha_y)).sqrt();
         let alpha = split(alpha_coord(alpha_rms), ALPHA_N);
         let eta = split(eta_coord(e), ETA_N);
-        let scale_eta = scale_eta_x(eta_coord(e) * SCALE_PER_LOBE_INTERVAL as f32)
-            * (1.0 / (SCALE_ETA_N - 1) as f32);
+        let scale_eta = scale_eta_coord(e);
         TabulatedDielectric {
             single: Single::new(ndf, facet, G2Form::HeightCorrelated),
             ndf,
