@@ -352,8 +352,7 @@ pub fn scale_grid_eta(e: usize) -> f32 {
     } else {
         (e + 2 - s0 - s1) as f32
     };
-    let t = c / (SCALE_ETA_PLAIN_N - 1) as f32;
-    (ETA_MIN.ln() + t * (ETA_MAX.ln() - ETA_MIN.ln())).exp()
+    eta_at_coord(c / SCALE_PER_LOBE_INTERVAL as f32)
 }
 
 /// Continuous node coordinate on the scale table's index grid
