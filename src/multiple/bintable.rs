@@ -213,6 +213,25 @@ pub const fn decode_q16<const N: usize>(b: &[u8], unit: f32) -> [Q16; N] {
     out
 }
 
+/// Decodes a table file as a `[A][B][C][D]` array of [`Q16`] (compile
+/// time): each f32 value rounded to the nearest step ([`Q16::quantize`]).
+pub const fn decode4_q16<const A: usize, const B: usize, const C: usize, const D: usize>(
+    b: &[u8],
+) -> [[[[Q16; D]; C]; B]; A] {
+    let (data, n) = layout(b);
+    assert!(
+        n == A * B * C * D,
+        "table size disagrees with its declared shape"
+    );
+    let mut out = [[[[Q16(0); D]; C]; B]; A];
+    let mut i = 0;
+    while i < n {
+        out[i / (B * C * D)][i / (C * D) % B][i / D % C][i % D] = Q16::quantize(f32_at(b, data, i));
+        i += 1;
+    }
+    out
+}
+
 /// Decodes a table file as a `[A][B][C][D][E]` array of [`Q16`] (compile
 /// time): each f32 value rounded to the nearest step ([`Q16::quantize`]).
 #[allow(clippy::type_complexity)]
@@ -296,6 +315,14 @@ mod tests {
             include_bytes!("../tables/conductor_e_aniso.bin"),
             an::CONDUCTOR_E_ANISO
                 .as_flattened()
+                .as_flattened()
+                .as_flattened()
+                .as_flattened(),
+        );
+        check(
+            "CONDUCTOR_MS_TINT",
+            include_bytes!("../tables/conductor_ms_tint.bin"),
+            crate::multiple::compensation_ms_tables::CONDUCTOR_MS_TINT
                 .as_flattened()
                 .as_flattened()
                 .as_flattened(),

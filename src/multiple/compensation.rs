@@ -750,15 +750,17 @@ impl Tint {
         let shifted = (u - Vec3A::splat(0.5)) + Vec3A::splat(SHIFT);
         let f = u - (shifted - Vec3A::splat(SHIFT));
         let q = shifted.to_array().map(|v| (v.to_bits() & 0xf) as usize);
+        // In units of the 16-bit table's step, times the step once.
         let mut t = Vec3A::ZERO;
         for k in 0..N {
             let (j, i) = cells[k];
             let row = &ms::CONDUCTOR_MS_TINT[n][j][i];
-            let lo = Vec3A::new(row[q[0]], row[q[1]], row[q[2]]);
-            let hi = Vec3A::new(row[q[0] + 1], row[q[1] + 1], row[q[2] + 1]);
+            let at = |m: usize| row[m].units();
+            let lo = Vec3A::new(at(q[0]), at(q[1]), at(q[2]));
+            let hi = Vec3A::new(at(q[0] + 1), at(q[1] + 1), at(q[2] + 1));
             t += (lo + (hi - lo) * f) * w[k];
         }
-        t
+        t * Q16::STEP
     }
 
     /// `T` at mu grid abscissa `x` (in `[0, MU_N - 1]`, see
