@@ -1806,9 +1806,18 @@ mod dielectric {
     pub fn scale_main(args: &[String]) {
         use msbsdf::multiple::tabulated_dielectric::{
             SCALE_ALPHA_N, SCALE_ETA_N, SCALE_ETA_PLAIN_N, SCALE_ETA_SPLIT, SCALE_FINE_INTERVALS,
-            SCALE_FINE_SPLIT, SCALE_MAX, SCALE_MU_N, SCALE_PER_LOBE_INTERVAL, SCALE_ROOT_N,
-            TabulatedDielectric, eta_coord, header, scale_grid_alpha, scale_grid_eta,
-            scale_grid_mu, scale_index,
+            SCALE_FINE_SPLIT, SCALE_LOW_ALPHA_N, SCALE_LOW_ETA_N, SCALE_MAX, SCALE_MU_N,
+            SCALE_ROOT_N, TabulatedDielectric, alpha_coord, header, scale_alpha_x,
+            scale_grid_alpha, scale_grid_eta, scale_grid_mu, scale_index, scale_low_grid_alpha,
+        };
+        // Roughness of node `a` of the low-index block (`low`) or the main
+        // block.
+        let grid_alpha_of = |low: bool, a: usize| {
+            if low {
+                scale_low_grid_alpha(a)
+            } else {
+                scale_grid_alpha(a)
+            }
         };
         let scale_max = SCALE_MAX as f64;
         let quad: usize = arg(args, "--quad", 128);
@@ -1843,10 +1852,13 @@ mod dielectric {
         // three scale nodes of the triangle holding (X, Y), and the furnace
         // with their scales interpolated as eval does.
         let between = only.is_some() && args.iter().any(|a| a == "--between");
-        // (NDF, roughness node, index node, roughness, index).
-        let mut jobs: Vec<(usize, usize, usize, f32, f32)> = match &only {
+        // (NDF, low-index block, roughness node, index node, roughness,
+        // index); `--only N,A,E` is node A of the main block's roughness
+        // grid (any index node).
+        let mut jobs: Vec<(usize, bool, usize, usize, f32, f32)> = match &only {
             Some(v) if v.len() == 3 => vec![(
                 v[0],
+                false,
                 v[1],
                 v[2],
                 at_alpha.unwrap_or(scale_grid_alpha(v[1])),
@@ -1854,27 +1866,73 @@ mod dielectric {
             )],
             _ => (0..NDF_N)
                 .flat_map(|n| {
-                    (1..SCALE_ALPHA_N).flat_map(move |a| {
-                        (0..SCALE_ETA_N)
-                            .map(move |e| (n, a, e, scale_grid_alpha(a), scale_grid_eta(e)))
-                    })
+                    let low = (1..SCALE_LOW_ALPHA_N).flat_map(move |a| {
+                        (0..SCALE_LOW_ETA_N).map(move |e| {
+                            (n, true, a, e, scale_low_grid_alpha(a), scale_grid_eta(e))
+                        })
+                    });
+                    let main = (1..SCALE_ALPHA_N).flat_map(move |a| {
+                        (SCALE_LOW_ETA_N - 1..SCALE_ETA_N)
+                            .map(move |e| (n, false, a, e, scale_grid_alpha(a), scale_grid_eta(e)))
+                    });
+                    low.chain(main)
                 })
                 .collect(),
         };
         // The corners' weights (jobs 1 to 3) for `--between`.
         let mut weights = [0.0f64; 3];
-        if between {
-            let (n, _, _, alpha, eta) = jobs[0];
-            let corners = msbsdf::multiple::tabulated_dielectric::scale_corners(alpha, eta);
+        // `--pair A0,A1` (with `--between`): instead of the scale table's
+        // triangle, two nodes at roughness A0 and A1 and the index of
+        // `--eta`, interpolated linearly in `sqrt(alpha)` (what a finer
+        // roughness grid would give).
+        let pair: Option<Vec<f32>> = args
+            .iter()
+            .position(|a| a == "--pair")
+            .and_then(|p| args.get(p + 1))
+            .map(|v| v.split(',').filter_map(|t| t.parse().ok()).collect());
+        // `--corners A:E:W,...` (with `--between`): any nodes and weights.
+        let corners_arg: Option<Vec<(f32, f32, f64)>> = args
+            .iter()
+            .position(|a| a == "--corners")
+            .and_then(|p| args.get(p + 1))
+            .map(|v| {
+                v.split(',')
+                    .filter_map(|t| {
+                        let f: Vec<&str> = t.split(':').collect();
+                        Some((
+                            f.first()?.parse().ok()?,
+                            f.get(1)?.parse().ok()?,
+                            f.get(2)?.parse().ok()?,
+                        ))
+                    })
+                    .collect()
+            });
+        if let (true, Some(cs)) = (between, corners_arg.as_ref()) {
+            let n = jobs[0].0;
+            for (k, &(a, e, w)) in cs.iter().enumerate().take(3) {
+                weights[k] = w;
+                jobs.push((n, false, 0, 0, a, e));
+            }
+        } else if let (true, Some(p)) = (between, pair.as_ref().filter(|p| p.len() == 2)) {
+            let (n, _, _, _, alpha, eta) = jobs[0];
+            let t = (alpha.sqrt() - p[0].sqrt()) / (p[1].sqrt() - p[0].sqrt());
+            weights = [1.0 - t as f64, t as f64, 0.0];
+            jobs.push((n, false, 0, 0, p[0], eta));
+            jobs.push((n, false, 0, 0, p[1], eta));
+        } else if between {
+            let (n, _, _, _, alpha, eta) = jobs[0];
+            let (low, corners) = msbsdf::multiple::tabulated_dielectric::scale_corners(alpha, eta);
             for (k, ((a, e), w)) in corners.into_iter().enumerate() {
                 weights[k] = w as f64;
-                jobs.push((n, a, e, scale_grid_alpha(a), scale_grid_eta(e)));
+                jobs.push((n, low, a, e, grid_alpha_of(low, a), scale_grid_eta(e)));
             }
         }
-        // `--keep V4.bin`: the nodes of version 4's plain index grid are
-        // copied from it (the generator is deterministic: a full run with
-        // the same lobe table computes the same values), only the split
-        // intervals' inner nodes are solved.
+        // `--keep V5.bin`: the nodes of a version-5 table (every node of
+        // the main block, and of the low-index block those on version 5's
+        // roughness grid) are copied from it (the generator is
+        // deterministic: a full run with the same lobe table computes the
+        // same values), only the low-index block's new roughness nodes
+        // are solved.
         let keep: Option<(Vec<u8>, String)> = args
             .iter()
             .position(|a| a == "--keep")
@@ -1882,27 +1940,27 @@ mod dielectric {
             .map(|path| {
                 let raw = std::fs::read(path).expect("read --keep table");
                 assert!(
-                    raw.starts_with(b"MSBSDF-TABULATED-DIELECTRIC-SCALE-v4\n")
+                    raw.starts_with(b"MSBSDF-TABULATED-DIELECTRIC-SCALE-v5\n")
                         && raw.len()
-                            == HEADER_BYTES
-                                + 2 * NDF_N * SCALE_ALPHA_N * SCALE_ETA_PLAIN_N * 2 * fm,
-                    "--keep: not a version-4 scale table"
+                            == HEADER_BYTES + 2 * NDF_N * SCALE_ALPHA_N * SCALE_ETA_N * 2 * fm,
+                    "--keep: not a version-5 scale table"
                 );
                 (raw, path.clone())
             });
-        // The plain node of version 4 that index node `e` is, if any.
-        let plain_node = |e: usize| {
-            let c = eta_coord(scale_grid_eta(e)) * SCALE_PER_LOBE_INTERVAL as f32;
-            ((c - c.round()).abs() < 1e-3).then_some(c.round() as usize)
+        // Version 5's roughness node (its grid is the main block's) that
+        // node `a` of a block is, if any.
+        let v5_node = |low: bool, a: usize| {
+            let x = scale_alpha_x(alpha_coord(grid_alpha_of(low, a)) / (ALPHA_N - 1) as f32);
+            ((x - x.round()).abs() < 1e-3).then_some(x.round() as usize)
         };
         if keep.is_some() && only.is_none() {
-            jobs.retain(|&(_, _, e, _, _)| plain_node(e).is_none());
+            jobs.retain(|&(_, low, a, _, _, _)| v5_node(low, a).is_none());
         }
         let res = parallel(
             &jobs,
             "dielectric scale",
             threads,
-            |_, &(n, _, _, alpha, eta)| {
+            |_, &(n, _, _, _, alpha, eta)| {
                 let ndf = Ndf::new(NDFS[n], alpha, alpha);
                 let tab = TabulatedDielectric::new(ndf, Facet::Dielectric { eta });
                 let quadrature = Quadrature { ng, broad };
@@ -1952,7 +2010,11 @@ mod dielectric {
         if between {
             let (_, _, _, m, target) = &res[0];
             let s: Vec<f64> = (0..2 * fm)
-                .map(|x| (0..3).map(|k| weights[k] * res[k + 1].0[x]).sum())
+                .map(|x| {
+                    (0..res.len() - 1)
+                        .map(|k| weights[k] * res[k + 1].0[x])
+                        .sum()
+                })
                 .collect();
             let mut worst = (0.0f64, 0);
             for x in 0..2 * fm {
@@ -1970,8 +2032,13 @@ mod dielectric {
                     worst = ((r - target[x]).abs(), x);
                 }
             }
-            let corner =
-                |k: usize| format!("({}, {}) {:.3}", jobs[k + 1].1, jobs[k + 1].2, weights[k]);
+            let corner = |k: usize| match jobs.get(k + 1) {
+                Some(j) if pair.is_none() && corners_arg.is_none() => {
+                    format!("({}, {}) {:.3}", j.1, j.2, weights[k])
+                }
+                Some(j) => format!("(alpha {} eta {}) {:.3}", j.3, j.4, weights[k]),
+                None => "-".to_string(),
+            };
             eprintln!(
                 "roughness {} index {}, scale nodes (roughness, index) weight {}, {}, {}: worst furnace {:.4}% at side {} mu {:.5}",
                 jobs[0].3,
@@ -1992,15 +2059,19 @@ mod dielectric {
         let mut scale = vec![scale_steps(1.0); SCALE_LEN];
         if let Some((raw, _)) = &keep {
             for n in 0..NDF_N {
-                for a in 0..SCALE_ALPHA_N {
-                    for e in 0..SCALE_ETA_N {
-                        let Some(c) = plain_node(e) else { continue };
-                        for x in 0..2 * fm {
-                            let at =
-                                (((n * SCALE_ALPHA_N + a) * SCALE_ETA_PLAIN_N + c) * 2 * fm) + x;
-                            let b = HEADER_BYTES + 2 * at;
-                            scale[scale_index(n, a, e, x / fm, x % fm)] =
-                                u16::from_le_bytes([raw[b], raw[b + 1]]);
+                for (low, na, e_range) in [
+                    (true, SCALE_LOW_ALPHA_N, 0..SCALE_LOW_ETA_N),
+                    (false, SCALE_ALPHA_N, SCALE_LOW_ETA_N - 1..SCALE_ETA_N),
+                ] {
+                    for a in 0..na {
+                        let Some(a5) = v5_node(low, a) else { continue };
+                        for e in e_range.clone() {
+                            for x in 0..2 * fm {
+                                let at = ((n * SCALE_ALPHA_N + a5) * SCALE_ETA_N + e) * 2 * fm + x;
+                                let b = HEADER_BYTES + 2 * at;
+                                scale[scale_index(n, low, a, e, x / fm, x % fm)] =
+                                    u16::from_le_bytes([raw[b], raw[b + 1]]);
+                            }
                         }
                     }
                 }
@@ -2010,7 +2081,7 @@ mod dielectric {
         let (mut smin, mut smax) = (f64::INFINITY, 0.0f64);
         // Nodes of target 0 (scale 0).
         let mut zeros = 0usize;
-        for (&(n, a, e, _, _), (sc, b, af, _, _)) in jobs.iter().zip(&res) {
+        for (&(n, low, a, e, _, _), (sc, b, af, _, _)) in jobs.iter().zip(&res) {
             before = before.max(*b);
             after = after.max(*af);
             zeros += sc.iter().filter(|&&v| v == 0.0).count();
@@ -2019,7 +2090,7 @@ mod dielectric {
                     let v = sc[sd * fm + i];
                     smin = smin.min(v);
                     smax = smax.max(v);
-                    scale[scale_index(n, a, e, sd, i)] = scale_steps(v);
+                    scale[scale_index(n, low, a, e, sd, i)] = scale_steps(v);
                 }
             }
         }
@@ -2052,7 +2123,7 @@ mod dielectric {
                         .to_string()
                 };
                 format!(
-                    "kept: the plain grid's index nodes copied from {path} (version 4; its {}; {}), the split intervals' inner nodes solved here\n",
+                    "kept: the nodes of version 5's grid copied from {path} (version 5; its {}; {}), the low-index block's other roughness nodes solved here\n",
                     line("command:"),
                     line("commit:")
                 )
@@ -2069,13 +2140,15 @@ mod dielectric {
              E_ss: SINGLE reflection + transmission quadrature {quad} x {quad} (compensation::single_albedo)\n\
              albedo of the unscaled lobe vs 1 - E_ss: worst relative deviation {before:.3e} (targets > 1e-3); after scaling: {after:.3e} (targets > 1e-4, rows not empty; scales within [0, {scale_max}] during the solve, 0 where the target is 0: {zeros} nodes)\n\
              scales between {smin:.4} and {smax:.4}\n\
-             grid: ndf {NDF_N} x alpha {SCALE_ALPHA_N} (uniform in sqrt(alpha / 2) with {SCALE_ROOT_N} nodes, its first {SCALE_FINE_INTERVALS} intervals split in {SCALE_FINE_SPLIT}) x eta {SCALE_ETA_N} (uniform in ln E with {SCALE_ETA_PLAIN_N} nodes, its first two intervals split in {SCALE_ETA_SPLIT:?}) x side 2 x mu {SCALE_MU_N}\n\
+             grid: index nodes {SCALE_ETA_N} (uniform in ln E with {SCALE_ETA_PLAIN_N} nodes, its first two intervals split in {SCALE_ETA_SPLIT:?}); low-index block ndf {NDF_N} x alpha {SCALE_LOW_ALPHA_N} (uniform in sqrt(alpha / 2) with {SCALE_ROOT_N} nodes, its first {SCALE_FINE_INTERVALS} intervals split in {SCALE_FINE_SPLIT}, then per lobe interval its first two split as the index's) x eta {SCALE_LOW_ETA_N} (the first) x side 2 x mu {SCALE_MU_N}, then the main block ndf {NDF_N} x alpha {SCALE_ALPHA_N} (the same sqrt(alpha) grid, only its first {SCALE_FINE_INTERVALS} intervals split in {SCALE_FINE_SPLIT}) x eta {} (from node {}) x side 2 x mu {SCALE_MU_N}\n\
              {kept}\
              wall time: {:.0} s on {threads} threads\n\
              {SCALE_STORAGE}\n",
             String::from_utf8_lossy(SCALE_MAGIC),
             args[1..].join(" "),
             git_commit(),
+            SCALE_ETA_N + 1 - SCALE_LOW_ETA_N,
+            SCALE_LOW_ETA_N - 1,
             t0.elapsed().as_secs_f64(),
         );
         let payload: Vec<u8> = scale.iter().flat_map(|q| q.to_le_bytes()).collect();

@@ -79,7 +79,9 @@
 //! `data/tabulated_dielectric_scale.bin`
 //! (`gen_tabulated -- --dielectric-scale`): factors `s(side, mu)` on a
 //! finer grid ([`SCALE_ALPHA_N`] roughness values, [`SCALE_ETA_N`] indices,
-//! finer still between 1.05 and 1.166 ([`SCALE_ETA_SPLIT`]),
+//! finer still between 1.05 and 1.166 ([`SCALE_ETA_SPLIT`]), where a
+//! block of its own has [`SCALE_LOW_ALPHA_N`] roughness values that follow
+//! the lobe table's crease ([`scale_low_split`]),
 //! [`SCALE_MU_N`] cosines per side; 16-bit multiples of [`SCALE_STEP`],
 //! 6.1e-5, read in place) such that `f_ms(wi, wo) s(wi) s(wo)` has
 //! the multiply scattered albedo `1 - E_ss(mu_i)` at every node (`E_ss` =
@@ -300,17 +302,82 @@ pub const SCALE_ETA_SPLIT: [usize; 2] = [3, 2];
 pub const SCALE_ETA_N: usize = SCALE_ETA_PLAIN_N + SCALE_ETA_SPLIT[0] + SCALE_ETA_SPLIT[1] - 2;
 /// Cosine nodes of the furnace scale table (uniform in `sqrt(mu)`).
 pub const SCALE_MU_N: usize = 32;
-/// Values of the furnace scale table `[ndf][alpha][eta][side][mu]`
-/// (side 0 thin, 1 dense), each a little-endian `u16` `q` for the scale
-/// `q SCALE_STEP` (see [`SCALE_STEP`]).
-pub const SCALE_LEN: usize = NDF_N * SCALE_ALPHA_N * SCALE_ETA_N * 2 * SCALE_MU_N;
+/// Index nodes of the scale table's low-index block (since version 6):
+/// its first `SCALE_LOW_ETA_N` index nodes (1.05 to 1.166, the split
+/// intervals of [`SCALE_ETA_SPLIT`] and their ends), on a finer roughness
+/// grid ([`SCALE_LOW_ALPHA_N`]). The last of them (1.166) is also the
+/// first of the main block.
+pub const SCALE_LOW_ETA_N: usize = SCALE_ETA_SPLIT[0] + SCALE_ETA_SPLIT[1] + 1;
+/// Index nodes of the scale table's main block: [`SCALE_ETA_N`] from
+/// node `SCALE_LOW_ETA_N - 1` on.
+pub const SCALE_MAIN_ETA_N: usize = SCALE_ETA_N - SCALE_LOW_ETA_N + 1;
+/// How many parts the low-index block splits plain roughness interval `p`
+/// of the `sqrt(alpha)` grid into ([`SCALE_ROOT_N`] nodes): in the first
+/// lobe interval (below 0.031, where the lobe is constant in roughness)
+/// [`SCALE_FINE_SPLIT`] as the main block; in every other lobe interval
+/// its first two plain intervals as [`SCALE_ETA_SPLIT`] splits the index
+/// axis, the others not. The lobe table is linear on the triangles of its
+/// `(sqrt(alpha), ln E)` squares cut along the diagonal, so its lobes
+/// have a crease there, and the exact scales with them; on the plain grid
+/// the diagonal runs through the scale nodes, but the split index nodes
+/// (1.069, 1.088, 1.136) cross it between two roughness nodes (Beckmann
+/// 0.3 glass 1.069 from inside at 85 degrees: 2.7% off, the crease at
+/// roughness 0.297 between the nodes 0.281 and 0.330; 0.13% with a node
+/// there). With this split every crossing is a node and every scale
+/// square the crease passes is cut along it.
+pub const fn scale_low_split(p: usize) -> usize {
+    if p < SCALE_FINE_INTERVALS {
+        SCALE_FINE_SPLIT
+    } else {
+        match p % SCALE_PER_LOBE_INTERVAL {
+            0 => SCALE_ETA_SPLIT[0],
+            1 => SCALE_ETA_SPLIT[1],
+            _ => 1,
+        }
+    }
+}
+/// Node number in the low-index block of plain roughness node `p`
+/// ([`scale_low_split`] summed), `p` in `[0, SCALE_ROOT_N)`.
+const SCALE_LOW_FIRST: [u16; SCALE_ROOT_N] = {
+    let mut out = [0u16; SCALE_ROOT_N];
+    let mut p = 1;
+    while p < SCALE_ROOT_N {
+        out[p] = out[p - 1] + scale_low_split(p - 1) as u16;
+        p += 1;
+    }
+    out
+};
+/// Roughness nodes of the scale table's low-index block
+/// ([`scale_low_split`]).
+pub const SCALE_LOW_ALPHA_N: usize = SCALE_LOW_FIRST[SCALE_ROOT_N - 1] as usize + 1;
+/// Per plain roughness interval `p`, its first node in the low-index
+/// block and its split, as f32 (what [`scale_low_alpha_x`] reads).
+const SCALE_LOW_MAP: [[f32; 2]; SCALE_ROOT_N - 1] = {
+    let mut out = [[0.0f32; 2]; SCALE_ROOT_N - 1];
+    let mut p = 0;
+    while p < SCALE_ROOT_N - 1 {
+        out[p] = [SCALE_LOW_FIRST[p] as f32, scale_low_split(p) as f32];
+        p += 1;
+    }
+    out
+};
+/// Values of the scale table's low-index block `[ndf][alpha][eta][side][mu]`
+/// ([`SCALE_LOW_ALPHA_N`], [`SCALE_LOW_ETA_N`]); the main block follows.
+pub const SCALE_LOW_LEN: usize = NDF_N * SCALE_LOW_ALPHA_N * SCALE_LOW_ETA_N * 2 * SCALE_MU_N;
+/// Values of the furnace scale table: the low-index block and the main
+/// block `[ndf][alpha][eta][side][mu]` ([`SCALE_ALPHA_N`],
+/// [`SCALE_MAIN_ETA_N`]), side 0 thin, 1 dense, each a little-endian
+/// `u16` `q` for the scale `q SCALE_STEP` (see [`SCALE_STEP`]).
+pub const SCALE_LEN: usize =
+    SCALE_LOW_LEN + NDF_N * SCALE_ALPHA_N * SCALE_MAIN_ETA_N * 2 * SCALE_MU_N;
 /// First bytes of the scale table file (version 1 stored f32 scales,
 /// version 2 had the plain `sqrt(alpha)` grid of 25 roughness nodes,
 /// version 3 split its first 3 intervals in 3: 31 nodes; version 4 had
 /// 4 intervals per lobe interval on both axes and 21 index nodes uniform
 /// in `ln E`; version 5 splits the first two index intervals,
-/// [`SCALE_ETA_SPLIT`]).
-pub const SCALE_MAGIC: &[u8; 37] = b"MSBSDF-TABULATED-DIELECTRIC-SCALE-v5\n";
+/// [`SCALE_ETA_SPLIT`]; version 6 has the low-index block,
+/// [`scale_low_split`]).
+pub const SCALE_MAGIC: &[u8; 37] = b"MSBSDF-TABULATED-DIELECTRIC-SCALE-v6\n";
 /// Total size of the scale table file in bytes.
 pub const SCALE_FILE_BYTES: usize = HEADER_BYTES + 2 * SCALE_LEN;
 
@@ -338,6 +405,26 @@ pub fn scale_grid_alpha(a: usize) -> f32 {
 pub fn scale_alpha_x(root: f32) -> f32 {
     let x = root * (SCALE_ROOT_N - 1) as f32;
     x + (SCALE_FINE_SPLIT - 1) as f32 * x.min(SCALE_FINE_INTERVALS as f32)
+}
+
+/// Roughness of node `a` of the scale table's low-index block
+/// ([`scale_low_split`], [`scale_low_alpha_x`] inverted).
+pub fn scale_low_grid_alpha(a: usize) -> f32 {
+    let p = SCALE_LOW_FIRST.partition_point(|&f| f as usize <= a).max(1) - 1;
+    let x = p as f32 + (a - SCALE_LOW_FIRST[p] as usize) as f32 / scale_low_split(p) as f32;
+    let s = x / (SCALE_ROOT_N - 1) as f32;
+    MAX_ALPHA * s * s
+}
+
+/// Continuous node coordinate on the low-index block's roughness grid
+/// ([`scale_low_grid_alpha`]) of a roughness's coordinate `root`
+/// (`alpha_root`, in `[0, 1]`): the plain interval's first node plus the
+/// fraction times its split (one table read).
+#[inline(always)]
+pub fn scale_low_alpha_x(root: f32) -> f32 {
+    let (p, f) = split_root(root, SCALE_ROOT_N);
+    let [first, split] = SCALE_LOW_MAP[p];
+    first + f * split
 }
 
 /// Relative index of node `e` of the scale table: node `c` of the plain
@@ -371,10 +458,27 @@ pub fn scale_grid_mu(i: usize) -> f32 {
     s * s
 }
 
-/// Index of a scale table entry.
+/// Index of a scale table entry: of the low-index block (`low`, roughness
+/// node `a` of [`scale_low_grid_alpha`], index node `e <
+/// SCALE_LOW_ETA_N`) or of the main block (roughness node `a` of
+/// [`scale_grid_alpha`], index node `e >= SCALE_LOW_ETA_N - 1`).
 #[inline]
-pub const fn scale_index(ndf: usize, a: usize, e: usize, side: usize, i: usize) -> usize {
-    (((ndf * SCALE_ALPHA_N + a) * SCALE_ETA_N + e) * 2 + side) * SCALE_MU_N + i
+pub const fn scale_index(
+    ndf: usize,
+    low: bool,
+    a: usize,
+    e: usize,
+    side: usize,
+    i: usize,
+) -> usize {
+    let node = if low {
+        (ndf * SCALE_LOW_ALPHA_N + a) * SCALE_LOW_ETA_N + e
+    } else {
+        SCALE_LOW_LEN / (2 * SCALE_MU_N)
+            + (ndf * SCALE_ALPHA_N + a) * SCALE_MAIN_ETA_N
+            + (e + 1 - SCALE_LOW_ETA_N)
+    };
+    (node * 2 + side) * SCALE_MU_N + i
 }
 
 /// Stored roughness pairs of the anisotropic furnace correction: lobe
@@ -1080,16 +1184,48 @@ const _: () = assert!(LOBE_BYTES * LOBE_LEN <= u32::MAX as usize);
 /// each vertex.
 #[inline]
 fn scale_tri(ndf: usize, root: f32, eta_r: f32) -> Tri {
-    scale_triangle(root, eta_r).map(|((a, e), w)| (scale_index(ndf, a, e, 0, 0) as u32, w))
+    let (low, t) = scale_triangle(root, eta_r);
+    // `scale_index` with the block chosen once.
+    let (first, alpha_n, eta_n, eta_0) = if low {
+        (0, SCALE_LOW_ALPHA_N, SCALE_LOW_ETA_N, 0)
+    } else {
+        (
+            SCALE_LOW_LEN / (2 * SCALE_MU_N),
+            SCALE_ALPHA_N,
+            SCALE_MAIN_ETA_N,
+            SCALE_LOW_ETA_N - 1,
+        )
+    };
+    t.map(|((a, e), w)| {
+        let node = first + (ndf * alpha_n + a) * eta_n + e - eta_0;
+        ((node * 2 * SCALE_MU_N) as u32, w)
+    })
 }
 
-/// The scale table's triangle of `root` and `eta_r` ([`scale_tri`]) as
-/// its vertices' `(roughness node, index node)` and barycentric weights.
+/// A triangle of the scale table: whether its nodes are in the low-index
+/// block ([`SCALE_LOW_ETA_N`]), and its vertices' `(roughness node, index
+/// node)` (the roughness node on that block's grid) with barycentric
+/// weights.
+pub type ScaleCorners = (bool, [((usize, usize), f32); 3]);
+
+/// The scale table's triangle of `root` and `eta_r` ([`scale_tri`]):
+/// whether it is in the low-index block (below the index node
+/// `SCALE_LOW_ETA_N - 1`), and its vertices' `(roughness node, index
+/// node)` (the roughness node on that block's grid) and barycentric
+/// weights.
 #[inline(always)]
-fn scale_triangle(root: f32, eta_r: f32) -> [((usize, usize), f32); 3] {
-    let (a0, fa) = split_at(scale_alpha_x(root), SCALE_ALPHA_N);
+fn scale_triangle(root: f32, eta_r: f32) -> ScaleCorners {
     let (e0, fe) = split_root(eta_r, SCALE_ETA_N);
-    triangle(fa, fe).map(|((da, de), w)| ((a0 + da, e0 + de), w))
+    let low = e0 < SCALE_LOW_ETA_N - 1;
+    let (a0, fa) = if low {
+        split_at(scale_low_alpha_x(root), SCALE_LOW_ALPHA_N)
+    } else {
+        split_at(scale_alpha_x(root), SCALE_ALPHA_N)
+    };
+    (
+        low,
+        triangle(fa, fe).map(|((da, de), w)| ((a0 + da, e0 + de), w)),
+    )
 }
 
 /// A relative index's coordinate in `[0, 1]` on the scale table's index
@@ -1105,7 +1241,7 @@ fn scale_eta_coord(e: f32) -> f32 {
 /// [`scale_grid_eta`]) and barycentric weight: the triangle construction
 /// reads (for the table's tools, `gen_tabulated -- --dielectric-scale
 /// --between`).
-pub fn scale_corners(alpha: f32, eta: f32) -> [((usize, usize), f32); 3] {
+pub fn scale_corners(alpha: f32, eta: f32) -> ScaleCorners {
     let e = if eta >= 1.0 { eta } else { 1.0 / eta };
     scale_triangle(alpha_root(alpha), scale_eta_coord(e))
 }
@@ -1981,6 +2117,60 @@ mod tests {
         }
     }
 
+    /// The low-index block's roughness grid (version 6): each node's
+    /// roughness reads its own node, every node of the main block's grid
+    /// is one of its nodes, and the lobe table's crease (the diagonal of
+    /// its `(sqrt(alpha), ln E)` squares, `triangle`) runs through its
+    /// nodes and along the cuts of its triangles: at points on the crease
+    /// between the nodes the triangle's corners with weight lie on it.
+    #[test]
+    fn scale_low_block_follows_the_lobe_crease() {
+        for a in 0..SCALE_LOW_ALPHA_N {
+            let x = scale_low_alpha_x(alpha_root(scale_low_grid_alpha(a)));
+            assert!((x - a as f32).abs() < 1e-4, "low node {a}: coordinate {x}");
+        }
+        assert_eq!(scale_low_grid_alpha(SCALE_LOW_ALPHA_N - 1), MAX_ALPHA);
+        for a in 0..SCALE_ALPHA_N {
+            let x = scale_low_alpha_x(alpha_root(scale_grid_alpha(a)));
+            assert!(
+                (x - x.round()).abs() < 1e-4,
+                "main node {a}: low coordinate {x}"
+            );
+        }
+        // Plain coordinates (lobe intervals of SCALE_PER_LOBE_INTERVAL):
+        // roughness `x`, index `c`; the crease of lobe roughness interval
+        // `l >= 1` and the first lobe index interval is `x - 4 l = c`.
+        let per = SCALE_PER_LOBE_INTERVAL as f32;
+        let plain_x = |a: usize| alpha_root(scale_low_grid_alpha(a)) * (SCALE_ROOT_N - 1) as f32;
+        let plain_c = |e: usize| eta_coord(scale_grid_eta(e)) * SCALE_PER_LOBE_INTERVAL as f32;
+        let mut checked = 0;
+        for l in 1..ALPHA_N - 1 {
+            for k in 1..40 {
+                // c in (0, 2): the low-index block (c = 2 is its last row).
+                let c = 2.0 * k as f32 / 40.0;
+                let x = per * l as f32 + c;
+                let root = x / (SCALE_ROOT_N - 1) as f32;
+                let eta_r = scale_eta_x(c) / (SCALE_ETA_N - 1) as f32;
+                let (low, t) = scale_triangle(root, eta_r);
+                assert!(low, "{l} {c}");
+                for ((a, e), w) in t {
+                    if w > 1e-4 {
+                        let off = plain_x(a) - per * l as f32 - plain_c(e);
+                        assert!(
+                            off.abs() < 2e-3,
+                            "{l} {c}: corner ({a}, {e}) weight {w} off the crease by {off}"
+                        );
+                        checked += 1;
+                    }
+                }
+            }
+        }
+        assert!(checked > 400, "{checked}");
+        // Index rows: the blocks share node SCALE_LOW_ETA_N - 1 (1.166).
+        assert_eq!(SCALE_ETA_SPLIT[0] + SCALE_ETA_SPLIT[1], SCALE_LOW_ETA_N - 1);
+        assert!((plain_c(SCALE_LOW_ETA_N - 1) - 2.0).abs() < 1e-4);
+    }
+
     /// Init's and eval's reads of the 16-bit scale table (`node_scales`,
     /// `scale_pair`) against the scales `scale_value` returns, at the
     /// scale triangle's corners: `node_scales` within half a step (and
@@ -1990,7 +2180,8 @@ mod tests {
     /// ends), every cosine node and midpoints of both sides.
     #[test]
     fn scale_reads_match_the_stored_values() {
-        let coords = [0.0, 0.013, 0.25, 0.5, 0.61, 0.999, 1.0];
+        // 0.013 and 0.1 in the low-index block (below 5 / 23).
+        let coords = [0.0, 0.013, 0.1, 0.25, 0.5, 0.61, 0.999, 1.0];
         for ndf in 0..NDF_N {
             for &root in &coords {
                 for &eta_r in &coords {
