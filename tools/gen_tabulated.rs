@@ -2034,15 +2034,21 @@ mod dielectric {
             }
             let corner = |k: usize| match jobs.get(k + 1) {
                 Some(j) if pair.is_none() && corners_arg.is_none() => {
-                    format!("({}, {}) {:.3}", j.1, j.2, weights[k])
+                    format!(
+                        "({}{}, {}) {:.3}",
+                        if j.1 { "low " } else { "" },
+                        j.2,
+                        j.3,
+                        weights[k]
+                    )
                 }
-                Some(j) => format!("(alpha {} eta {}) {:.3}", j.3, j.4, weights[k]),
+                Some(j) => format!("(alpha {} eta {}) {:.3}", j.4, j.5, weights[k]),
                 None => "-".to_string(),
             };
             eprintln!(
                 "roughness {} index {}, scale nodes (roughness, index) weight {}, {}, {}: worst furnace {:.4}% at side {} mu {:.5}",
-                jobs[0].3,
                 jobs[0].4,
+                jobs[0].5,
                 corner(0),
                 corner(1),
                 corner(2),
