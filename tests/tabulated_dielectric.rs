@@ -187,12 +187,15 @@ fn furnace_of_glass_1_05_from_inside_near_grazing() {
 /// and 0.45, 80 to 89 degrees. There the exact furnace scales are far
 /// from linear in `ln E`; with the plain index grid (scale table version
 /// 4, no index between 1.05 and 1.2 in any test) Beckmann 0.45 glass
-/// 1.078 from outside at 89 degrees was +4.1%. Measured since version 5
-/// (the two intervals split in 3 and 2): 1.62% at the midpoints and
-/// 2.63% at the new node 1.069 (Beckmann 0.3 from inside at 85 degrees,
-/// +1.1% with version 4: at an index node only the roughness is
-/// interpolated, between the scale nodes 0.281 and 0.330, and that error
-/// is what is left here), bounded at 2.9%: the 0.5% is not met.
+/// 1.078 from outside at 89 degrees was +4.1%. With version 5 (the two
+/// intervals split in 3 and 2): 1.62% at the midpoints and 2.63% at the
+/// new node 1.069 (Beckmann 0.3 from inside at 85 degrees: the lobe
+/// table's crease crossed that index between the scale nodes 0.281 and
+/// 0.330). Measured since version 6 (the low-index block, whose roughness
+/// nodes follow the crease): 0.92% (Beckmann 0.3 glass 1.059 from outside
+/// at 89 degrees, between the index nodes 1.05 and 1.069: the scales'
+/// curvature in `ln E` next to 1.05), 0.22% at 1.069; bounded at 1.1%
+/// (2.9% until version 6): the 0.5% is not met.
 #[test]
 fn furnace_between_the_lowest_index_nodes() {
     let dirs: Vec<Vec3> = [1.0f32, -1.0]
@@ -209,7 +212,7 @@ fn furnace_between_the_lowest_index_nodes() {
     }
     let (report, worst) = furnace_report(&rows);
     println!("{report}worst |albedo - 1| = {worst:.4}");
-    assert!(worst < 0.029, "{report}");
+    assert!(worst < 0.011, "{report}");
 }
 
 /// White furnace of isotropic glass across the range near grazing

@@ -269,7 +269,9 @@ pub const SCALE_ROOT_N: usize = SCALE_PER_LOBE_INTERVAL * (ALPHA_N - 1) + 1;
 pub const SCALE_FINE_INTERVALS: usize = 4;
 /// See [`SCALE_FINE_INTERVALS`].
 pub const SCALE_FINE_SPLIT: usize = 3;
-/// Roughness nodes of the furnace scale table ([`scale_grid_alpha`]).
+/// Roughness nodes of the furnace scale table's main block
+/// ([`scale_grid_alpha`]; the low-index block has
+/// [`SCALE_LOW_ALPHA_N`]).
 pub const SCALE_ALPHA_N: usize = SCALE_ROOT_N + SCALE_FINE_INTERVALS * (SCALE_FINE_SPLIT - 1);
 /// Scale table intervals per interval of the lobe table, in roughness
 /// (above the split intervals) and in index alike (version 4). The lobe
