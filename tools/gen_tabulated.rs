@@ -1796,13 +1796,21 @@ mod dielectric {
     /// scale nodes of the scale triangle holding `(A, X)` (`X` the index
     /// node's when `--eta` is not given) and prints the furnace there with
     /// their scales interpolated on the triangle, as eval reads them (at the
-    /// scale grid's cosines, the scales' 16-bit rounding left out).
-    /// `--keep V4.bin` copies the nodes of a version-4 table's plain index
-    /// grid (which version 5 keeps) and solves only the split intervals'
-    /// inner nodes (`SCALE_ETA_SPLIT`; the committed version 5, from
-    /// `git show 1838739:data/tabulated_dielectric_scale.bin`): the
-    /// generator is deterministic, so with the same lobe table a full run
-    /// computes the same values for the kept nodes.
+    /// scale grid's cosines, the scales' 16-bit rounding left out);
+    /// `--pair A0,A1` replaces that triangle by two nodes of roughness
+    /// `A0` and `A1` at the index `X` (interpolated linearly in
+    /// `sqrt(alpha)`), `--corners A:E:W,...` by up to three nodes of any
+    /// roughness `A` and index `E` with weights `W` (what another grid
+    /// would give, before building it). `--only`'s roughness node is one
+    /// of the main block's grid.
+    /// `--keep V5.bin` copies the nodes of a version-5 table (every node of
+    /// the main block, and those of the low-index block on version 5's
+    /// roughness grid) and solves only the low-index block's new roughness
+    /// nodes (`scale_low_split`; the committed version 6, from `git show
+    /// 047d22b:data/tabulated_dielectric_scale.bin`, 222 s): the generator
+    /// is deterministic, so with the same lobe table a full run computes
+    /// the same values for the kept nodes (version 5 was made so from
+    /// version 4 by the generator at commit 047d22b).
     pub fn scale_main(args: &[String]) {
         use msbsdf::multiple::tabulated_dielectric::{
             SCALE_ALPHA_N, SCALE_ETA_N, SCALE_ETA_PLAIN_N, SCALE_ETA_SPLIT, SCALE_FINE_INTERVALS,
