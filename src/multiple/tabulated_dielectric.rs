@@ -2125,6 +2125,7 @@ mod tests {
     /// its `(sqrt(alpha), ln E)` squares, `triangle`) runs through its
     /// nodes and along the cuts of its triangles: at points on the crease
     /// between the nodes the triangle's corners with weight lie on it.
+    /// And init's offsets of a triangle's corners are the generator's.
     #[test]
     fn scale_low_block_follows_the_lobe_crease() {
         for a in 0..SCALE_LOW_ALPHA_N {
@@ -2168,6 +2169,21 @@ mod tests {
             }
         }
         assert!(checked > 400, "{checked}");
+        // `scale_tri`'s offsets (the block chosen once) are `scale_index`'s
+        // (what the generator writes), in both blocks.
+        for ndf in 0..NDF_N {
+            for k in 0..=40 {
+                for j in 0..=40 {
+                    let (root, eta_r) = (k as f32 / 40.0, j as f32 / 40.0);
+                    let (low, t) = scale_triangle(root, eta_r);
+                    let tri = scale_tri(ndf, root, eta_r);
+                    for (((a, e), w), (b, v)) in t.into_iter().zip(tri) {
+                        assert_eq!(b as usize, scale_index(ndf, low, a, e, 0, 0));
+                        assert_eq!(w, v);
+                    }
+                }
+            }
+        }
         // Index rows: the blocks share node SCALE_LOW_ETA_N - 1 (1.166).
         assert_eq!(SCALE_ETA_SPLIT[0] + SCALE_ETA_SPLIT[1], SCALE_LOW_ETA_N - 1);
         assert!((plain_c(SCALE_LOW_ETA_N - 1) - 2.0).abs() < 1e-4);
