@@ -413,7 +413,11 @@ pub fn scale_alpha_x(root: f32) -> f32 {
 /// ([`scale_low_split`], [`scale_low_alpha_x`] inverted).
 pub fn scale_low_grid_alpha(a: usize) -> f32 {
     let p = SCALE_LOW_FIRST.partition_point(|&f| f as usize <= a).max(1) - 1;
-    let x = p as f32 + (a - SCALE_LOW_FIRST[p] as usize) as f32 / scale_low_split(p) as f32;
+    let split = scale_low_split(p);
+    // `(p split + k) / split` as `scale_grid_alpha` rounds it, so that a
+    // node of both grids has the same roughness to the bit (the solve at
+    // low roughness moves by up to 1.5% with an ulp of it).
+    let x = (p * split + a - SCALE_LOW_FIRST[p] as usize) as f32 / split as f32;
     let s = x / (SCALE_ROOT_N - 1) as f32;
     MAX_ALPHA * s * s
 }
@@ -2133,11 +2137,19 @@ mod tests {
             assert!((x - a as f32).abs() < 1e-4, "low node {a}: coordinate {x}");
         }
         assert_eq!(scale_low_grid_alpha(SCALE_LOW_ALPHA_N - 1), MAX_ALPHA);
+        // Every main node is a low node, with the same roughness to the
+        // bit (the generator solves both; `--keep` copies one as the
+        // other).
         for a in 0..SCALE_ALPHA_N {
             let x = scale_low_alpha_x(alpha_root(scale_grid_alpha(a)));
             assert!(
                 (x - x.round()).abs() < 1e-4,
                 "main node {a}: low coordinate {x}"
+            );
+            assert_eq!(
+                scale_low_grid_alpha(x.round() as usize).to_bits(),
+                scale_grid_alpha(a).to_bits(),
+                "main node {a}"
             );
         }
         // Plain coordinates (lobe intervals of SCALE_PER_LOBE_INTERVAL):
