@@ -1184,27 +1184,49 @@ fn lobe_tri(ndf: usize, alpha: (usize, usize, f32), eta: (usize, usize, f32)) ->
 const NODE_BYTES: usize = LOBE_BYTES * NODE_LEN;
 const _: () = assert!(LOBE_BYTES * LOBE_LEN <= u32::MAX as usize);
 
-/// The scale table's triangle of a roughness's coordinate `root`
-/// ([`alpha_root`]) and an index coordinate `eta_r` in `[0, 1]`
-/// (`TabulatedDielectric::scale_eta`): indices of `(side 0, mu 0)` of
-/// each vertex.
+/// A material's row of the scale table, fixed at init: the block
+/// (the low-index block below the index node `SCALE_LOW_ETA_N - 1`), the
+/// lower index node and the upper's weight, and where the block's nodes
+/// of that NDF and index node start (`scale_index` of roughness node 0)
+/// and how far apart its roughness nodes are.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct ScaleRow {
+    low: bool,
+    e0: u32,
+    fe: f32,
+    base: u32,
+    stride: u32,
+}
+
+/// The scale row of NDF `ndf` and an index coordinate `eta_r` in `[0, 1]`
+/// on the scale table's index grid ([`scale_eta_coord`]).
 #[inline]
-fn scale_tri(ndf: usize, root: f32, eta_r: f32) -> Tri {
-    let (low, t) = scale_triangle(root, eta_r);
-    // `scale_index` with the block chosen once.
-    let (first, alpha_n, eta_n, eta_0) = if low {
-        (0, SCALE_LOW_ALPHA_N, SCALE_LOW_ETA_N, 0)
+fn scale_row(ndf: usize, eta_r: f32) -> ScaleRow {
+    let (e0, fe) = split_root(eta_r, SCALE_ETA_N);
+    let low = e0 < SCALE_LOW_ETA_N - 1;
+    let stride = if low {
+        SCALE_LOW_ETA_N * 2 * SCALE_MU_N
     } else {
-        (
-            SCALE_LOW_LEN / (2 * SCALE_MU_N),
-            SCALE_ALPHA_N,
-            SCALE_MAIN_ETA_N,
-            SCALE_LOW_ETA_N - 1,
-        )
+        SCALE_MAIN_ETA_N * 2 * SCALE_MU_N
     };
-    t.map(|((a, e), w)| {
-        let node = first + (ndf * alpha_n + a) * eta_n + e - eta_0;
-        ((node * 2 * SCALE_MU_N) as u32, w)
+    ScaleRow {
+        low,
+        e0: e0 as u32,
+        fe,
+        base: scale_index(ndf, low, 0, e0, 0, 0) as u32,
+        stride: stride as u32,
+    }
+}
+
+/// The scale table's triangle of a roughness's coordinate `root`
+/// ([`alpha_root`]) on a material's row (`TabulatedDielectric::scale_row`):
+/// indices of `(side 0, mu 0)` of each vertex.
+#[inline]
+fn scale_tri(root: f32, row: &ScaleRow) -> Tri {
+    let (a0, t) = scale_triangle(root, row);
+    t.map(|((da, de), w)| {
+        let at = row.base as usize + (a0 + da) * row.stride as usize + de * 2 * SCALE_MU_N;
+        (at as u32, w)
     })
 }
 
@@ -1212,26 +1234,24 @@ fn scale_tri(ndf: usize, root: f32, eta_r: f32) -> Tri {
 /// block ([`SCALE_LOW_ETA_N`]), and its vertices' `(roughness node, index
 /// node)` (the roughness node on that block's grid) with barycentric
 /// weights.
-pub type ScaleCorners = (bool, [((usize, usize), f32); 3]);
+pub type ScaleCorners = (bool, TriNodes);
 
-/// The scale table's triangle of `root` and `eta_r` ([`scale_tri`]):
-/// whether it is in the low-index block (below the index node
-/// `SCALE_LOW_ETA_N - 1`), and its vertices' `(roughness node, index
-/// node)` (the roughness node on that block's grid) and barycentric
-/// weights.
+/// A triangle's vertices as `(roughness, index)` nodes (or offsets from
+/// its first vertex) with their barycentric weights (`triangle`).
+pub type TriNodes = [((usize, usize), f32); 3];
+
+/// The scale table's triangle of `root` on `row` ([`scale_tri`]): the
+/// lower roughness node on the row's block's grid, and the vertices'
+/// offsets `(roughness, index)` from `(a0, row.e0)` with their
+/// barycentric weights.
 #[inline(always)]
-fn scale_triangle(root: f32, eta_r: f32) -> ScaleCorners {
-    let (e0, fe) = split_root(eta_r, SCALE_ETA_N);
-    let low = e0 < SCALE_LOW_ETA_N - 1;
-    let (a0, fa) = if low {
+fn scale_triangle(root: f32, row: &ScaleRow) -> (usize, TriNodes) {
+    let (a0, fa) = if row.low {
         split_at(scale_low_alpha_x(root), SCALE_LOW_ALPHA_N)
     } else {
         split_at(scale_alpha_x(root), SCALE_ALPHA_N)
     };
-    (
-        low,
-        triangle(fa, fe).map(|((da, de), w)| ((a0 + da, e0 + de), w)),
-    )
+    (a0, triangle(fa, row.fe))
 }
 
 /// A relative index's coordinate in `[0, 1]` on the scale table's index
@@ -1249,7 +1269,12 @@ fn scale_eta_coord(e: f32) -> f32 {
 /// --between`).
 pub fn scale_corners(alpha: f32, eta: f32) -> ScaleCorners {
     let e = if eta >= 1.0 { eta } else { 1.0 / eta };
-    scale_triangle(alpha_root(alpha), scale_eta_coord(e))
+    let row = scale_row(0, scale_eta_coord(e));
+    let (a0, t) = scale_triangle(alpha_root(alpha), &row);
+    (
+        row.low,
+        t.map(|((da, de), w)| ((a0 + da, row.e0 as usize + de), w)),
+    )
 }
 
 /// The product `s(side_i, mu_i) s(side_o, mu_o)` of the furnace scales of
@@ -1565,9 +1590,9 @@ pub struct TabulatedDielectric {
     /// `[side][mu]` in units of [`SCALE_STEP`] (the scale table's plane
     /// read once, at construction; zeros for an anisotropic one).
     scale: NodeScales,
-    /// The index's coordinate on the scale table's grid, in `[0, 1]`
-    /// (node `e` at `e / (SCALE_ETA_N - 1)`).
-    scale_eta: f32,
+    /// The material's row of the scale table (its block, index nodes and
+    /// offsets), fixed at construction.
+    scale_row: ScaleRow,
     anisotropic: bool,
     /// The anisotropic furnace correction's corners (anisotropic
     /// materials; `None` also for the generator's uncorrected lobe).
@@ -1589,7 +1614,7 @@ impl TabulatedDielectric {
         let alpha_rms = (0.5 * (ndf.alpha_x * ndf.alpha_x + ndf.alpha_y * ndf.alpha_y)).sqrt();
         let alpha = split(alpha_coord(alpha_rms), ALPHA_N);
         let eta = split(eta_coord(e), ETA_N);
-        let scale_eta = scale_eta_coord(e);
+        let scale_row = scale_row(ndf_index, scale_eta_coord(e));
         TabulatedDielectric {
             single: Single::new(ndf, facet, G2Form::HeightCorrelated),
             ndf,
@@ -1603,9 +1628,9 @@ impl TabulatedDielectric {
             scale: if ndf.alpha_x != ndf.alpha_y {
                 [[0; 8]; 8]
             } else {
-                node_scales(&scale_tri(ndf_index, alpha_root(alpha_rms), scale_eta))
+                node_scales(&scale_tri(alpha_root(alpha_rms), &scale_row))
             },
-            scale_eta,
+            scale_row,
             anisotropic: ndf.alpha_x != ndf.alpha_y,
             dcorr: (ndf.alpha_x != ndf.alpha_y).then(|| {
                 let c = dcorr_eta_coord(eta_coord(e));
@@ -1713,7 +1738,7 @@ impl TabulatedDielectric {
         if !scaled {
             return (plane, 1.0);
         }
-        let sp = scale_tri(self.ndf_index, root, self.scale_eta);
+        let sp = scale_tri(root, &self.scale_row);
         let corr = match &self.dcorr {
             Some(c) => {
                 let rho = c.stretches();
@@ -2166,9 +2191,11 @@ mod tests {
                 let x = per * l as f32 + c;
                 let root = x / (SCALE_ROOT_N - 1) as f32;
                 let eta_r = scale_eta_x(c) / (SCALE_ETA_N - 1) as f32;
-                let (low, t) = scale_triangle(root, eta_r);
-                assert!(low, "{l} {c}");
-                for ((a, e), w) in t {
+                let row = scale_row(0, eta_r);
+                assert!(row.low, "{l} {c}");
+                let (a0, t) = scale_triangle(root, &row);
+                for ((da, de), w) in t {
+                    let (a, e) = (a0 + da, row.e0 as usize + de);
                     if w > 1e-4 {
                         let off = plain_x(a) - per * l as f32 - plain_c(e);
                         assert!(
@@ -2181,16 +2208,19 @@ mod tests {
             }
         }
         assert!(checked > 400, "{checked}");
-        // `scale_tri`'s offsets (the block chosen once) are `scale_index`'s
-        // (what the generator writes), in both blocks.
+        // `scale_tri`'s offsets (from the row's base and stride, fixed at
+        // init) are `scale_index`'s (what the generator writes), in both
+        // blocks.
         for ndf in 0..NDF_N {
             for k in 0..=40 {
                 for j in 0..=40 {
                     let (root, eta_r) = (k as f32 / 40.0, j as f32 / 40.0);
-                    let (low, t) = scale_triangle(root, eta_r);
-                    let tri = scale_tri(ndf, root, eta_r);
-                    for (((a, e), w), (b, v)) in t.into_iter().zip(tri) {
-                        assert_eq!(b as usize, scale_index(ndf, low, a, e, 0, 0));
+                    let row = scale_row(ndf, eta_r);
+                    let (a0, t) = scale_triangle(root, &row);
+                    let tri = scale_tri(root, &row);
+                    for (((da, de), w), (b, v)) in t.into_iter().zip(tri) {
+                        let (a, e) = (a0 + da, row.e0 as usize + de);
+                        assert_eq!(b as usize, scale_index(ndf, row.low, a, e, 0, 0));
                         assert_eq!(w, v);
                     }
                 }
@@ -2215,7 +2245,7 @@ mod tests {
         for ndf in 0..NDF_N {
             for &root in &coords {
                 for &eta_r in &coords {
-                    let t = scale_tri(ndf, root, eta_r);
+                    let t = scale_tri(root, &scale_row(ndf, eta_r));
                     let value = |j: usize| -> f64 {
                         t.iter()
                             .map(|&(b, w)| w as f64 * scale_value(b as usize + j) as f64)
