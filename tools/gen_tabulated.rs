@@ -688,6 +688,10 @@ fn main() {
         dielectric::normalize_main(&args);
         return;
     }
+    if args.iter().any(|a| a == "--dielectric-scale-fit") {
+        dielectric::scale_fit_main(&args);
+        return;
+    }
     if args.iter().any(|a| a == "--dielectric-scale") {
         dielectric::scale_main(&args);
         return;
@@ -1815,8 +1819,8 @@ mod dielectric {
         use msbsdf::multiple::tabulated_dielectric::{
             SCALE_ALPHA_N, SCALE_ETA_N, SCALE_ETA_PLAIN_N, SCALE_ETA_SPLIT, SCALE_FINE_INTERVALS,
             SCALE_FINE_SPLIT, SCALE_LOW_ALPHA_N, SCALE_LOW_ETA_N, SCALE_MAX, SCALE_MU_N,
-            SCALE_ROOT_N, TabulatedDielectric, alpha_coord, header, scale_alpha_x,
-            scale_grid_alpha, scale_grid_eta, scale_grid_mu, scale_index, scale_low_grid_alpha,
+            SCALE_ROOT_N, alpha_coord, header, scale_alpha_x, scale_grid_alpha, scale_grid_eta,
+            scale_grid_mu, scale_index, scale_low_grid_alpha,
         };
         // Roughness of node `a` of the low-index block (`low`) or the main
         // block.
@@ -1969,36 +1973,13 @@ mod dielectric {
             "dielectric scale",
             threads,
             |_, &(n, _, _, _, alpha, eta)| {
-                let ndf = Ndf::new(NDFS[n], alpha, alpha);
-                let tab = TabulatedDielectric::new(ndf, Facet::Dielectric { eta });
-                let quadrature = Quadrature { ng, broad };
-                let m = lobe_rows(&tab, alpha, quadrature, fm, |i| scale_grid_mu(i).max(1e-3));
-                let mut target = vec![0.0f64; 2 * fm];
-                for sd in 0..2 {
-                    for i in 0..fm {
-                        let up = dir(scale_grid_mu(i).max(1e-3));
-                        let eta_rel = if sd == 1 { 1.0 / eta } else { eta };
-                        target[sd * fm + i] = (1.0 - ess(ndf, eta_rel, up, quad)).max(0.0);
-                    }
-                }
-                let before = (0..2 * fm)
-                    .filter(|&x| target[x] > 1e-3)
-                    .map(|x| (m[x].iter().sum::<f64>() / target[x] - 1.0).abs())
-                    .fold(0.0f64, f64::max);
-                // Scales are kept within [0, SCALE_MAX] (the encoding's range)
-                // during the solve, and a node whose target is 0 (`E_ss` = 1:
-                // low roughness near grazing) gets 0. Until session 22 the
-                // solve's result was clamped to [0.25, 4] afterwards, which
-                // left Beckmann alpha 0.005 glass 1.5 at 88 degrees (E_ss = 1)
-                // a quarter of its unscaled lobe: albedo 1.036.
-                let sc: Vec<f64> = sinkhorn_within(&target, |x, y| m[x][y], Some((0.0, scale_max)));
-                let after = (0..2 * fm)
-                    .filter(|&x| target[x] > 1e-4 && m[x].iter().sum::<f64>() > 0.0)
-                    .map(|x| {
-                        let r: f64 = (0..2 * fm).map(|y| sc[x] * m[x][y] * sc[y]).sum();
-                        (r / target[x] - 1.0).abs()
-                    })
-                    .fold(0.0f64, f64::max);
+                let ScaleSolve {
+                    sc,
+                    before,
+                    after,
+                    m,
+                    target,
+                } = solve_scales(n, alpha, eta, Quadrature { ng, broad }, quad);
                 if only.is_some() && !between {
                     for x in 0..2 * fm {
                         let r: f64 = (0..2 * fm).map(|y| sc[x] * m[x][y] * sc[y]).sum();
@@ -2163,6 +2144,483 @@ mod dielectric {
             git_commit(),
             SCALE_ETA_N + 1 - SCALE_LOW_ETA_N,
             SCALE_LOW_ETA_N - 1,
+            t0.elapsed().as_secs_f64(),
+        );
+        let payload: Vec<u8> = scale.iter().flat_map(|q| q.to_le_bytes()).collect();
+        super::write_bytes(
+            &out,
+            &head,
+            SCALE_MAGIC,
+            HEADER_BYTES,
+            SCALE_FILE_BYTES,
+            &payload,
+        );
+    }
+
+    /// One point's furnace scales (`--dielectric-scale`'s solve): the
+    /// scales `sc` over the `2 SCALE_MU_N` source nodes `(side, mu)`, the
+    /// unscaled lobe's worst relative deviation from the target (`before`,
+    /// targets over 1e-3) and the scaled one's (`after`), the lobe rows
+    /// `m` ([`lobe_rows`]) and the targets `1 - E_ss`.
+    struct ScaleSolve {
+        sc: Vec<f64>,
+        before: f64,
+        after: f64,
+        m: Vec<Vec<f64>>,
+        target: Vec<f64>,
+    }
+
+    /// The furnace scales of NDF `n` at roughness `alpha` and relative index
+    /// `eta` (at least 1) on the scale grid's cosines ([`ScaleSolve`]).
+    fn solve_scales(n: usize, alpha: f32, eta: f32, q: Quadrature, quad: usize) -> ScaleSolve {
+        use msbsdf::multiple::tabulated_dielectric::{
+            SCALE_MAX, SCALE_MU_N, TabulatedDielectric, scale_grid_mu,
+        };
+        let fm = SCALE_MU_N;
+        let ndf = Ndf::new(NDFS[n], alpha, alpha);
+        let tab = TabulatedDielectric::new(ndf, Facet::Dielectric { eta });
+        let m = lobe_rows(&tab, alpha, q, fm, |i| scale_grid_mu(i).max(1e-3));
+        let mut target = vec![0.0f64; 2 * fm];
+        for sd in 0..2 {
+            for i in 0..fm {
+                let up = dir(scale_grid_mu(i).max(1e-3));
+                let eta_rel = if sd == 1 { 1.0 / eta } else { eta };
+                target[sd * fm + i] = (1.0 - ess(ndf, eta_rel, up, quad)).max(0.0);
+            }
+        }
+        let before = (0..2 * fm)
+            .filter(|&x| target[x] > 1e-3)
+            .map(|x| (m[x].iter().sum::<f64>() / target[x] - 1.0).abs())
+            .fold(0.0f64, f64::max);
+        // Scales are kept within [0, SCALE_MAX] (the encoding's range)
+        // during the solve, and a node whose target is 0 (`E_ss` = 1:
+        // low roughness near grazing) gets 0. Until session 22 the
+        // solve's result was clamped to [0.25, 4] afterwards, which
+        // left Beckmann alpha 0.005 glass 1.5 at 88 degrees (E_ss = 1)
+        // a quarter of its unscaled lobe: albedo 1.036.
+        let sc: Vec<f64> = sinkhorn_within(&target, |x, y| m[x][y], Some((0.0, SCALE_MAX as f64)));
+        let after = (0..2 * fm)
+            .filter(|&x| target[x] > 1e-4 && m[x].iter().sum::<f64>() > 0.0)
+            .map(|x| (furnace_row(&sc, &m, x) / target[x] - 1.0).abs())
+            .fold(0.0f64, f64::max);
+        ScaleSolve {
+            sc,
+            before,
+            after,
+            m,
+            target,
+        }
+    }
+
+    /// The scaled multiply scattered albedo `s_x sum_y M(x, y) s_y` from
+    /// source node `x` with scales `s`.
+    fn furnace_row(s: &[f64], m: &[Vec<f64>], x: usize) -> f64 {
+        (0..s.len()).map(|y| s[x] * m[x][y] * s[y]).sum()
+    }
+
+    /// The fit's weights of a row's midpoints for source node `x`: `(t /
+    /// s)^2` with the midpoint's target `t = 1 - E_ss` and exact scale `s`
+    /// (the furnace error a relative change of the scale makes), 0 where
+    /// the target is below 1e-4 or the midpoint was not solved.
+    fn mid_weights(mid: &[Option<&ScaleSolve>], x: usize) -> Vec<f64> {
+        mid.iter()
+            .map(|p| match p {
+                Some(p) if p.target[x] > 1e-4 && p.sc[x] > 1e-6 => (p.target[x] / p.sc[x]).powi(2),
+                _ => 0.0,
+            })
+            .collect()
+    }
+
+    /// The fitted node values of one row and source node
+    /// (`--dielectric-scale-fit`): exact node scales `s` (node 0 and nodes
+    /// of scale 0 fixed), exact midpoint scales `m` (`None` where not
+    /// solved: the nodes after it fixed too) and the midpoints' weights
+    /// `wm` (a node's the mean of its midpoints'). `lawson` steps of
+    /// Lawson's reweighting (each weight times the point's residual over
+    /// the weighted mean) move the least-squares solution towards the
+    /// minimax one.
+    fn fit_row(s: &[f64], m: &[Option<f64>], wm: &[f64], lawson: usize) -> Vec<f64> {
+        use msbsdf::multiple::tabulated_dielectric::SCALE_MAX;
+        let na = s.len();
+        let fixed = |a: usize| a == 0 || s[a] == 0.0 || m[..a].iter().any(|p| p.is_none());
+        let wn: Vec<f64> = (0..na)
+            .map(|a| {
+                let near: Vec<f64> = [a.checked_sub(1), (a < m.len()).then_some(a)]
+                    .into_iter()
+                    .flatten()
+                    .map(|k| wm[k])
+                    .collect();
+                near.iter().sum::<f64>() / near.len().max(1) as f64
+            })
+            .collect();
+        let wmax = wm.iter().cloned().fold(0.0f64, f64::max);
+        let lambda = 1e-6 * wmax + 1e-12;
+        // Lawson's factors of the node and midpoint weights.
+        let (mut un, mut um) = (vec![1.0f64; na], vec![1.0f64; m.len()]);
+        let mut v = s.to_vec();
+        for step in 0..=lawson {
+            let mut diag = vec![0.0f64; na];
+            let mut off = vec![0.0f64; na];
+            let mut rhs = vec![0.0f64; na];
+            for a in 0..na {
+                let w = wn[a] * un[a] + lambda;
+                diag[a] += w;
+                rhs[a] += w * s[a];
+            }
+            for (k, p) in m.iter().enumerate() {
+                let Some(mk) = *p else { continue };
+                let w = wm[k] * um[k];
+                diag[k] += w / 4.0;
+                diag[k + 1] += w / 4.0;
+                off[k] += w / 4.0;
+                rhs[k] += w * mk / 2.0;
+                rhs[k + 1] += w * mk / 2.0;
+            }
+            // A fixed node's row is `v = s`; its coupling moves to its
+            // neighbours' right-hand sides.
+            for a in 0..na {
+                if fixed(a) {
+                    if a > 0 {
+                        rhs[a - 1] -= off[a - 1] * s[a];
+                        off[a - 1] = 0.0;
+                    }
+                    if a + 1 < na {
+                        rhs[a + 1] -= off[a] * s[a];
+                        off[a] = 0.0;
+                    }
+                    diag[a] = 1.0;
+                    rhs[a] = s[a];
+                }
+            }
+            // Thomas algorithm (symmetric: sub = super = off).
+            let (mut c, mut d) = (vec![0.0f64; na], vec![0.0f64; na]);
+            for a in 0..na {
+                let (sub, cp, dp) = if a > 0 {
+                    (off[a - 1], c[a - 1], d[a - 1])
+                } else {
+                    (0.0, 0.0, 0.0)
+                };
+                let den = diag[a] - sub * cp;
+                c[a] = off[a] / den;
+                d[a] = (rhs[a] - sub * dp) / den;
+            }
+            for a in (0..na).rev() {
+                let next = if a + 1 < na { v[a + 1] } else { 0.0 };
+                v[a] = (d[a] - c[a] * next).clamp(0.0, SCALE_MAX as f64);
+            }
+            if step == lawson {
+                break;
+            }
+            // Residuals, weighted as in the sum, and the update.
+            let rn: Vec<f64> = (0..na)
+                .map(|a| wn[a].sqrt() * (v[a] - s[a]).abs())
+                .collect();
+            let rm: Vec<f64> = (0..m.len())
+                .map(|k| match m[k] {
+                    Some(mk) => wm[k].sqrt() * (0.5 * (v[k] + v[k + 1]) - mk).abs(),
+                    None => 0.0,
+                })
+                .collect();
+            let mean = rn.iter().chain(&rm).sum::<f64>() / (rn.len() + rm.len()) as f64;
+            if mean <= 0.0 {
+                break;
+            }
+            for (u, r) in un.iter_mut().zip(&rn) {
+                *u *= (r / mean).max(1e-3);
+            }
+            for (u, r) in um.iter_mut().zip(&rm) {
+                *u *= (r / mean).max(1e-3);
+            }
+        }
+        v
+    }
+
+    /// `--dielectric-scale-fit --exact EXACT.bin`: the furnace scale table
+    /// with its nodes fitted by least squares along roughness instead of
+    /// solved exactly at each node. Eval interpolates the scales linearly
+    /// between roughness nodes, and between two nodes the exact scale bends
+    /// (GGX glass 1.55 from the dense side at 84 degrees, nodes 0.096 and
+    /// 0.125: exact 0.570 and 0.677, 0.588 at the midpoint against the
+    /// interpolated 0.624; furnace 1.06% off there), so exact nodes put the
+    /// whole of that error between them. Here the exact scales at the
+    /// midpoints of every roughness interval of every row (NDF, block and
+    /// index node) are solved as `--dielectric-scale` solves a node, and per
+    /// row and source node `x = (side, mu)` the node values `v` minimise
+    /// `sum_nodes w (v - s)^2 + sum_midpoints w ((v_a + v_a+1) / 2 - m)^2`
+    /// (a tridiagonal system), `s` the exact node scales read from
+    /// `EXACT.bin` (a table `--dielectric-scale` wrote for the same lobe
+    /// table), `m` the midpoints', `w = (t / s)^2` with the midpoint's
+    /// target `t = 1 - E_ss` and scale (the furnace error a relative change
+    /// of the scale makes; a node's the mean of its midpoints'). Roughness
+    /// node 0 and nodes of scale 0 (target 0) keep their exact values. A
+    /// convex bend of depth `d` between nodes then leaves about `d / 2` at
+    /// the nodes and the midpoints instead of 0 and `d`.
+    ///
+    /// `--lawson K` (default 0) takes `K` steps of Lawson's reweighting
+    /// ([`fit_row`]) towards the minimax fit; the committed table uses 3.
+    ///
+    /// `--pilot N,L,E` (NDF, 1 for the low-index block, index node) fits one
+    /// row with each number of Lawson steps of `--pilot-lawson K,K,...`
+    /// (default 0,5,20) and prints the furnace (the worst `|albedo - 1|`
+    /// over the scale grid's cosines to 89.1 degrees) at the nodes, the
+    /// quarter points and the midpoints up to roughness node `--pilot-nodes
+    /// K` (default 20) with the exact and the fitted nodes interpolated;
+    /// nothing is written. `--broad`, `--ng`, `--quad`, `--threads`,
+    /// `--out` as for `--dielectric-scale`.
+    pub fn scale_fit_main(args: &[String]) {
+        use msbsdf::multiple::tabulated_dielectric::{
+            SCALE_ALPHA_N, SCALE_ETA_N, SCALE_LOW_ALPHA_N, SCALE_LOW_ETA_N, SCALE_MU_N, header,
+            scale_grid_alpha, scale_grid_eta, scale_index, scale_low_grid_alpha,
+        };
+        let t0 = std::time::Instant::now();
+        let fm = SCALE_MU_N;
+        let quad: usize = arg(args, "--quad", 128);
+        let threads: usize = arg(args, "--threads", 2);
+        let ng: usize = arg(args, "--ng", 48);
+        let broad: usize = arg(args, "--broad", 400);
+        let q = Quadrature { ng, broad };
+        let out: String = arg(
+            args,
+            "--out",
+            "data/tabulated_dielectric_scale.bin".to_string(),
+        );
+        let exact_path: String = arg(args, "--exact", String::new());
+        let raw = std::fs::read(&exact_path).expect("--exact: read the exact scale table");
+        assert!(
+            raw.starts_with(SCALE_MAGIC) && raw.len() == SCALE_FILE_BYTES,
+            "--exact: not a scale table of this layout"
+        );
+        let exact_head = String::from_utf8_lossy(&raw[..HEADER_BYTES]).to_string();
+        assert!(
+            !exact_head.lines().any(|l| l.starts_with("fit:")),
+            "--exact: this table's nodes are fitted, not exact"
+        );
+        let exact = |i: usize| {
+            let b = HEADER_BYTES + 2 * i;
+            u16::from_le_bytes([raw[b], raw[b + 1]]) as f64 * SCALE_STEP as f64
+        };
+        let grid_alpha_of = |low: bool, a: usize| {
+            if low {
+                scale_low_grid_alpha(a)
+            } else {
+                scale_grid_alpha(a)
+            }
+        };
+        // Roughness at fraction `f` of interval `a` of a block's grid
+        // (linear in `sqrt(alpha)`, as eval interpolates).
+        let alpha_at = |low: bool, a: usize, f: f64| {
+            let (r0, r1) = (
+                (grid_alpha_of(low, a) as f64).sqrt(),
+                (grid_alpha_of(low, a + 1) as f64).sqrt(),
+            );
+            let r = r0 + f * (r1 - r0);
+            (r * r) as f32
+        };
+        // Rows (NDF, low-index block, index node) and their roughness nodes.
+        let pilot: Option<Vec<usize>> = args
+            .iter()
+            .position(|a| a == "--pilot")
+            .and_then(|p| args.get(p + 1))
+            .map(|v| v.split(',').filter_map(|t| t.parse().ok()).collect());
+        let rows: Vec<(usize, bool, usize)> = match &pilot {
+            Some(v) if v.len() == 3 => vec![(v[0], v[1] == 1, v[2])],
+            Some(_) => panic!("--pilot N,L,E"),
+            None => (0..NDF_N)
+                .flat_map(|n| {
+                    (0..SCALE_LOW_ETA_N)
+                        .map(move |e| (n, true, e))
+                        .chain((SCALE_LOW_ETA_N - 1..SCALE_ETA_N).map(move |e| (n, false, e)))
+                })
+                .collect(),
+        };
+        let nodes_of = |low: bool| {
+            if low {
+                SCALE_LOW_ALPHA_N
+            } else {
+                SCALE_ALPHA_N
+            }
+        };
+        let pilot_nodes: usize = arg(args, "--pilot-nodes", 20);
+        let lawson: usize = arg(args, "--lawson", 0);
+        let pilot_lawson: Vec<usize> = arg(args, "--pilot-lawson", "0,5,20".to_string())
+            .split(',')
+            .filter_map(|t| t.parse().ok())
+            .collect();
+        // Points solved: (row, interval, fraction); the midpoints, and in a
+        // pilot the nodes and quarter points too.
+        let fracs: &[f64] = if pilot.is_some() {
+            &[0.0, 0.25, 0.5, 0.75]
+        } else {
+            &[0.5]
+        };
+        let mut jobs: Vec<(usize, usize, f64)> = Vec::new();
+        for (r, &(_, low, _)) in rows.iter().enumerate() {
+            let last = if pilot.is_some() {
+                pilot_nodes.min(nodes_of(low) - 1)
+            } else {
+                nodes_of(low) - 1
+            };
+            for a in 0..last {
+                for &f in fracs {
+                    if a > 0 || f > 0.0 {
+                        jobs.push((r, a, f));
+                    }
+                }
+            }
+            if pilot.is_some() {
+                jobs.push((r, last, 0.0));
+            }
+        }
+        let res = parallel(&jobs, "scale fit points", threads, |_, &(r, a, f)| {
+            let (n, low, e) = rows[r];
+            solve_scales(n, alpha_at(low, a, f), scale_grid_eta(e), q, quad)
+        });
+        // Per row, the fitted node values `[a][x]`.
+        let mut scale: Vec<u16> = (0..SCALE_LEN).map(|i| scale_steps(exact(i))).collect();
+        let (mut moved, mut moved_at) = (0.0f64, String::new());
+        for (r, &(n, low, e)) in rows.iter().enumerate() {
+            let na = nodes_of(low);
+            let s = |a: usize, x: usize| exact(scale_index(n, low, a, e, x / fm, x % fm));
+            // Midpoint solves of this row by interval.
+            let mid: Vec<Option<&ScaleSolve>> = (0..na - 1)
+                .map(|a| jobs.iter().position(|&j| j == (r, a, 0.5)).map(|p| &res[p]))
+                .collect();
+            let mut v = vec![vec![0.0f64; 2 * fm]; na];
+            for x in 0..2 * fm {
+                let wm = mid_weights(&mid, x);
+                let sx: Vec<f64> = (0..na).map(|a| s(a, x)).collect();
+                let mx: Vec<Option<f64>> = mid.iter().map(|p| p.map(|p| p.sc[x])).collect();
+                let vx = fit_row(&sx, &mx, &wm, lawson);
+                for (a, va) in v.iter_mut().enumerate() {
+                    va[x] = vx[a];
+                }
+                for (a, va) in v.iter().enumerate() {
+                    let dv = (va[x] - s(a, x)).abs() / s(a, x).max(1e-3);
+                    if dv > moved {
+                        moved = dv;
+                        moved_at = format!(
+                            "NDF {n} {} index {:.4} roughness {:.4} side {} mu {:.4}",
+                            if low { "low block" } else { "main block" },
+                            scale_grid_eta(e),
+                            grid_alpha_of(low, a),
+                            x / fm,
+                            msbsdf::multiple::tabulated_dielectric::scale_grid_mu(x % fm)
+                        );
+                    }
+                }
+            }
+            for (a, va) in v.iter().enumerate() {
+                for x in 0..2 * fm {
+                    scale[scale_index(n, low, a, e, x / fm, x % fm)] = scale_steps(va[x]);
+                }
+            }
+        }
+        if pilot.is_some() {
+            let (n, low, e) = rows[0];
+            let na = nodes_of(low);
+            let s = |a: usize, x: usize| exact(scale_index(n, low, a, e, x / fm, x % fm));
+            // The furnace is reported to 89 degrees: cosine nodes from the
+            // first at or above cos(89.1 degrees).
+            let x_ok =
+                |x: usize| msbsdf::multiple::tabulated_dielectric::scale_grid_mu(x % fm) >= 0.0157;
+            let mid: Vec<Option<&ScaleSolve>> = (0..na - 1)
+                .map(|a| jobs.iter().position(|&j| j == (0, a, 0.5)).map(|p| &res[p]))
+                .collect();
+            let fits: Vec<(usize, Vec<Vec<f64>>)> = pilot_lawson
+                .iter()
+                .map(|&steps| {
+                    let cols: Vec<Vec<f64>> = (0..2 * fm)
+                        .map(|x| {
+                            let sx: Vec<f64> = (0..na).map(|a| s(a, x)).collect();
+                            let mx: Vec<Option<f64>> =
+                                mid.iter().map(|p| p.map(|p| p.sc[x])).collect();
+                            fit_row(&sx, &mx, &mid_weights(&mid, x), steps)
+                        })
+                        .collect();
+                    let v = (0..na)
+                        .map(|a| cols.iter().map(|c| c[a]).collect())
+                        .collect();
+                    (steps, v)
+                })
+                .collect();
+            let mut worst = vec![[0.0f64; 3]; fits.len() + 1];
+            for (&(_, a, f), p) in jobs.iter().zip(&res) {
+                let b = if f > 0.0 { a + 1 } else { a };
+                let err = |val: &dyn Fn(usize) -> f64| {
+                    let sc: Vec<f64> = (0..2 * fm).map(val).collect();
+                    (0..2 * fm)
+                        .filter(|&x| x_ok(x))
+                        .map(|x| (furnace_row(&sc, &p.m, x) - p.target[x]).abs())
+                        .fold(0.0f64, f64::max)
+                };
+                let kind = if f == 0.0 {
+                    0
+                } else if f == 0.5 {
+                    2
+                } else {
+                    1
+                };
+                let mut line = format!(
+                    "roughness {:.5} (node {a} + {f}): furnace exact nodes {:.4}%",
+                    alpha_at(low, a, f),
+                    100.0 * {
+                        let e0 = err(&|x| (1.0 - f) * s(a, x) + f * s(b, x));
+                        worst[0][kind] = worst[0][kind].max(e0);
+                        e0
+                    }
+                );
+                for (k, (steps, v)) in fits.iter().enumerate() {
+                    let e1 = err(&|x| (1.0 - f) * v[a][x] + f * v[b][x]);
+                    worst[k + 1][kind] = worst[k + 1][kind].max(e1);
+                    line += &format!(", fitted (Lawson {steps}) {:.4}%", 100.0 * e1);
+                }
+                eprintln!("{line}");
+            }
+            for (k, w) in worst.iter().enumerate() {
+                eprintln!(
+                    "{}: worst at nodes {:.4}%, quarter points {:.4}%, midpoints {:.4}%",
+                    if k == 0 {
+                        "exact nodes".to_string()
+                    } else {
+                        format!("fitted (Lawson {})", fits[k - 1].0)
+                    },
+                    100.0 * w[0],
+                    100.0 * w[1],
+                    100.0 * w[2]
+                );
+            }
+            return;
+        }
+        let exact_line = |key: &str| {
+            exact_head
+                .lines()
+                .find(|l| l.starts_with(key))
+                .unwrap_or("?")
+                .to_string()
+        };
+        let table_commit = header()
+            .lines()
+            .find(|l| l.starts_with("commit:"))
+            .unwrap_or("commit: ?")
+            .to_string();
+        let head = format!(
+            "{}\
+             MSBSDF_MODEL_TABULATED dielectric furnace scales (layout: src/multiple/tabulated_dielectric.rs), nodes fitted by least squares along roughness\n\
+             command: cargo run --release --example gen_tabulated -- {}\n\
+             commit: {}\n\
+             lobe table: data/tabulated_dielectric.bin, {table_commit}\n\
+             fit: per row (NDF, block, index node) and source node (side, mu), node values v minimising sum_nodes w (v - s)^2 + sum_midpoints w ((v_a + v_a+1) / 2 - m)^2, s the exact node scales of {exact_path}, m the exact scales at the {} midpoints of the roughness intervals, w = (t / s)^2 at the midpoint (1 - E_ss over its scale; a node's the mean of its midpoints'); roughness node 0 and scale-0 nodes fixed; largest change of a node {:.2}% ({moved_at})\n\
+             exact nodes: {}; {}\n\
+             quadrature: --broad {broad} (as --dielectric-scale); E_ss quadrature {quad} x {quad}; deterministic, no seeds\n\
+             wall time: {:.0} s on {threads} threads\n\
+             {SCALE_STORAGE}\n",
+            String::from_utf8_lossy(SCALE_MAGIC),
+            args[1..].join(" "),
+            git_commit(),
+            jobs.len(),
+            100.0 * moved,
+            exact_line("command:"),
+            exact_line("commit:"),
             t0.elapsed().as_secs_f64(),
         );
         let payload: Vec<u8> = scale.iter().flat_map(|q| q.to_le_bytes()).collect();
