@@ -2224,112 +2224,178 @@ mod dielectric {
     /// the target is below 1e-4 or the midpoint was not solved.
     fn mid_weights(mid: &[Option<&ScaleSolve>], x: usize) -> Vec<f64> {
         mid.iter()
-            .map(|p| match p {
-                Some(p) if p.target[x] > 1e-4 && p.sc[x] > 1e-6 => (p.target[x] / p.sc[x]).powi(2),
-                _ => 0.0,
-            })
+            .map(|p| p.map_or(0.0, |p| point_weight(p, x)))
             .collect()
     }
 
-    /// The fitted node values of one row and source node
-    /// (`--dielectric-scale-fit`): exact node scales `s` (node 0 and nodes
-    /// of scale 0 fixed), exact midpoint scales `m` (`None` where not
-    /// solved: the nodes after it fixed too) and the midpoints' weights
-    /// `wm` (a node's the mean of its midpoints'). `lawson` steps of
-    /// Lawson's reweighting (each weight times the point's residual over
-    /// the weighted mean) move the least-squares solution towards the
-    /// minimax one.
-    fn fit_row(s: &[f64], m: &[Option<f64>], wm: &[f64], lawson: usize) -> Vec<f64> {
+    /// A solved point's weight for source node `x` ([`mid_weights`]).
+    fn point_weight(p: &ScaleSolve, x: usize) -> f64 {
+        if p.target[x] > 1e-4 && p.sc[x] > 1e-6 {
+            (p.target[x] / p.sc[x]).powi(2)
+        } else {
+            0.0
+        }
+    }
+
+    /// The fitted node values of one sheet of the scale table (one NDF and
+    /// block, `na` roughness by `ne` index nodes, node `a ne + e`) for one
+    /// source node (`--dielectric-scale-fit`): the exact node scales `s`
+    /// (roughness node 0 and nodes of scale 0 fixed), the exact scales at
+    /// the midpoints of the roughness intervals `mr` (`a ne + e` between
+    /// nodes `(a, e)` and `(a + 1, e)`) and of the index intervals `me` (`a
+    /// (ne - 1) + e` between `(a, e)` and `(a, e + 1)`), `None` where not
+    /// solved, with their weights `wr`, `we`; a node's weight is the mean of
+    /// its solved midpoints' (and `1e-6` of the largest, so that every node
+    /// is held). The weighted sum of squares over nodes and midpoints
+    /// (eval's interpolation at a midpoint is the mean of its two nodes)
+    /// is minimised by conjugate gradients; then `lawson` steps of Lawson's
+    /// reweighting (each weight times the point's weighted residual over
+    /// the mean) move the solution towards the minimax one.
+    #[allow(clippy::too_many_arguments)]
+    fn fit_sheet(
+        s: &[f64],
+        na: usize,
+        ne: usize,
+        mr: &[Option<f64>],
+        wr: &[f64],
+        me: &[Option<f64>],
+        we: &[f64],
+        lawson: usize,
+    ) -> Vec<f64> {
         use msbsdf::multiple::tabulated_dielectric::SCALE_MAX;
-        let na = s.len();
-        let fixed = |a: usize| a == 0 || s[a] == 0.0 || m[..a].iter().any(|p| p.is_none());
-        let wn: Vec<f64> = (0..na)
-            .map(|a| {
-                let near: Vec<f64> = [a.checked_sub(1), (a < m.len()).then_some(a)]
-                    .into_iter()
-                    .flatten()
-                    .map(|k| wm[k])
-                    .collect();
-                near.iter().sum::<f64>() / near.len().max(1) as f64
-            })
-            .collect();
-        let wmax = wm.iter().cloned().fold(0.0f64, f64::max);
-        let lambda = 1e-6 * wmax + 1e-12;
-        // Lawson's factors of the node and midpoint weights.
-        let (mut un, mut um) = (vec![1.0f64; na], vec![1.0f64; m.len()]);
-        let mut v = s.to_vec();
-        for step in 0..=lawson {
-            let mut diag = vec![0.0f64; na];
-            let mut off = vec![0.0f64; na];
-            let mut rhs = vec![0.0f64; na];
-            for a in 0..na {
-                let w = wn[a] * un[a] + lambda;
-                diag[a] += w;
-                rhs[a] += w * s[a];
+        let nn = na * ne;
+        // Terms: two nodes with coefficients, the value, the base weight.
+        let mut terms: Vec<([usize; 2], [f64; 2], f64, f64)> = Vec::new();
+        let mut near = vec![(0.0f64, 0usize); nn];
+        let mut mid_term = |p: usize, q: usize, m: f64, w: f64| {
+            for k in [p, q] {
+                near[k].0 += w;
+                near[k].1 += 1;
             }
-            for (k, p) in m.iter().enumerate() {
-                let Some(mk) = *p else { continue };
-                let w = wm[k] * um[k];
-                diag[k] += w / 4.0;
-                diag[k + 1] += w / 4.0;
-                off[k] += w / 4.0;
-                rhs[k] += w * mk / 2.0;
-                rhs[k + 1] += w * mk / 2.0;
-            }
-            // A fixed node's row is `v = s`; its coupling moves to its
-            // neighbours' right-hand sides.
-            for a in 0..na {
-                if fixed(a) {
-                    if a > 0 {
-                        rhs[a - 1] -= off[a - 1] * s[a];
-                        off[a - 1] = 0.0;
-                    }
-                    if a + 1 < na {
-                        rhs[a + 1] -= off[a] * s[a];
-                        off[a] = 0.0;
-                    }
-                    diag[a] = 1.0;
-                    rhs[a] = s[a];
+            ([p, q], [0.5, 0.5], m, w)
+        };
+        let mut mids = Vec::new();
+        for a in 0..na.saturating_sub(1) {
+            for e in 0..ne {
+                if let Some(m) = mr[a * ne + e] {
+                    mids.push(mid_term(a * ne + e, (a + 1) * ne + e, m, wr[a * ne + e]));
                 }
             }
-            // Thomas algorithm (symmetric: sub = super = off).
-            let (mut c, mut d) = (vec![0.0f64; na], vec![0.0f64; na]);
-            for a in 0..na {
-                let (sub, cp, dp) = if a > 0 {
-                    (off[a - 1], c[a - 1], d[a - 1])
-                } else {
-                    (0.0, 0.0, 0.0)
-                };
-                let den = diag[a] - sub * cp;
-                c[a] = off[a] / den;
-                d[a] = (rhs[a] - sub * dp) / den;
+        }
+        for a in 0..na {
+            for e in 0..ne.saturating_sub(1) {
+                let k = a * (ne - 1) + e;
+                if let Some(m) = me[k] {
+                    mids.push(mid_term(a * ne + e, a * ne + e + 1, m, we[k]));
+                }
             }
-            for a in (0..na).rev() {
-                let next = if a + 1 < na { v[a + 1] } else { 0.0 };
-                v[a] = (d[a] - c[a] * next).clamp(0.0, SCALE_MAX as f64);
+        }
+        let wmax = mids.iter().map(|t| t.3).fold(0.0f64, f64::max);
+        let lambda = 1e-6 * wmax + 1e-12;
+        for (k, &(w, c)) in near.iter().enumerate() {
+            let w = if c > 0 { w / c as f64 } else { 0.0 };
+            terms.push(([k, k], [1.0, 0.0], s[k], w + lambda));
+        }
+        terms.extend(mids);
+        let fixed = |k: usize| k / ne == 0 || s[k] == 0.0;
+        // Unknowns: the free nodes.
+        let free: Vec<usize> = (0..nn).filter(|&k| !fixed(k)).collect();
+        let mut slot = vec![usize::MAX; nn];
+        for (i, &k) in free.iter().enumerate() {
+            slot[k] = i;
+        }
+        let nf = free.len();
+        let mut v = s.to_vec();
+        let mut u = vec![1.0f64; terms.len()];
+        for step in 0..=lawson {
+            // Normal equations A v = b over the free nodes (A as triplets).
+            let mut trip: Vec<(usize, usize, f64)> = Vec::new();
+            let mut b = vec![0.0f64; nf];
+            for (t, &(nodes, c, m, w)) in terms.iter().enumerate() {
+                let w = w * u[t];
+                // The fixed nodes' part moves to the value.
+                let mut val = m;
+                for j in 0..2 {
+                    if c[j] != 0.0 && slot[nodes[j]] == usize::MAX {
+                        val -= c[j] * s[nodes[j]];
+                    }
+                }
+                for i in 0..2 {
+                    let si = slot[nodes[i]];
+                    if c[i] == 0.0 || si == usize::MAX {
+                        continue;
+                    }
+                    b[si] += w * c[i] * val;
+                    for j in 0..2 {
+                        let sj = slot[nodes[j]];
+                        if c[j] != 0.0 && sj != usize::MAX {
+                            trip.push((si, sj, w * c[i] * c[j]));
+                        }
+                    }
+                }
+            }
+            let mut diag = vec![0.0f64; nf];
+            for &(i, j, a) in &trip {
+                if i == j {
+                    diag[i] += a;
+                }
+            }
+            let mul = |x: &[f64]| {
+                let mut y = vec![0.0f64; nf];
+                for &(i, j, a) in &trip {
+                    y[i] += a * x[j];
+                }
+                y
+            };
+            // Jacobi-preconditioned conjugate gradients from the exact
+            // values (or the previous step's).
+            let mut x: Vec<f64> = free.iter().map(|&k| v[k]).collect();
+            let ax = mul(&x);
+            let mut r: Vec<f64> = (0..nf).map(|i| b[i] - ax[i]).collect();
+            let mut z: Vec<f64> = (0..nf).map(|i| r[i] / diag[i]).collect();
+            let mut p = z.clone();
+            let mut rz: f64 = (0..nf).map(|i| r[i] * z[i]).sum();
+            let bnorm = b.iter().map(|v| v * v).sum::<f64>().sqrt().max(1e-300);
+            for _ in 0..20 * nf.max(1) {
+                if r.iter().map(|v| v * v).sum::<f64>().sqrt() <= 1e-13 * bnorm {
+                    break;
+                }
+                let ap = mul(&p);
+                let pap: f64 = (0..nf).map(|i| p[i] * ap[i]).sum();
+                if pap <= 0.0 {
+                    break;
+                }
+                let alpha = rz / pap;
+                for i in 0..nf {
+                    x[i] += alpha * p[i];
+                    r[i] -= alpha * ap[i];
+                }
+                z = (0..nf).map(|i| r[i] / diag[i]).collect();
+                let rz_new: f64 = (0..nf).map(|i| r[i] * z[i]).sum();
+                for i in 0..nf {
+                    p[i] = z[i] + rz_new / rz * p[i];
+                }
+                rz = rz_new;
+            }
+            for (i, &k) in free.iter().enumerate() {
+                v[k] = x[i].clamp(0.0, SCALE_MAX as f64);
             }
             if step == lawson {
                 break;
             }
-            // Residuals, weighted as in the sum, and the update.
-            let rn: Vec<f64> = (0..na)
-                .map(|a| wn[a].sqrt() * (v[a] - s[a]).abs())
-                .collect();
-            let rm: Vec<f64> = (0..m.len())
-                .map(|k| match m[k] {
-                    Some(mk) => wm[k].sqrt() * (0.5 * (v[k] + v[k + 1]) - mk).abs(),
-                    None => 0.0,
+            // Weighted residuals and the update.
+            let res: Vec<f64> = terms
+                .iter()
+                .map(|&(nodes, c, m, w)| {
+                    w.sqrt() * (c[0] * v[nodes[0]] + c[1] * v[nodes[1]] - m).abs()
                 })
                 .collect();
-            let mean = rn.iter().chain(&rm).sum::<f64>() / (rn.len() + rm.len()) as f64;
+            let mean = res.iter().sum::<f64>() / res.len().max(1) as f64;
             if mean <= 0.0 {
                 break;
             }
-            for (u, r) in un.iter_mut().zip(&rn) {
-                *u *= (r / mean).max(1e-3);
-            }
-            for (u, r) in um.iter_mut().zip(&rm) {
-                *u *= (r / mean).max(1e-3);
+            for (ut, r) in u.iter_mut().zip(&res) {
+                *ut *= (r / mean).max(1e-3);
             }
         }
         v
@@ -2357,7 +2423,7 @@ mod dielectric {
     /// the nodes and the midpoints instead of 0 and `d`.
     ///
     /// `--lawson K` (default 0) takes `K` steps of Lawson's reweighting
-    /// ([`fit_row`]) towards the minimax fit; the committed table uses 3.
+    /// ([`fit_sheet`]) towards the minimax fit; the committed table uses 3.
     ///
     /// `--pilot N,L,E` (NDF, 1 for the low-index block, index node) fits one
     /// row with each number of Lawson steps of `--pilot-lawson K,K,...`
@@ -2422,9 +2488,29 @@ mod dielectric {
             .position(|a| a == "--pilot")
             .and_then(|p| args.get(p + 1))
             .map(|v| v.split(',').filter_map(|t| t.parse().ok()).collect());
+        // `--low-2d --base FITTED.bin`: the low-index block refitted over
+        // the midpoints of its index intervals too, the rest copied from
+        // `FITTED.bin`.
+        let low2d = args.iter().any(|a| a == "--low-2d");
+        let base: Option<(Vec<u8>, String)> = args
+            .iter()
+            .position(|a| a == "--base")
+            .and_then(|p| args.get(p + 1))
+            .map(|path| {
+                let raw = std::fs::read(path).expect("--base: read the fitted scale table");
+                assert!(
+                    raw.starts_with(SCALE_MAGIC) && raw.len() == SCALE_FILE_BYTES,
+                    "--base: not a scale table of this layout"
+                );
+                (raw, path.clone())
+            });
+        assert!(!low2d || base.is_some(), "--low-2d needs --base");
         let rows: Vec<(usize, bool, usize)> = match &pilot {
             Some(v) if v.len() == 3 => vec![(v[0], v[1] == 1, v[2])],
             Some(_) => panic!("--pilot N,L,E"),
+            None if low2d => (0..NDF_N)
+                .flat_map(|n| (0..SCALE_LOW_ETA_N).map(move |e| (n, true, e)))
+                .collect(),
             None => (0..NDF_N)
                 .flat_map(|n| {
                     (0..SCALE_LOW_ETA_N)
@@ -2475,10 +2561,83 @@ mod dielectric {
             let (n, low, e) = rows[r];
             solve_scales(n, alpha_at(low, a, f), scale_grid_eta(e), q, quad)
         });
-        // Per row, the fitted node values `[a][x]`.
-        let mut scale: Vec<u16> = (0..SCALE_LEN).map(|i| scale_steps(exact(i))).collect();
+        // `--low-2d`: the midpoints of the low-index block's index
+        // intervals (NDF, roughness node, lower index node).
+        let ijobs: Vec<(usize, usize, usize)> = if low2d {
+            (0..NDF_N)
+                .flat_map(|n| {
+                    (1..SCALE_LOW_ALPHA_N)
+                        .flat_map(move |a| (0..SCALE_LOW_ETA_N - 1).map(move |e| (n, a, e)))
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let ires = parallel(&ijobs, "index midpoints", threads, |_, &(n, a, e)| {
+            // Eval's index coordinate is linear in `ln E` between nodes.
+            let eta = (scale_grid_eta(e) * scale_grid_eta(e + 1)).sqrt();
+            solve_scales(n, scale_low_grid_alpha(a), eta, q, quad)
+        });
+        let mut scale: Vec<u16> = match &base {
+            Some((raw, _)) => (0..SCALE_LEN)
+                .map(|i| {
+                    u16::from_le_bytes([raw[HEADER_BYTES + 2 * i], raw[HEADER_BYTES + 2 * i + 1]])
+                })
+                .collect(),
+            None => (0..SCALE_LEN).map(|i| scale_steps(exact(i))).collect(),
+        };
         let (mut moved, mut moved_at) = (0.0f64, String::new());
-        for (r, &(n, low, e)) in rows.iter().enumerate() {
+        if low2d {
+            let (na, ne) = (SCALE_LOW_ALPHA_N, SCALE_LOW_ETA_N);
+            for n in 0..NDF_N {
+                let row_of = |e: usize| rows.iter().position(|&r| r == (n, true, e));
+                let rmid = |a: usize, e: usize| {
+                    row_of(e)
+                        .and_then(|r| jobs.iter().position(|&j| j == (r, a, 0.5)))
+                        .map(|p| &res[p])
+                };
+                let imid = |a: usize, e: usize| {
+                    ijobs.iter().position(|&j| j == (n, a, e)).map(|p| &ires[p])
+                };
+                for x in 0..2 * fm {
+                    let sx: Vec<f64> = (0..na * ne)
+                        .map(|k| exact(scale_index(n, true, k / ne, k % ne, x / fm, x % fm)))
+                        .collect();
+                    let rpts: Vec<Option<&ScaleSolve>> =
+                        (0..(na - 1) * ne).map(|k| rmid(k / ne, k % ne)).collect();
+                    let ipts: Vec<Option<&ScaleSolve>> = (0..na * (ne - 1))
+                        .map(|k| imid(k / (ne - 1), k % (ne - 1)))
+                        .collect();
+                    let value = |p: &Option<&ScaleSolve>| p.map(|p| p.sc[x]);
+                    let v = fit_sheet(
+                        &sx,
+                        na,
+                        ne,
+                        &rpts.iter().map(value).collect::<Vec<_>>(),
+                        &mid_weights(&rpts, x),
+                        &ipts.iter().map(value).collect::<Vec<_>>(),
+                        &mid_weights(&ipts, x),
+                        lawson,
+                    );
+                    for (k, vk) in v.iter().enumerate() {
+                        let (a, e) = (k / ne, k % ne);
+                        let dv = (vk - sx[k]).abs() / sx[k].max(1e-3);
+                        if dv > moved {
+                            moved = dv;
+                            moved_at = format!(
+                                "NDF {n} low block index {:.4} roughness {:.4} side {} mu {:.4}",
+                                scale_grid_eta(e),
+                                scale_low_grid_alpha(a),
+                                x / fm,
+                                msbsdf::multiple::tabulated_dielectric::scale_grid_mu(x % fm)
+                            );
+                        }
+                        scale[scale_index(n, true, a, e, x / fm, x % fm)] = scale_steps(*vk);
+                    }
+                }
+            }
+        }
+        for (r, &(n, low, e)) in rows.iter().enumerate().filter(|_| !low2d) {
             let na = nodes_of(low);
             let s = |a: usize, x: usize| exact(scale_index(n, low, a, e, x / fm, x % fm));
             // Midpoint solves of this row by interval.
@@ -2490,7 +2649,7 @@ mod dielectric {
                 let wm = mid_weights(&mid, x);
                 let sx: Vec<f64> = (0..na).map(|a| s(a, x)).collect();
                 let mx: Vec<Option<f64>> = mid.iter().map(|p| p.map(|p| p.sc[x])).collect();
-                let vx = fit_row(&sx, &mx, &wm, lawson);
+                let vx = fit_sheet(&sx, na, 1, &mx, &wm, &[], &[], lawson);
                 for (a, va) in v.iter_mut().enumerate() {
                     va[x] = vx[a];
                 }
@@ -2534,7 +2693,7 @@ mod dielectric {
                             let sx: Vec<f64> = (0..na).map(|a| s(a, x)).collect();
                             let mx: Vec<Option<f64>> =
                                 mid.iter().map(|p| p.map(|p| p.sc[x])).collect();
-                            fit_row(&sx, &mx, &mid_weights(&mid, x), steps)
+                            fit_sheet(&sx, na, 1, &mx, &mid_weights(&mid, x), &[], &[], steps)
                         })
                         .collect();
                     let v = (0..na)
@@ -2610,7 +2769,7 @@ mod dielectric {
              commit: {}\n\
              lobe table: data/tabulated_dielectric.bin, {table_commit}\n\
              fit: per row (NDF, block, index node) and source node (side, mu), node values v minimising sum_nodes w (v - s)^2 + sum_midpoints w ((v_a + v_a+1) / 2 - m)^2, s the exact node scales of {exact_path}, m the exact scales at the {} midpoints of the roughness intervals, w = (t / s)^2 at the midpoint (1 - E_ss over its scale; a node's the mean of its midpoints'); roughness node 0 and scale-0 nodes fixed; largest change of a node {:.2}% ({moved_at})\n\
-             exact nodes: {}; {}\n\
+             {}             exact nodes: {}; {}\n\
              quadrature: --broad {broad} (as --dielectric-scale); E_ss quadrature {quad} x {quad}; deterministic, no seeds\n\
              wall time: {:.0} s on {threads} threads\n\
              {SCALE_STORAGE}\n",
@@ -2619,6 +2778,24 @@ mod dielectric {
             git_commit(),
             jobs.len(),
             100.0 * moved,
+            match &base {
+                Some((raw, path)) => {
+                    let old = String::from_utf8_lossy(&raw[..HEADER_BYTES]).to_string();
+                    let line = |key: &str| {
+                        old.lines()
+                            .find(|l| l.starts_with(key))
+                            .unwrap_or("?")
+                            .to_string()
+                    };
+                    format!(
+                        "low-2d: the low-index block refitted over the midpoints of its roughness and index intervals ({} index midpoints; eval interpolates a node's two neighbours there too), by conjugate gradients on its whole sheet per NDF and source node; the main block copied from {path} ({}; {})\n",
+                        ijobs.len(),
+                        line("command:"),
+                        line("commit:")
+                    )
+                }
+                None => String::new(),
+            },
             exact_line("command:"),
             exact_line("commit:"),
             t0.elapsed().as_secs_f64(),
