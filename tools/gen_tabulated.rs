@@ -2769,7 +2769,8 @@ mod dielectric {
              commit: {}\n\
              lobe table: data/tabulated_dielectric.bin, {table_commit}\n\
              fit: per row (NDF, block, index node) and source node (side, mu), node values v minimising sum_nodes w (v - s)^2 + sum_midpoints w ((v_a + v_a+1) / 2 - m)^2, s the exact node scales of {exact_path}, m the exact scales at the {} midpoints of the roughness intervals, w = (t / s)^2 at the midpoint (1 - E_ss over its scale; a node's the mean of its midpoints'); roughness node 0 and scale-0 nodes fixed; largest change of a node {:.2}% ({moved_at})\n\
-             {}             exact nodes: {}; {}\n\
+             {}\
+             exact nodes: {}; {}\n\
              quadrature: --broad {broad} (as --dielectric-scale); E_ss quadrature {quad} x {quad}; deterministic, no seeds\n\
              wall time: {:.0} s on {threads} threads\n\
              {SCALE_STORAGE}\n",
