@@ -98,7 +98,8 @@ fn furnace_report(rows: &[(f64, String)]) -> (String, f64) {
 /// degrees; to alpha 1: 0.14% with scale table version 4, 0.498% with
 /// the lobe table's version 5, whose normalised lobes moved GGX 0.1 glass
 /// 1.5 from inside at 85 degrees from +0.05% to +0.50%, between roughness
-/// nodes), and the mean of 100,000 sample weights within 0.5% plus 3
+/// nodes; 0.19% since session 28's fitted scale nodes), and the mean of
+/// 100,000 sample weights within 0.5% plus 3
 /// standard errors. The sample weights are heavier than the conductor's
 /// (relative standard deviation up to 1.2 for rough glass at grazing
 /// angles): the standard error is asserted below 4e-3 to alpha 1, so the
@@ -162,7 +163,8 @@ fn white_furnace_both_sides_eval_and_sample() {
 /// (Beckmann 0.8 at 89 degrees, between roughness nodes; GGX 1.9 +0.17%)
 /// with scale table version 3, 0.45% with version 4 (4 scale nodes per
 /// lobe interval), 0.47% with the lobe table's version 5 (normalised
-/// lobes); bounded at 0.7%.
+/// lobes), 0.36% with the fitted scale nodes (session 28); bounded at
+/// 0.5% (0.7% until then).
 #[test]
 fn furnace_of_glass_1_05_from_inside_near_grazing() {
     let dirs = [80.0, 85.0, 88.0, 89.0].map(|theta| incident(theta, -1.0));
@@ -176,7 +178,7 @@ fn furnace_of_glass_1_05_from_inside_near_grazing() {
         .collect();
     let (report, worst) = furnace_report(&rows);
     println!("{report}worst |albedo - 1| = {worst:.4}");
-    assert!(worst < 0.007, "{report}");
+    assert!(worst < 0.005, "{report}");
 }
 
 /// White furnace of isotropic glass between the scale table's lowest
@@ -194,8 +196,13 @@ fn furnace_of_glass_1_05_from_inside_near_grazing() {
 /// 0.330). Measured since version 6 (the low-index block, whose roughness
 /// nodes follow the crease): 0.92% (Beckmann 0.3 glass 1.059 from outside
 /// at 89 degrees, between the index nodes 1.05 and 1.069: the scales'
-/// curvature in `ln E` next to 1.05), 0.22% at 1.069; bounded at 1.1%
-/// (2.9% until version 6): the 0.5% is not met.
+/// curvature in `ln E` next to 1.05), 0.22% at 1.069; with the fitted
+/// scale nodes (session 28) 1.05% when fitted along roughness alone and
+/// **0.56%** with the low-index block fitted over its index intervals'
+/// midpoints too (Beckmann 0.45 glass 1.069 from outside at 89 degrees,
+/// -0.56%: an index node, whose scales are fitted, not exact);
+/// bounded at 0.7% (1.1% until session 28, 2.9% until version 6): the
+/// issue's 0.5% is not met.
 #[test]
 fn furnace_between_the_lowest_index_nodes() {
     let dirs: Vec<Vec3> = [1.0f32, -1.0]
@@ -212,7 +219,7 @@ fn furnace_between_the_lowest_index_nodes() {
     }
     let (report, worst) = furnace_report(&rows);
     println!("{report}worst |albedo - 1| = {worst:.4}");
-    assert!(worst < 0.011, "{report}");
+    assert!(worst < 0.007, "{report}");
 }
 
 /// White furnace of isotropic glass across the range near grazing
@@ -230,8 +237,10 @@ fn furnace_between_the_lowest_index_nodes() {
 /// glass 1.126 from inside at 88 degrees +1.9%, 0.41% since scale table
 /// version 4). Measured: worst 0.64% (1.15% with scale table version 3,
 /// 1.26% with version 4 and the walk's lobes), 90th percentile 0.14%
-/// (0.23%, 0.16%), 1 of 240 cases over 0.5%; bounded at 0.8% and 0.2%
-/// (1.3% and 0.3% until version 5).
+/// (0.23%, 0.16%), 1 of 240 cases over 0.5%; with the fitted scale nodes
+/// (session 28) worst 0.30%, 90th percentile 0.10%, none over 0.5%;
+/// bounded at 0.45% and 0.15% (0.8% and 0.2% until session 28, 1.3% and
+/// 0.3% until version 5).
 #[test]
 fn isotropic_furnace_at_random_cases_near_grazing() {
     let mut rng = Rng::new(1128, 5);
@@ -258,8 +267,8 @@ fn isotropic_furnace_at_random_cases_near_grazing() {
     let over = rows.iter().filter(|r| r.0.abs() > 0.005).count();
     let (report, _) = furnace_report(&rows[..12]);
     println!("{report}worst {worst:.4}, 90th percentile {p90:.4}, over 0.5%: {over} of {n}");
-    assert!(worst < 0.008, "worst {worst:.4}\n{report}");
-    assert!(p90 < 0.002, "90th percentile {p90:.4}\n{report}");
+    assert!(worst < 0.0045, "worst {worst:.4}\n{report}");
+    assert!(p90 < 0.0015, "90th percentile {p90:.4}\n{report}");
 }
 
 /// White furnace below the roughness 0.05 at grazing incidence (80-89
@@ -267,7 +276,8 @@ fn isotropic_furnace_at_random_cases_near_grazing() {
 /// nears 1 and the furnace scales change fastest with the roughness.
 /// Measured: worst 0.22% (Beckmann 0.0055 from inside at 89 degrees;
 /// 0.21% with scale table version 4, 0.20% with the lobe table's
-/// version 5), bounded at 0.3%. Until session 22 the scale solve's lower clamp (0.25)
+/// version 5, 0.15% with the fitted scale nodes of session 28), bounded
+/// at 0.25% (0.3% until session 28). Until session 22 the scale solve's lower clamp (0.25)
 /// left the lobe a quarter of its energy where `E_ss` is 1: Beckmann
 /// 0.0055 from inside at 88.5 degrees was +4.0%. Until session 23 the
 /// scale table had no roughness node between 0.0035 and 0.0139: GGX 0.01
@@ -291,7 +301,7 @@ fn furnace_at_low_roughness_near_grazing() {
         .collect();
     let (report, worst) = furnace_report(&rows);
     println!("{report}worst |albedo - 1| = {worst:.4}");
-    assert!(worst < 0.003, "{report}");
+    assert!(worst < 0.0025, "{report}");
 }
 
 /// Anisotropic glass with a roughness below the correction's node 1

@@ -1785,7 +1785,9 @@ mod dielectric {
     /// scaled albedo is the target at every node; a product keeps both
     /// reciprocity rules. The scales are written as 16-bit steps
     /// ([`scale_steps`]). The committed table (since session 23) uses
-    /// `--broad 400` below.
+    /// `--broad 400` below, and since session 28 its nodes are fitted
+    /// (`--dielectric-scale-fit`, [`scale_fit_main`]) to a table this
+    /// command wrote.
     ///
     /// Options: `--ng N` the reflection sets' and transmission grid's size
     /// (48); `--broad N` instead integrates both over the tests' nodes
@@ -1945,20 +1947,12 @@ mod dielectric {
         // deterministic: a full run with the same lobe table computes the
         // same values), only the low-index block's new roughness nodes
         // are solved.
-        let keep: Option<(Vec<u8>, String)> = args
-            .iter()
-            .position(|a| a == "--keep")
-            .and_then(|p| args.get(p + 1))
-            .map(|path| {
-                let raw = std::fs::read(path).expect("read --keep table");
-                assert!(
-                    raw.starts_with(b"MSBSDF-TABULATED-DIELECTRIC-SCALE-v5\n")
-                        && raw.len()
-                            == HEADER_BYTES + 2 * NDF_N * SCALE_ALPHA_N * SCALE_ETA_N * 2 * fm,
-                    "--keep: not a version-5 scale table"
-                );
-                (raw, path.clone())
-            });
+        let keep = table_arg(
+            args,
+            "--keep",
+            b"MSBSDF-TABULATED-DIELECTRIC-SCALE-v5\n",
+            HEADER_BYTES + 2 * NDF_N * SCALE_ALPHA_N * SCALE_ETA_N * 2 * fm,
+        );
         // Version 5's roughness node (its grid is the main block's) that
         // node `a` of a block is, if any.
         let v5_node = |low: bool, a: usize| {
@@ -2155,6 +2149,23 @@ mod dielectric {
             SCALE_FILE_BYTES,
             &payload,
         );
+    }
+
+    /// The bytes and path of the scale table file named by option `name`,
+    /// if given; it must start with `magic` and be `len` bytes long.
+    fn table_arg(
+        args: &[String],
+        name: &str,
+        magic: &[u8],
+        len: usize,
+    ) -> Option<(Vec<u8>, String)> {
+        let path = args.get(args.iter().position(|a| a == name)? + 1)?;
+        let raw = std::fs::read(path).unwrap_or_else(|e| panic!("{name}: read {path}: {e}"));
+        assert!(
+            raw.starts_with(magic) && raw.len() == len,
+            "{name}: {path} is not a scale table of the expected version and layout"
+        );
+        Some((raw, path.clone()))
     }
 
     /// One point's furnace scales (`--dielectric-scale`'s solve): the
@@ -2450,12 +2461,8 @@ mod dielectric {
             "--out",
             "data/tabulated_dielectric_scale.bin".to_string(),
         );
-        let exact_path: String = arg(args, "--exact", String::new());
-        let raw = std::fs::read(&exact_path).expect("--exact: read the exact scale table");
-        assert!(
-            raw.starts_with(SCALE_MAGIC) && raw.len() == SCALE_FILE_BYTES,
-            "--exact: not a scale table of this layout"
-        );
+        let (raw, exact_path) = table_arg(args, "--exact", SCALE_MAGIC, SCALE_FILE_BYTES)
+            .expect("--exact EXACT.bin: the exact scale table");
         let exact_head = String::from_utf8_lossy(&raw[..HEADER_BYTES]).to_string();
         assert!(
             !exact_head.lines().any(|l| l.starts_with("fit:")),
@@ -2492,18 +2499,7 @@ mod dielectric {
         // the midpoints of its index intervals too, the rest copied from
         // `FITTED.bin`.
         let low2d = args.iter().any(|a| a == "--low-2d");
-        let base: Option<(Vec<u8>, String)> = args
-            .iter()
-            .position(|a| a == "--base")
-            .and_then(|p| args.get(p + 1))
-            .map(|path| {
-                let raw = std::fs::read(path).expect("--base: read the fitted scale table");
-                assert!(
-                    raw.starts_with(SCALE_MAGIC) && raw.len() == SCALE_FILE_BYTES,
-                    "--base: not a scale table of this layout"
-                );
-                (raw, path.clone())
-            });
+        let base = table_arg(args, "--base", SCALE_MAGIC, SCALE_FILE_BYTES);
         assert!(!low2d || base.is_some(), "--low-2d needs --base");
         let rows: Vec<(usize, bool, usize)> = match &pilot {
             Some(v) if v.len() == 3 => vec![(v[0], v[1] == 1, v[2])],

@@ -84,10 +84,16 @@
 //! the lobe table's crease ([`scale_low_split`]),
 //! [`SCALE_MU_N`] cosines per side; 16-bit multiples of [`SCALE_STEP`],
 //! 6.1e-5, read in place) such that `f_ms(wi, wo) s(wi) s(wo)` has
-//! the multiply scattered albedo `1 - E_ss(mu_i)` at every node (`E_ss` =
-//! SINGLE's reflected plus transmitted albedo by deterministic quadrature):
-//! a symmetric (Sinkhorn) scaling of the interpolated, clamped lobes exactly
-//! as eval reads them, over the nodes of both sides. A product
+//! the multiply scattered albedo `1 - E_ss(mu_i)` (`E_ss` = SINGLE's
+//! reflected plus transmitted albedo by deterministic quadrature): a
+//! symmetric (Sinkhorn) scaling of the interpolated, clamped lobes exactly
+//! as eval reads them, over the cosine nodes of both sides, solved at
+//! every node and at the midpoint of every roughness interval (and, in
+//! the low-index block, of every index interval); the stored node values
+//! are the weighted least-squares fit of both with the table's linear
+//! interpolation (`gen_tabulated -- --dielectric-scale-fit`, since
+//! session 28), so the furnace error between nodes is shared with the
+//! nodes instead of falling wholly between them. A product
 //! `s(wi) s(wo)` keeps both reciprocity rules. The azimuth-averaged albedos
 //! of the two lobes seen from each side (before the scale) are stored for the
 //! sampler.
