@@ -2104,13 +2104,7 @@ mod dielectric {
         };
         let kept = match &keep {
             Some((raw, path)) => {
-                let old = String::from_utf8_lossy(&raw[..HEADER_BYTES]);
-                let line = |key: &str| {
-                    old.lines()
-                        .find(|l| l.starts_with(key))
-                        .unwrap_or("?")
-                        .to_string()
-                };
+                let line = |key: &str| header_line(raw, key);
                 format!(
                     "kept: the nodes of version 5's grid copied from {path} (version 5; its {}; {}), the low-index block's other roughness nodes solved here\n",
                     line("command:"),
@@ -2140,15 +2134,30 @@ mod dielectric {
             SCALE_LOW_ETA_N - 1,
             t0.elapsed().as_secs_f64(),
         );
+        write_scale_table(&out, &head, &scale);
+    }
+
+    /// Writes a scale table file: the header `head` and the 16-bit steps.
+    fn write_scale_table(out: &str, head: &str, scale: &[u16]) {
         let payload: Vec<u8> = scale.iter().flat_map(|q| q.to_le_bytes()).collect();
         super::write_bytes(
-            &out,
-            &head,
+            out,
+            head,
             SCALE_MAGIC,
             HEADER_BYTES,
             SCALE_FILE_BYTES,
             &payload,
         );
+    }
+
+    /// The first line of a table file's text header that starts with
+    /// `key` ("?" if none).
+    fn header_line(raw: &[u8], key: &str) -> String {
+        String::from_utf8_lossy(&raw[..HEADER_BYTES.min(raw.len())])
+            .lines()
+            .find(|l| l.starts_with(key))
+            .unwrap_or("?")
+            .to_string()
     }
 
     /// The bytes and path of the scale table file named by option `name`,
@@ -2746,13 +2755,7 @@ mod dielectric {
             }
             return;
         }
-        let exact_line = |key: &str| {
-            exact_head
-                .lines()
-                .find(|l| l.starts_with(key))
-                .unwrap_or("?")
-                .to_string()
-        };
+        let exact_line = |key: &str| header_line(&raw, key);
         let table_commit = header()
             .lines()
             .find(|l| l.starts_with("commit:"))
@@ -2777,13 +2780,7 @@ mod dielectric {
             100.0 * moved,
             match &base {
                 Some((raw, path)) => {
-                    let old = String::from_utf8_lossy(&raw[..HEADER_BYTES]).to_string();
-                    let line = |key: &str| {
-                        old.lines()
-                            .find(|l| l.starts_with(key))
-                            .unwrap_or("?")
-                            .to_string()
-                    };
+                    let line = |key: &str| header_line(raw, key);
                     format!(
                         "low-2d: the low-index block refitted over the midpoints of its roughness and index intervals ({} index midpoints; eval interpolates a node's two neighbours there too), by conjugate gradients on its whole sheet per NDF and source node; the main block copied from {path} ({}; {})\n",
                         ijobs.len(),
@@ -2797,15 +2794,7 @@ mod dielectric {
             exact_line("commit:"),
             t0.elapsed().as_secs_f64(),
         );
-        let payload: Vec<u8> = scale.iter().flat_map(|q| q.to_le_bytes()).collect();
-        super::write_bytes(
-            &out,
-            &head,
-            SCALE_MAGIC,
-            HEADER_BYTES,
-            SCALE_FILE_BYTES,
-            &payload,
-        );
+        write_scale_table(&out, &head, &scale);
     }
 
     /// How versions 2 and 3 of the scale table store the scales (a header
