@@ -2433,7 +2433,7 @@ mod dielectric {
     /// index node) are solved as `--dielectric-scale` solves a node, and per
     /// row and source node `x = (side, mu)` the node values `v` minimise
     /// `sum_nodes w (v - s)^2 + sum_midpoints w ((v_a + v_a+1) / 2 - m)^2`
-    /// (a tridiagonal system), `s` the exact node scales read from
+    /// ([`fit_sheet`]), `s` the exact node scales read from
     /// `EXACT.bin` (a table `--dielectric-scale` wrote for the same lobe
     /// table), `m` the midpoints', `w = (t / s)^2` with the midpoint's
     /// target `t = 1 - E_ss` and scale (the furnace error a relative change
@@ -2444,6 +2444,12 @@ mod dielectric {
     ///
     /// `--lawson K` (default 0) takes `K` steps of Lawson's reweighting
     /// ([`fit_sheet`]) towards the minimax fit; the committed table uses 3.
+    /// `--low-2d --base FITTED.bin` refits the low-index block (index
+    /// 1.05-1.166) as one sheet per NDF and source node over the midpoints
+    /// of its index intervals too (solved at `sqrt(E_e E_e+1)`: eval's index
+    /// coordinate is linear in `ln E` there), where the scales bend in `ln
+    /// E` next to 1.05, and copies the rest from `FITTED.bin` (a table this
+    /// command wrote without `--low-2d`); the committed table is made so.
     ///
     /// `--pilot N,L,E` (NDF, 1 for the low-index block, index node) fits one
     /// row with each number of Lawson steps of `--pilot-lawson K,K,...`
