@@ -2572,6 +2572,16 @@ mod dielectric {
             let (n, low, e) = rows[r];
             solve_scales(n, alpha_at(low, a, f), scale_grid_eta(e), q, quad)
         });
+        // The midpoint solve of row `r`'s roughness interval `a`, if any.
+        let mid_of: std::collections::HashMap<(usize, usize), &ScaleSolve> = jobs
+            .iter()
+            .zip(&res)
+            .filter(|((_, _, f), _)| *f == 0.5)
+            .map(|(&(r, a, _), p)| ((r, a), p))
+            .collect();
+        let row_mids = |r: usize, na: usize| -> Vec<Option<&ScaleSolve>> {
+            (0..na - 1).map(|a| mid_of.get(&(r, a)).copied()).collect()
+        };
         // `--low-2d`: the midpoints of the low-index block's index
         // intervals (NDF, roughness node, lower index node).
         let ijobs: Vec<(usize, usize, usize)> = if low2d {
@@ -2597,16 +2607,28 @@ mod dielectric {
                 .collect(),
             None => (0..SCALE_LEN).map(|i| scale_steps(exact(i))).collect(),
         };
+        // The largest relative change of a node, and where.
         let (mut moved, mut moved_at) = (0.0f64, String::new());
+        let mut note = |v: f64, s: f64, n: usize, low: bool, a: usize, e: usize, x: usize| {
+            let dv = (v - s).abs() / s.max(1e-3);
+            if dv > moved {
+                moved = dv;
+                moved_at = format!(
+                    "NDF {n} {} index {:.4} roughness {:.4} side {} mu {:.4}",
+                    if low { "low block" } else { "main block" },
+                    scale_grid_eta(e),
+                    grid_alpha_of(low, a),
+                    x / fm,
+                    msbsdf::multiple::tabulated_dielectric::scale_grid_mu(x % fm)
+                );
+            }
+        };
         if low2d {
             let (na, ne) = (SCALE_LOW_ALPHA_N, SCALE_LOW_ETA_N);
             for n in 0..NDF_N {
                 let row_of = |e: usize| rows.iter().position(|&r| r == (n, true, e));
-                let rmid = |a: usize, e: usize| {
-                    row_of(e)
-                        .and_then(|r| jobs.iter().position(|&j| j == (r, a, 0.5)))
-                        .map(|p| &res[p])
-                };
+                let rmid =
+                    |a: usize, e: usize| row_of(e).and_then(|r| mid_of.get(&(r, a)).copied());
                 let imid = |a: usize, e: usize| {
                     ijobs.iter().position(|&j| j == (n, a, e)).map(|p| &ires[p])
                 };
@@ -2632,86 +2654,53 @@ mod dielectric {
                     );
                     for (k, vk) in v.iter().enumerate() {
                         let (a, e) = (k / ne, k % ne);
-                        let dv = (vk - sx[k]).abs() / sx[k].max(1e-3);
-                        if dv > moved {
-                            moved = dv;
-                            moved_at = format!(
-                                "NDF {n} low block index {:.4} roughness {:.4} side {} mu {:.4}",
-                                scale_grid_eta(e),
-                                scale_low_grid_alpha(a),
-                                x / fm,
-                                msbsdf::multiple::tabulated_dielectric::scale_grid_mu(x % fm)
-                            );
-                        }
+                        note(*vk, sx[k], n, true, a, e, x);
                         scale[scale_index(n, true, a, e, x / fm, x % fm)] = scale_steps(*vk);
                     }
                 }
             }
         }
-        for (r, &(n, low, e)) in rows.iter().enumerate().filter(|_| !low2d) {
+        // Row `r` fitted along roughness with `steps` Lawson steps: the
+        // node values `[a][x]`.
+        let fit_one_row = |r: usize, steps: usize| -> Vec<Vec<f64>> {
+            let (n, low, e) = rows[r];
             let na = nodes_of(low);
-            let s = |a: usize, x: usize| exact(scale_index(n, low, a, e, x / fm, x % fm));
-            // Midpoint solves of this row by interval.
-            let mid: Vec<Option<&ScaleSolve>> = (0..na - 1)
-                .map(|a| jobs.iter().position(|&j| j == (r, a, 0.5)).map(|p| &res[p]))
+            let mid = row_mids(r, na);
+            let cols: Vec<Vec<f64>> = (0..2 * fm)
+                .map(|x| {
+                    let sx: Vec<f64> = (0..na)
+                        .map(|a| exact(scale_index(n, low, a, e, x / fm, x % fm)))
+                        .collect();
+                    let mx: Vec<Option<f64>> = mid.iter().map(|p| p.map(|p| p.sc[x])).collect();
+                    fit_sheet(&sx, na, 1, &mx, &mid_weights(&mid, x), &[], &[], steps)
+                })
                 .collect();
-            let mut v = vec![vec![0.0f64; 2 * fm]; na];
-            for x in 0..2 * fm {
-                let wm = mid_weights(&mid, x);
-                let sx: Vec<f64> = (0..na).map(|a| s(a, x)).collect();
-                let mx: Vec<Option<f64>> = mid.iter().map(|p| p.map(|p| p.sc[x])).collect();
-                let vx = fit_sheet(&sx, na, 1, &mx, &wm, &[], &[], lawson);
-                for (a, va) in v.iter_mut().enumerate() {
-                    va[x] = vx[a];
-                }
-                for (a, va) in v.iter().enumerate() {
-                    let dv = (va[x] - s(a, x)).abs() / s(a, x).max(1e-3);
-                    if dv > moved {
-                        moved = dv;
-                        moved_at = format!(
-                            "NDF {n} {} index {:.4} roughness {:.4} side {} mu {:.4}",
-                            if low { "low block" } else { "main block" },
-                            scale_grid_eta(e),
-                            grid_alpha_of(low, a),
-                            x / fm,
-                            msbsdf::multiple::tabulated_dielectric::scale_grid_mu(x % fm)
-                        );
+            (0..na)
+                .map(|a| cols.iter().map(|c| c[a]).collect())
+                .collect()
+        };
+        if !low2d && pilot.is_none() {
+            for (r, &(n, low, e)) in rows.iter().enumerate() {
+                for (a, va) in fit_one_row(r, lawson).iter().enumerate() {
+                    for (x, &v) in va.iter().enumerate() {
+                        let i = scale_index(n, low, a, e, x / fm, x % fm);
+                        note(v, exact(i), n, low, a, e, x);
+                        scale[i] = scale_steps(v);
                     }
-                }
-            }
-            for (a, va) in v.iter().enumerate() {
-                for x in 0..2 * fm {
-                    scale[scale_index(n, low, a, e, x / fm, x % fm)] = scale_steps(va[x]);
                 }
             }
         }
         if pilot.is_some() {
             let (n, low, e) = rows[0];
-            let na = nodes_of(low);
             let s = |a: usize, x: usize| exact(scale_index(n, low, a, e, x / fm, x % fm));
             // The furnace is reported to 89 degrees: cosine nodes from the
             // first at or above cos(89.1 degrees).
+            let mu_min = 89.1f32.to_radians().cos();
             let x_ok =
-                |x: usize| msbsdf::multiple::tabulated_dielectric::scale_grid_mu(x % fm) >= 0.0157;
-            let mid: Vec<Option<&ScaleSolve>> = (0..na - 1)
-                .map(|a| jobs.iter().position(|&j| j == (0, a, 0.5)).map(|p| &res[p]))
-                .collect();
+                |x: usize| msbsdf::multiple::tabulated_dielectric::scale_grid_mu(x % fm) >= mu_min;
             let fits: Vec<(usize, Vec<Vec<f64>>)> = pilot_lawson
                 .iter()
-                .map(|&steps| {
-                    let cols: Vec<Vec<f64>> = (0..2 * fm)
-                        .map(|x| {
-                            let sx: Vec<f64> = (0..na).map(|a| s(a, x)).collect();
-                            let mx: Vec<Option<f64>> =
-                                mid.iter().map(|p| p.map(|p| p.sc[x])).collect();
-                            fit_sheet(&sx, na, 1, &mx, &mid_weights(&mid, x), &[], &[], steps)
-                        })
-                        .collect();
-                    let v = (0..na)
-                        .map(|a| cols.iter().map(|c| c[a]).collect())
-                        .collect();
-                    (steps, v)
-                })
+                .map(|&steps| (steps, fit_one_row(0, steps)))
                 .collect();
             let mut worst = vec![[0.0f64; 3]; fits.len() + 1];
             for (&(_, a, f), p) in jobs.iter().zip(&res) {
