@@ -1976,7 +1976,7 @@ mod dielectric {
                 } = solve_scales(n, alpha, eta, Quadrature { ng, broad }, quad);
                 if only.is_some() && !between {
                     for x in 0..2 * fm {
-                        let r: f64 = (0..2 * fm).map(|y| sc[x] * m[x][y] * sc[y]).sum();
+                        let r = furnace_row(&sc, &m, x);
                         let raw: f64 = m[x].iter().sum();
                         eprintln!(
                             "side {} mu {:.5}: target {:.5} unscaled {raw:.5} scale {:.4} scaled {r:.5}",
@@ -2001,7 +2001,7 @@ mod dielectric {
                 .collect();
             let mut worst = (0.0f64, 0);
             for x in 0..2 * fm {
-                let r: f64 = (0..2 * fm).map(|y| s[x] * m[x][y] * s[y]).sum();
+                let r = furnace_row(&s, m, x);
                 let exact = res[0].0[x];
                 eprintln!(
                     "side {} mu {:.5}: target {:.5} scale exact {exact:.4} interpolated {:.4} furnace {:+.4}%",
