@@ -452,6 +452,10 @@ fn main() {
             &alphas_arg(&args),
             &etas,
             iso,
+            args.iter()
+                .position(|a| a == "--rows")
+                .and_then(|p| args.get(p + 1)?.parse().ok())
+                .unwrap_or(15),
         );
         return;
     }
@@ -1789,6 +1793,7 @@ fn dielectric_sweep(
     alphas: &[f32],
     etas: &[f32],
     isotropic: bool,
+    rows: usize,
 ) {
     use msbsdf::multiple::tabulated_dielectric::TabulatedDielectric;
     let mut materials = Vec::new();
@@ -1844,10 +1849,10 @@ fn dielectric_sweep(
         .map(|(ax, ay, d)| format!("({ax},{ay}) {:.4}", d.abs()))
         .collect();
     println!("worst per roughness pair: {}", line.join(", "));
-    for &(i, wi, d) in res.iter().take(15) {
+    for &(i, wi, d) in res.iter().take(rows) {
         let (n, ax, ay, eta) = materials[i];
         println!(
-            "{:?} ({ax:.3},{ay:.3}) eta {eta:.3} theta {:.0} phi {:.1}: {d:+.4}",
+            "{:?} ({ax:.3},{ay:.3}) eta {eta:.3} theta {:.1} phi {:.1}: {d:+.4}",
             NDFS[n],
             wi.z.abs().acos().to_degrees(),
             wi.y.atan2(wi.x).to_degrees()
