@@ -504,14 +504,19 @@ pub fn scale_grid_mu(i: usize) -> f32 {
 /// Continuous node coordinate in `[0, SCALE_MU_N - 1]` on the scale
 /// table's cosine grid ([`scale_grid_mu`]) of `r = sqrt(mu)` in `[0, 1]`,
 /// from the plain coordinate `p = 31 r`: `p / 3` on the first three plain
-/// intervals, `p - 2` up to 30, `28 + 3 (p - 30)` after it (two `max`
-/// and three multiply-adds; eval interpolates the scales linearly in it).
+/// intervals, `p - 2` up to 30, `28 + 3 (p - 30)` after it. The slopes
+/// rise, so the function is the largest of the three lines (three
+/// multiply-adds and two `max`; eval interpolates the scales linearly in
+/// it).
 #[inline(always)]
 pub fn scale_mu_x(r: f32) -> f32 {
     const N: f32 = SCALE_MU_PLAIN_INTERVALS as f32;
-    const EXTRA: f32 = (SCALE_MU_TOP_SPLIT - 1) as f32;
-    let p = r * N;
-    (p - 2.0) + EXTRA * (p - (N - 1.0)).max(0.0) + (2.0 - p * (2.0 / 3.0)).max(0.0)
+    const TOP: f32 = SCALE_MU_TOP_SPLIT as f32;
+    // Node 28 is the plain node 30 (= N - 1).
+    const TOP_AT: f32 = TOP * (N - 1.0) - (N - 3.0);
+    (r * (N / 3.0))
+        .max(r * N - 2.0)
+        .max(r * (TOP * N) - TOP_AT)
 }
 
 /// Index of a scale table entry: of the low-index block (`low`, roughness
