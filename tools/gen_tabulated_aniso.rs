@@ -1785,8 +1785,10 @@ const SWEEP_ETAS: [f32; 5] = [1.05, 1.2, 1.5, 2.0, 3.0];
 /// 60, 75, 85 and 89 degrees (or `--thetas`) and `--azimuths N` azimuths from 0 to 90
 /// degrees (9 by default, [`azimuths_arg`]). Prints
 /// the worst, 99th and 90th percentiles and median of `|albedo - 1|` and
-/// the worst cases. With `isotropic`, the roughness pairs are `(a, a)` for
-/// each `a` of `alphas` instead (isotropic glass; `--isotropic`).
+/// the `rows` worst cases (`--rows N`, 15 by default; a large `N` prints
+/// every row, to see the furnace along `--thetas`). With `isotropic`, the
+/// roughness pairs are `(a, a)` for each `a` of `alphas` instead
+/// (isotropic glass; `--isotropic`).
 fn dielectric_sweep(
     azimuths: usize,
     thetas: &[f32],

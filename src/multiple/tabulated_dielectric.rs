@@ -514,9 +514,7 @@ pub fn scale_mu_x(r: f32) -> f32 {
     const TOP: f32 = SCALE_MU_TOP_SPLIT as f32;
     // Node 28 is the plain node 30 (= N - 1).
     const TOP_AT: f32 = TOP * (N - 1.0) - (N - 3.0);
-    (r * (N / 3.0))
-        .max(r * N - 2.0)
-        .max(r * (TOP * N) - TOP_AT)
+    (r * (N / 3.0)).max(r * N - 2.0).max(r * (TOP * N) - TOP_AT)
 }
 
 /// Index of a scale table entry: of the low-index block (`low`, roughness
