@@ -304,6 +304,39 @@ fn furnace_at_low_roughness_near_grazing() {
     assert!(worst < 0.0025, "{report}");
 }
 
+/// White furnace near the normal (4 to 24 degrees) of rough glass of low
+/// index, from the dense side (where the exact furnace scales change
+/// fastest there) and from the thin side: both NDFs, roughness 0.7, 1.3
+/// and 1.9, `E` 1.05, 1.08, 1.125, 1.2 and 1.3 (eval quadrature). Until
+/// the scale table's version 7 its last cosine interval spanned 20.5 to
+/// 0 degrees; the scales of Beckmann 1.9 glass 1.125 from inside rose
+/// from 0.95 to 1.49 across it and the furnace was +2.90% at 14 degrees
+/// (version 6, fitted nodes; no other test looked between 0 and 30
+/// degrees). Measured with version 7 (that interval split in 3): worst
+/// 0.98%, Beckmann 1.9 glass 1.2 from inside at 24 degrees, in the next
+/// interval (29.4 to 20.5 degrees, unchanged: 0.99% with version 6);
+/// within the split interval at most 0.53% (Beckmann 1.9 glass 1.08
+/// from inside at 8 degrees). Bounded at 1.1%: the 0.5% is not
+/// met here.
+#[test]
+fn furnace_near_the_normal_at_low_index() {
+    let dirs: Vec<Vec3> = [-1.0f32, 1.0]
+        .into_iter()
+        .flat_map(|side| [4.0, 8.0, 11.0, 14.0, 17.0, 24.0].map(|theta| incident(theta, side)))
+        .collect();
+    let mut rows = Vec::new();
+    for ndf in NDFS {
+        for a in [0.7f32, 1.3, 1.9] {
+            for e in [1.05f32, 1.08, 1.125, 1.2, 1.3] {
+                rows.extend(furnace_rows(ndf, a, a, e, &dirs));
+            }
+        }
+    }
+    let (report, worst) = furnace_report(&rows);
+    println!("{report}worst |albedo - 1| = {worst:.4}");
+    assert!(worst < 0.011, "{report}");
+}
+
 /// Anisotropic glass with a roughness below the correction's node 1
 /// (0.031) against a rough axis, near grazing from both sides (glass
 /// 1.05: the dense side's grazing reflection is where the uncorrected

@@ -1499,17 +1499,19 @@ mod dielectric {
     /// `M(x, y)`: the albedo of `tab`'s unscaled multiply scattered lobe
     /// (`multiple_unscaled`, exactly as eval reads it) from source node `x =
     /// (side, i)` (side 0 the outside, `z > 0`; cosine `mu(i)`) split onto
-    /// the hat functions of the grid of `fm` cosines per side uniform in
-    /// `sqrt(mu)` at `wo`'s side and cosine, `y = (side, j)`; `2 fm x 2 fm`.
+    /// the hat functions of the grid of `fm` cosines per side (the node
+    /// coordinate of a cosine `node_x(mu)` in `[0, fm - 1]`) at `wo`'s side
+    /// and cosine, `y = (side, j)`; `2 fm x 2 fm`.
     fn lobe_rows(
         tab: &msbsdf::multiple::tabulated_dielectric::TabulatedDielectric,
         alpha: f32,
         q: Quadrature,
         fm: usize,
         mu: impl Fn(usize) -> f32,
+        node_x: impl Fn(f32) -> f32,
     ) -> Vec<Vec<f64>> {
         let Quadrature { ng, broad } = q;
-        let fine_x = |mu: f32| (mu.clamp(0.0, 1.0).sqrt() * (fm - 1) as f32) as f64;
+        let fine_x = |mu: f32| node_x(mu.clamp(0.0, 1.0)) as f64;
         // Reflection proposal: GGX visible normals (see `scale_main`).
         let proposal = Ndf::new(msbsdf::ndf::NdfKind::Ggx, alpha, alpha);
         let single1 = Single::new(proposal, CONDUCTOR_F1, G2Form::HeightCorrelated);
@@ -1676,7 +1678,14 @@ mod dielectric {
             let ndf = Ndf::new(NDFS[n], alpha, alpha);
             let tab = TabulatedDielectric::new(ndf, Facet::Dielectric { eta });
             let q = Quadrature { ng, broad };
-            let m = lobe_rows(&tab, alpha, q, MU_N, |i| grid_mu(i).max(1e-5));
+            let m = lobe_rows(
+                &tab,
+                alpha,
+                q,
+                MU_N,
+                |i| grid_mu(i).max(1e-5),
+                |mu| mu.sqrt() * (MU_N - 1) as f32,
+            );
             // Target `max(A, floor)^power`, `A` the lobe's albedo from the
             // node; a few Jacobi steps of the symmetric scaling from
             // `u = sqrt(target / A)`, not a solve to convergence: where a
@@ -2194,12 +2203,19 @@ mod dielectric {
     /// `eta` (at least 1) on the scale grid's cosines ([`ScaleSolve`]).
     fn solve_scales(n: usize, alpha: f32, eta: f32, q: Quadrature, quad: usize) -> ScaleSolve {
         use msbsdf::multiple::tabulated_dielectric::{
-            SCALE_MAX, SCALE_MU_N, TabulatedDielectric, scale_grid_mu,
+            SCALE_MAX, SCALE_MU_N, TabulatedDielectric, scale_grid_mu, scale_mu_x,
         };
         let fm = SCALE_MU_N;
         let ndf = Ndf::new(NDFS[n], alpha, alpha);
         let tab = TabulatedDielectric::new(ndf, Facet::Dielectric { eta });
-        let m = lobe_rows(&tab, alpha, q, fm, |i| scale_grid_mu(i).max(1e-3));
+        let m = lobe_rows(
+            &tab,
+            alpha,
+            q,
+            fm,
+            |i| scale_grid_mu(i).max(1e-3),
+            |mu| scale_mu_x(mu.sqrt()),
+        );
         let mut target = vec![0.0f64; 2 * fm];
         for sd in 0..2 {
             for i in 0..fm {

@@ -452,6 +452,10 @@ fn main() {
             &alphas_arg(&args),
             &etas,
             iso,
+            args.iter()
+                .position(|a| a == "--rows")
+                .and_then(|p| args.get(p + 1)?.parse().ok())
+                .unwrap_or(15),
         );
         return;
     }
@@ -1781,14 +1785,17 @@ const SWEEP_ETAS: [f32; 5] = [1.05, 1.2, 1.5, 2.0, 3.0];
 /// 60, 75, 85 and 89 degrees (or `--thetas`) and `--azimuths N` azimuths from 0 to 90
 /// degrees (9 by default, [`azimuths_arg`]). Prints
 /// the worst, 99th and 90th percentiles and median of `|albedo - 1|` and
-/// the worst cases. With `isotropic`, the roughness pairs are `(a, a)` for
-/// each `a` of `alphas` instead (isotropic glass; `--isotropic`).
+/// the `rows` worst cases (`--rows N`, 15 by default; a large `N` prints
+/// every row, to see the furnace along `--thetas`). With `isotropic`, the
+/// roughness pairs are `(a, a)` for each `a` of `alphas` instead
+/// (isotropic glass; `--isotropic`).
 fn dielectric_sweep(
     azimuths: usize,
     thetas: &[f32],
     alphas: &[f32],
     etas: &[f32],
     isotropic: bool,
+    rows: usize,
 ) {
     use msbsdf::multiple::tabulated_dielectric::TabulatedDielectric;
     let mut materials = Vec::new();
@@ -1844,10 +1851,10 @@ fn dielectric_sweep(
         .map(|(ax, ay, d)| format!("({ax},{ay}) {:.4}", d.abs()))
         .collect();
     println!("worst per roughness pair: {}", line.join(", "));
-    for &(i, wi, d) in res.iter().take(15) {
+    for &(i, wi, d) in res.iter().take(rows) {
         let (n, ax, ay, eta) = materials[i];
         println!(
-            "{:?} ({ax:.3},{ay:.3}) eta {eta:.3} theta {:.0} phi {:.1}: {d:+.4}",
+            "{:?} ({ax:.3},{ay:.3}) eta {eta:.3} theta {:.1} phi {:.1}: {d:+.4}",
             NDFS[n],
             wi.z.abs().acos().to_degrees(),
             wi.y.atan2(wi.x).to_degrees()

@@ -108,7 +108,8 @@
 //! read on a triangle of their own table's `(alpha, eta)` plane (the table
 //! is computed for exactly this interpolation) at construction, for every
 //! cosine node of both sides, and kept in the material as 16-bit values
-//! (step 6.1e-5); per query they are interpolated linearly in `sqrt(mu)`
+//! (step 6.1e-5); per query they are interpolated linearly in the cosine
+//! grid's coordinate ([`scale_mu_x`], piecewise linear in `sqrt(mu)`)
 //! (two reads per direction, anisotropic materials read the table). Roughness node 0 (a smooth surface) has no multiple
 //! scattering and is not stored: its corners read as 0. The cosine series
 //! is clamped at 0.
@@ -308,8 +309,30 @@ pub const SCALE_ETA_SPLIT: [usize; 2] = [3, 2];
 /// the plain grid's [`SCALE_ETA_PLAIN_N`] and the split intervals' inner
 /// nodes.
 pub const SCALE_ETA_N: usize = SCALE_ETA_PLAIN_N + SCALE_ETA_SPLIT[0] + SCALE_ETA_SPLIT[1] - 2;
-/// Cosine nodes of the furnace scale table (uniform in `sqrt(mu)`).
+/// Cosine nodes of the furnace scale table per side ([`scale_grid_mu`],
+/// [`scale_mu_x`]).
 pub const SCALE_MU_N: usize = 32;
+/// Intervals of the plain cosine grid uniform in `r = sqrt(mu)` that the
+/// scale table's cosine nodes are placed on (version 7; until version 6
+/// the nodes were this grid's 32 nodes). Of its nodes `p / 31`, nodes 1
+/// and 2 are left out (the plain grid's first three intervals, 89.46
+/// degrees to grazing, are one: outside the 0-89 degrees the furnace is
+/// held to, and the scales there only weigh the few paths that leave
+/// within half a degree of the horizon), and its last interval (20.5 to 0
+/// degrees) is split in [`SCALE_MU_TOP_SPLIT`]. Near the normal the
+/// plain grid's last interval spans 20.5 degrees; seen from the dense
+/// side of a rough, low-index dielectric the exact scale changes by half
+/// its value across it (Beckmann 1.9 glass 1.125 from inside: 0.95 at
+/// 20.5 degrees, 1.49 at the normal) and the furnace was off by up to
+/// 2.9% at 14 degrees (version 6).
+pub const SCALE_MU_PLAIN_INTERVALS: usize = 31;
+/// Parts the plain cosine grid's last interval (next to the normal) is
+/// split into ([`SCALE_MU_PLAIN_INTERVALS`]).
+pub const SCALE_MU_TOP_SPLIT: usize = 3;
+const _: () = assert!(
+    SCALE_MU_PLAIN_INTERVALS - 2 + SCALE_MU_TOP_SPLIT == SCALE_MU_N,
+    "two plain nodes left out, the last interval split"
+);
 /// Index nodes of the scale table's low-index block (since version 6):
 /// its first `SCALE_LOW_ETA_N` index nodes (1.05 to 1.166, the split
 /// intervals of [`SCALE_ETA_SPLIT`] and their ends), on a finer roughness
@@ -385,7 +408,7 @@ pub const SCALE_LEN: usize =
 /// in `ln E`; version 5 splits the first two index intervals,
 /// [`SCALE_ETA_SPLIT`]; version 6 has the low-index block,
 /// [`scale_low_split`]).
-pub const SCALE_MAGIC: &[u8; 37] = b"MSBSDF-TABULATED-DIELECTRIC-SCALE-v6\n";
+pub const SCALE_MAGIC: &[u8; 37] = b"MSBSDF-TABULATED-DIELECTRIC-SCALE-v7\n";
 /// Total size of the scale table file in bytes.
 pub const SCALE_FILE_BYTES: usize = HEADER_BYTES + 2 * SCALE_LEN;
 
@@ -464,10 +487,34 @@ pub fn scale_eta_x(c: f32) -> f32 {
     s0 as f32 * c.min(1.0) + s1 as f32 * (c - 1.0).clamp(0.0, 1.0) + (c - 2.0).max(0.0)
 }
 
-/// Cosine of node `i` of the scale table.
+/// Cosine of node `i` of the scale table (the inverse of
+/// [`scale_mu_x`]): 0, then the plain grid's nodes `p / 31` from `p` = 3
+/// to 30, then the last plain interval's split points and 1.
 pub fn scale_grid_mu(i: usize) -> f32 {
-    let s = i as f32 / (SCALE_MU_N - 1) as f32;
-    s * s
+    let last = SCALE_MU_PLAIN_INTERVALS - 1;
+    let p = match i {
+        0 => 0.0,
+        i if i + 2 <= last => (i + 2) as f32,
+        i => last as f32 + (i + 2 - last) as f32 / SCALE_MU_TOP_SPLIT as f32,
+    };
+    let r = p / SCALE_MU_PLAIN_INTERVALS as f32;
+    r * r
+}
+
+/// Continuous node coordinate in `[0, SCALE_MU_N - 1]` on the scale
+/// table's cosine grid ([`scale_grid_mu`]) of `r = sqrt(mu)` in `[0, 1]`,
+/// from the plain coordinate `p = 31 r`: `p / 3` on the first three plain
+/// intervals, `p - 2` up to 30, `28 + 3 (p - 30)` after it. The slopes
+/// rise, so the function is the largest of the three lines (three
+/// multiply-adds and two `max`; eval interpolates the scales linearly in
+/// it).
+#[inline(always)]
+pub fn scale_mu_x(r: f32) -> f32 {
+    const N: f32 = SCALE_MU_PLAIN_INTERVALS as f32;
+    const TOP: f32 = SCALE_MU_TOP_SPLIT as f32;
+    // Node 28 is the plain node 30 (= N - 1).
+    const TOP_AT: f32 = TOP * (N - 1.0) - (N - 3.0);
+    (r * (N / 3.0)).max(r * N - 2.0).max(r * (TOP * N) - TOP_AT)
 }
 
 /// Index of a scale table entry: of the low-index block (`low`, roughness
@@ -1285,7 +1332,7 @@ pub fn scale_corners(alpha: f32, eta: f32) -> ScaleCorners {
 
 /// The product `s(side_i, mu_i) s(side_o, mu_o)` of the furnace scales of
 /// a pair's directions at the scale triangle `t` (each linear in
-/// `sqrt(mu)`), from the sides and `sqrt(mu)` of each: per corner the two
+/// [`scale_mu_x`]), from the sides and `sqrt(mu)` of each: per corner the two
 /// directions' stored node pairs in SIMD lanes `[x_i, y_i, x_o, y_o]`
 /// (`tabulated::u16x2x2`: two 4-byte reads), summed over the corners and
 /// interpolated once (the interpolation is linear), the two factors of
@@ -1293,8 +1340,8 @@ pub fn scale_corners(alpha: f32, eta: f32) -> ScaleCorners {
 /// reads 0.
 #[inline(always)]
 fn scale_pair(t: &Tri, (dense_i, root_i): (bool, f32), (dense_o, root_o): (bool, f32)) -> f32 {
-    let (i0, fi) = split_root(root_i, SCALE_MU_N);
-    let (o0, fo) = split_root(root_o, SCALE_MU_N);
+    let (i0, fi) = split_at(scale_mu_x(root_i), SCALE_MU_N);
+    let (o0, fo) = split_at(scale_mu_x(root_o), SCALE_MU_N);
     let (off_i, off_o) = (
         dense_i as usize * SCALE_MU_N + i0,
         dense_o as usize * SCALE_MU_N + o0,
@@ -1322,7 +1369,7 @@ pub const SCALE_MAX: f32 = 4.0;
 pub const SCALE_STEP: f32 = SCALE_MAX / 65535.0;
 
 /// The furnace scales of one scale triangle at every cosine node of both
-/// sides, `[side][mu]` (what eval interpolates linearly in `sqrt(mu)`),
+/// sides, `[side][mu]` (what eval interpolates linearly in [`scale_mu_x`]),
 /// rounded to multiples of [`SCALE_STEP`] (16 bits: as f32 they would add
 /// 128 bytes to every material, of any model): the corners' stored steps
 /// interpolated and rounded eight at a time ([`interp_u16x8`]), the eight
@@ -1757,11 +1804,11 @@ impl TabulatedDielectric {
     }
 
     /// The furnace scale of an isotropic material on one side (`dense`) at
-    /// `sqrt(mu)`, linear in `sqrt(mu)` between the node values, in units
+    /// `sqrt(mu)`, linear in [`scale_mu_x`] between the node values, in units
     /// of [`SCALE_STEP`].
     #[inline(always)]
     fn node_scale(&self, dense: bool, root_mu: f32) -> f32 {
-        let (i0, f) = split_root(root_mu, SCALE_MU_N);
+        let (i0, f) = split_at(scale_mu_x(root_mu), SCALE_MU_N);
         match self
             .scale
             .as_flattened()
@@ -2094,6 +2141,35 @@ mod tests {
     /// refine the lobe table's grid by [`SCALE_PER_LOBE_INTERVAL`] above
     /// roughness 0.031 (version 4): every lobe roughness node from 0.031
     /// and every lobe index node is a scale node.
+    /// The scale table's cosine coordinate (version 7) is the inverse of
+    /// its nodes' cosines, continuous and increasing between them: every
+    /// node reads itself, the plain grid's kept nodes `p / 31` are nodes
+    /// `p - 2`, the normal is the last node, and the coordinate rises by a
+    /// third of a node per plain step below 89.46 degrees and by three
+    /// per plain step next to the normal.
+    #[test]
+    fn scale_cosine_nodes_read_their_own_node() {
+        for i in 0..SCALE_MU_N {
+            let x = scale_mu_x(scale_grid_mu(i).sqrt());
+            assert!((x - i as f32).abs() < 2e-5, "node {i}: {x}");
+        }
+        assert_eq!(scale_grid_mu(SCALE_MU_N - 1), 1.0);
+        for p in 3..=30 {
+            let r = p as f32 / 31.0;
+            assert!((scale_grid_mu(p - 2) - r * r).abs() < 1e-6, "{p}");
+        }
+        let slope = |r: f32| (scale_mu_x(r + 1e-3) - scale_mu_x(r)) / 1e-3 / 31.0;
+        for (r, want) in [(0.01, 1.0 / 3.0), (0.5, 1.0), (0.99, 3.0)] {
+            assert!((slope(r) - want).abs() < 1e-2, "{r}: {}", slope(r));
+        }
+        let mut last = -1.0f32;
+        for k in 0..=1000 {
+            let x = scale_mu_x(k as f32 / 1000.0);
+            assert!(x > last && (0.0..=31.0).contains(&x), "{k}: {x}");
+            last = x;
+        }
+    }
+
     #[test]
     fn scale_roughness_nodes_read_their_own_node() {
         for a in 0..SCALE_ALPHA_N {
@@ -2266,7 +2342,7 @@ mod tests {
                         );
                     }
                     let at = |dense: bool, r: f32| -> f64 {
-                        let (i0, f) = split_root(r, SCALE_MU_N);
+                        let (i0, f) = split_at(scale_mu_x(r), SCALE_MU_N);
                         let j = dense as usize * SCALE_MU_N + i0;
                         value(j) + (value(j + 1) - value(j)) * f as f64
                     };
