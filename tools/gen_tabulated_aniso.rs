@@ -452,10 +452,7 @@ fn main() {
             &alphas_arg(&args),
             &etas,
             iso,
-            args.iter()
-                .position(|a| a == "--rows")
-                .and_then(|p| args.get(p + 1)?.parse().ok())
-                .unwrap_or(15),
+            count_arg(&args, "--rows", 15),
         );
         return;
     }
@@ -1586,11 +1583,16 @@ const SWEEP_ALPHAS: [f32; 6] = [0.05, 0.11, 0.3, 0.6, 1.0, 1.9];
 /// (11.25 degrees apart; features of the correction between its azimuth
 /// nodes can hide between them: 33 is 2.8 degrees apart).
 fn azimuths_arg(args: &[String]) -> usize {
+    count_arg(args, "--azimuths", 9).max(2)
+}
+
+/// The count after `flag` (`--rows 40`), `default` if absent or not a
+/// number.
+fn count_arg(args: &[String], flag: &str, default: usize) -> usize {
     args.iter()
-        .position(|a| a == "--azimuths")
+        .position(|a| a == flag)
         .and_then(|p| args.get(p + 1)?.parse().ok())
-        .unwrap_or(9usize)
-        .max(2)
+        .unwrap_or(default)
 }
 
 /// The comma-separated numbers after `flag` (`--thetas 60,75`), if given.
