@@ -688,6 +688,10 @@ fn main() {
         dielectric::normalize_main(&args);
         return;
     }
+    if args.iter().any(|a| a == "--mu-pilot") {
+        dielectric::mu_pilot_main(&args);
+        return;
+    }
     if args.iter().any(|a| a == "--dielectric-scale-fit") {
         dielectric::scale_fit_main(&args);
         return;
@@ -2202,24 +2206,33 @@ mod dielectric {
     /// The furnace scales of NDF `n` at roughness `alpha` and relative index
     /// `eta` (at least 1) on the scale grid's cosines ([`ScaleSolve`]).
     fn solve_scales(n: usize, alpha: f32, eta: f32, q: Quadrature, quad: usize) -> ScaleSolve {
-        use msbsdf::multiple::tabulated_dielectric::{
-            SCALE_MAX, SCALE_MU_N, TabulatedDielectric, scale_grid_mu, scale_mu_x,
-        };
-        let fm = SCALE_MU_N;
+        use msbsdf::multiple::tabulated_dielectric::{SCALE_MU_N, scale_grid_mu, scale_mu_x};
+        solve_scales_on(n, alpha, eta, q, quad, SCALE_MU_N, &scale_grid_mu, &|mu| {
+            scale_mu_x(mu.sqrt())
+        })
+    }
+
+    /// [`solve_scales`] on any cosine grid of `fm` nodes per side: node
+    /// `i`'s cosine `grid_mu(i)`, a cosine's node coordinate `node_x(mu)`.
+    #[allow(clippy::too_many_arguments)]
+    fn solve_scales_on(
+        n: usize,
+        alpha: f32,
+        eta: f32,
+        q: Quadrature,
+        quad: usize,
+        fm: usize,
+        grid_mu: &dyn Fn(usize) -> f32,
+        node_x: &dyn Fn(f32) -> f32,
+    ) -> ScaleSolve {
+        use msbsdf::multiple::tabulated_dielectric::{SCALE_MAX, TabulatedDielectric};
         let ndf = Ndf::new(NDFS[n], alpha, alpha);
         let tab = TabulatedDielectric::new(ndf, Facet::Dielectric { eta });
-        let m = lobe_rows(
-            &tab,
-            alpha,
-            q,
-            fm,
-            |i| scale_grid_mu(i).max(1e-3),
-            |mu| scale_mu_x(mu.sqrt()),
-        );
+        let m = lobe_rows(&tab, alpha, q, fm, |i| grid_mu(i).max(1e-3), node_x);
         let mut target = vec![0.0f64; 2 * fm];
         for sd in 0..2 {
             for i in 0..fm {
-                let up = dir(scale_grid_mu(i).max(1e-3));
+                let up = dir(grid_mu(i).max(1e-3));
                 let eta_rel = if sd == 1 { 1.0 / eta } else { eta };
                 target[sd * fm + i] = (1.0 - ess(ndf, eta_rel, up, quad)).max(0.0);
             }
@@ -2246,6 +2259,200 @@ mod dielectric {
             m,
             target,
         }
+    }
+
+    /// `--mu-pilot --cases N:ALPHA:ETA,... [--grid G] [--split J:K,...]
+    /// [--drop J,...] [--print-rows]`: how a cosine grid for the furnace
+    /// scales does between its nodes, before a table is built on it. Per
+    /// case (NDF `N`, 0 Beckmann, 1 GGX; roughness; relative index, seen
+    /// from inside when below 1) the scales are solved exactly on the grid
+    /// (as `--dielectric-scale` solves the table's nodes) and the furnace
+    /// is read at the eighths of every lobe grid interval (in `sqrt(mu)`;
+    /// the same points for every grid) from the normal to 89 degrees, the
+    /// scales linear in the grid's coordinate between its nodes as eval
+    /// reads them. Printed: the worst `|albedo - 1|` per lobe interval
+    /// over the cases, and per case the worst and the RMS. Grids (node
+    /// positions in `sqrt(mu)`): `lib` (default) the library's; `v7`
+    /// version 7's (`p / 31`, `p` = 0 and 3 to 30, the last interval in
+    /// thirds); `plain:N` the nodes `p / N`; `lobe` the lobe table's `j /
+    /// 19`, interval `J` (lobe node `J` to `J + 1`) split in `K` parts by
+    /// `--split`, the lobe nodes of `--drop` left out.
+    pub fn mu_pilot_main(args: &[String]) {
+        use msbsdf::multiple::tabulated_dielectric::{SCALE_MU_N, scale_grid_mu};
+        let grid: String = arg(args, "--grid", "lib".to_string());
+        let split: Vec<(usize, usize)> = args
+            .iter()
+            .position(|a| a == "--split")
+            .and_then(|p| args.get(p + 1))
+            .map(|v| {
+                v.split(',')
+                    .filter_map(|t| {
+                        let (j, k) = t.split_once(':')?;
+                        Some((j.parse().ok()?, k.parse().ok()?))
+                    })
+                    .collect()
+            })
+            .unwrap_or_default();
+        let roots: Vec<f64> = match grid.as_str() {
+            "lib" => (0..SCALE_MU_N)
+                .map(|i| (scale_grid_mu(i) as f64).sqrt())
+                .collect(),
+            "v7" => std::iter::once(0.0)
+                .chain((3..31).map(f64::from))
+                .chain([30.0 + 1.0 / 3.0, 30.0 + 2.0 / 3.0, 31.0])
+                .map(|p| p / 31.0)
+                .collect(),
+            "lobe" => {
+                let n = (MU_N - 1) as f64;
+                let mut r = vec![0.0];
+                for j in 0..MU_N - 1 {
+                    let k = split.iter().find(|s| s.0 == j).map_or(1, |s| s.1);
+                    r.extend((1..=k).map(|q| (j as f64 + q as f64 / k as f64) / n));
+                }
+                // `--drop J,...`: lobe nodes left out.
+                let drop: Vec<f64> = args
+                    .iter()
+                    .position(|a| a == "--drop")
+                    .and_then(|p| args.get(p + 1))
+                    .map(|v| {
+                        v.split(',')
+                            .filter_map(|t| t.parse::<f64>().ok())
+                            .map(|j| j / n)
+                            .collect()
+                    })
+                    .unwrap_or_default();
+                r.retain(|x| !drop.iter().any(|d| (d - x).abs() < 1e-9));
+                r
+            }
+            g => {
+                let n: usize = g
+                    .strip_prefix("plain:")
+                    .and_then(|v| v.parse().ok())
+                    .expect("--grid lib | v7 | plain:N | lobe");
+                (0..=n).map(|p| p as f64 / n as f64).collect()
+            }
+        };
+        let fm = roots.len();
+        let node_x = |mu: f32| {
+            let r = (mu.max(0.0) as f64).sqrt();
+            let k = roots.partition_point(|&x| x <= r).clamp(1, fm - 1) - 1;
+            (k as f64 + (r - roots[k]) / (roots[k + 1] - roots[k])).min((fm - 1) as f64) as f32
+        };
+        let cases: Vec<(usize, f32, f32)> = args
+            .iter()
+            .position(|a| a == "--cases")
+            .and_then(|p| args.get(p + 1))
+            .map(|v| {
+                v.split(',')
+                    .filter_map(|t| {
+                        let f: Vec<&str> = t.split(':').collect();
+                        Some((
+                            f.first()?.parse().ok()?,
+                            f.get(1)?.parse().ok()?,
+                            f.get(2)?.parse().ok()?,
+                        ))
+                    })
+                    .collect()
+            })
+            .unwrap_or_default();
+        let q = Quadrature {
+            ng: 48,
+            broad: arg(args, "--broad", 400),
+        };
+        let quad: usize = arg(args, "--quad", 128);
+        let threads: usize = arg(args, "--threads", 2);
+        let print_rows = args.iter().any(|a| a == "--print-rows");
+        let grazing = (89f64.to_radians().cos()).sqrt();
+        // Test points: eighths of the lobe grid's intervals (in
+        // `sqrt(mu)`) from the normal to 89 degrees, the same for every
+        // grid.
+        let tests: Vec<f32> = (0..=8 * (MU_N - 1))
+            .map(|k| k as f64 / (8 * (MU_N - 1)) as f64)
+            .filter(|&r| r >= grazing)
+            .map(|r| (r * r) as f32)
+            .collect();
+        println!(
+            "grid {grid} {split:?}: {fm} nodes, {} test cosines",
+            tests.len()
+        );
+        let res = parallel(&cases, "pilot", threads, |_, &(n, alpha, eta_rel)| {
+            let eta = eta_rel.max(1.0 / eta_rel);
+            let sd = usize::from(eta_rel < 1.0);
+            let sol = solve_scales_on(
+                n,
+                alpha,
+                eta,
+                q,
+                quad,
+                fm,
+                &|i| (roots[i] * roots[i]) as f32,
+                &node_x,
+            );
+            let ndf = Ndf::new(NDFS[n], alpha, alpha);
+            let tab = msbsdf::multiple::tabulated_dielectric::TabulatedDielectric::new(
+                ndf,
+                Facet::Dielectric { eta },
+            );
+            let mut worst = (0.0f64, 0.0f32);
+            let mut per_j = [0.0f64; MU_N - 1];
+            let mut sum2 = 0.0;
+            for chunk in tests.chunks(fm) {
+                let m = lobe_rows(
+                    &tab,
+                    alpha,
+                    q,
+                    fm,
+                    |i| chunk[i.min(chunk.len() - 1)].max(1e-3),
+                    node_x,
+                );
+                for (k, &mu) in chunk.iter().enumerate() {
+                    let row = &m[sd * fm + k];
+                    let inner: f64 = (0..2 * fm).map(|y| row[y] * sol.sc[y]).sum();
+                    let x = node_x(mu) as f64;
+                    let i = (x as usize).min(fm - 2);
+                    let f = x - i as f64;
+                    let s = sol.sc[sd * fm + i] * (1.0 - f) + sol.sc[sd * fm + i + 1] * f;
+                    let target = (1.0 - ess(ndf, eta_rel, dir(mu.max(1e-3)), quad)).max(0.0);
+                    let e = s * inner - target;
+                    if print_rows {
+                        println!(
+                            "  {:.2} deg: x {x:.3} s {s:.4} inner {inner:.4} target {target:.4} e {e:+.4}",
+                            mu.acos().to_degrees()
+                        );
+                    }
+                    sum2 += e * e;
+                    let j = ((mu.sqrt() * (MU_N - 1) as f32) as usize).min(MU_N - 2);
+                    per_j[j] = per_j[j].max(e.abs());
+                    if e.abs() > worst.0.abs() {
+                        worst = (e, mu.acos().to_degrees());
+                    }
+                }
+            }
+            (worst, (sum2 / tests.len() as f64).sqrt(), per_j)
+        });
+        let mut all = 0.0f64;
+        let mut per_j = [0.0f64; MU_N - 1];
+        for r in &res {
+            for (a, b) in per_j.iter_mut().zip(&r.2) {
+                *a = a.max(*b);
+            }
+        }
+        println!(
+            "worst per lobe interval (j = 0 grazing): {}",
+            per_j
+                .iter()
+                .map(|v| format!("{:.4}", v))
+                .collect::<Vec<_>>()
+                .join(" ")
+        );
+        for (&(n, alpha, eta), ((e, th), rms, _)) in cases.iter().zip(&res) {
+            println!(
+                "{n}:{alpha}:{eta}: worst {:+.4} at {th:.1} deg, rms {rms:.4}",
+                e
+            );
+            all = all.max(e.abs());
+        }
+        println!("worst of all {all:.4}");
     }
 
     /// The scaled multiply scattered albedo `s_x sum_y M(x, y) s_y` from
