@@ -337,6 +337,36 @@ fn furnace_near_the_normal_at_low_index() {
     assert!(worst < 0.011, "{report}");
 }
 
+/// White furnace of rough glass of low index at the lobe table's cosine
+/// nodes 4, 7, 17 and 18 (87.46, 82.20, 36.82 and 26.17 degrees), from
+/// both sides: both NDFs, roughness 1.3 and 1.9, `E` 1.05, 1.125 and 1.2
+/// (eval quadrature). Eval interpolates the lobe linearly between those
+/// nodes, so the exact furnace scale has a kink at each, and the scale
+/// table's cosine nodes (`p / 31` in `sqrt(mu)`, version 7) fall between
+/// them: no test or sweep had looked at these angles. Measured worst
+/// 1.33% (GGX 1.9 glass 1.05 from inside at 26.17 degrees; GGX 1.3 at
+/// 87.46 degrees 1.25%), bounded at 1.4%: the 0.5% is not met
+/// here. A scale grid on the lobe's nodes (version 8, tried in session 30,
+/// `docs/tabulated_dielectric.md`) gave 0.21% here but more elsewhere.
+#[test]
+fn furnace_at_the_lobe_nodes() {
+    let dirs: Vec<Vec3> = [-1.0f32, 1.0]
+        .into_iter()
+        .flat_map(|side| [26.17, 36.82, 82.20, 87.46].map(|theta| incident(theta, side)))
+        .collect();
+    let mut rows = Vec::new();
+    for ndf in NDFS {
+        for a in [1.3f32, 1.9] {
+            for e in [1.05f32, 1.125, 1.2] {
+                rows.extend(furnace_rows(ndf, a, a, e, &dirs));
+            }
+        }
+    }
+    let (report, worst) = furnace_report(&rows);
+    println!("{report}worst |albedo - 1| = {worst:.4}");
+    assert!(worst < 0.014, "{report}");
+}
+
 /// Anisotropic glass with a roughness below the correction's node 1
 /// (0.031) against a rough axis, near grazing from both sides (glass
 /// 1.05: the dense side's grazing reflection is where the uncorrected
