@@ -421,6 +421,29 @@ fn git_commit() -> String {
     }
 }
 
+/// The `A:B:C` triples of option `name`'s comma-separated value (those
+/// that parse), if the option is given.
+fn triples_arg<A: std::str::FromStr, B: std::str::FromStr, C: std::str::FromStr>(
+    args: &[String],
+    name: &str,
+) -> Option<Vec<(A, B, C)>> {
+    args.iter()
+        .position(|a| a == name)
+        .and_then(|p| args.get(p + 1))
+        .map(|v| {
+            v.split(',')
+                .filter_map(|t| {
+                    let f: Vec<&str> = t.split(':').collect();
+                    Some((
+                        f.first()?.parse().ok()?,
+                        f.get(1)?.parse().ok()?,
+                        f.get(2)?.parse().ok()?,
+                    ))
+                })
+                .collect()
+        })
+}
+
 fn arg<T: std::str::FromStr>(args: &[String], name: &str, default: T) -> T {
     args.iter()
         .position(|a| a == name)
@@ -1246,7 +1269,7 @@ fn repack(args: &[String], rest: &[String], spec: &Repack, pack: fn(&[f32]) -> V
 mod dielectric {
     use super::{
         CONDUCTOR_F1, K_FIT, NDFS, RIDGE, arg, dir, fit_node, git_commit, gram_entries, node_mu,
-        parallel, sinkhorn, sinkhorn_within,
+        parallel, sinkhorn, sinkhorn_within, triples_arg,
     };
     use glam::Vec3;
     use msbsdf::Rng;
@@ -1918,22 +1941,7 @@ mod dielectric {
             .and_then(|p| args.get(p + 1))
             .map(|v| v.split(',').filter_map(|t| t.parse().ok()).collect());
         // `--corners A:E:W,...` (with `--between`): any nodes and weights.
-        let corners_arg: Option<Vec<(f32, f32, f64)>> = args
-            .iter()
-            .position(|a| a == "--corners")
-            .and_then(|p| args.get(p + 1))
-            .map(|v| {
-                v.split(',')
-                    .filter_map(|t| {
-                        let f: Vec<&str> = t.split(':').collect();
-                        Some((
-                            f.first()?.parse().ok()?,
-                            f.get(1)?.parse().ok()?,
-                            f.get(2)?.parse().ok()?,
-                        ))
-                    })
-                    .collect()
-            });
+        let corners_arg: Option<Vec<(f32, f32, f64)>> = triples_arg(args, "--corners");
         if let (true, Some(cs)) = (between, corners_arg.as_ref()) {
             let n = jobs[0].0;
             for (k, &(a, e, w)) in cs.iter().enumerate().take(3) {
@@ -2338,23 +2346,7 @@ mod dielectric {
             let k = roots.partition_point(|&x| x <= r).clamp(1, fm - 1) - 1;
             (k as f64 + (r - roots[k]) / (roots[k + 1] - roots[k])).min((fm - 1) as f64) as f32
         };
-        let cases: Vec<(usize, f32, f32)> = args
-            .iter()
-            .position(|a| a == "--cases")
-            .and_then(|p| args.get(p + 1))
-            .map(|v| {
-                v.split(',')
-                    .filter_map(|t| {
-                        let f: Vec<&str> = t.split(':').collect();
-                        Some((
-                            f.first()?.parse().ok()?,
-                            f.get(1)?.parse().ok()?,
-                            f.get(2)?.parse().ok()?,
-                        ))
-                    })
-                    .collect()
-            })
-            .unwrap_or_default();
+        let cases: Vec<(usize, f32, f32)> = triples_arg(args, "--cases").unwrap_or_default();
         let q = Quadrature {
             ng: 48,
             broad: arg(args, "--broad", 400),
