@@ -171,6 +171,7 @@ use crate::multiple::compensation::AnisoDir;
 use crate::multiple::compensation_aniso_tables::AN_MU;
 use crate::multiple::tabulated::{
     CORR_MAX, CORR_MIRROR, dcorr_phi4, diamond4, stored_pair, tabulated_ndf, triangle, u16x2x2,
+    u16x4,
 };
 use crate::multiple::tabulated::{
     DIELECTRIC_BLEND_S2, MAX_ALPHA, MU_N, albedo_mu_split, alpha_proj2, cos_phi, cosine_sample,
@@ -309,30 +310,39 @@ pub const SCALE_ETA_SPLIT: [usize; 2] = [3, 2];
 /// the plain grid's [`SCALE_ETA_PLAIN_N`] and the split intervals' inner
 /// nodes.
 pub const SCALE_ETA_N: usize = SCALE_ETA_PLAIN_N + SCALE_ETA_SPLIT[0] + SCALE_ETA_SPLIT[1] - 2;
-/// Cosine nodes of the furnace scale table per side ([`scale_grid_mu`],
-/// [`scale_mu_x`]).
-pub const SCALE_MU_N: usize = 32;
-/// Intervals of the plain cosine grid uniform in `r = sqrt(mu)` that the
-/// scale table's cosine nodes are placed on (version 7; until version 6
-/// the nodes were this grid's 32 nodes). Of its nodes `p / 31`, nodes 1
-/// and 2 are left out (the plain grid's first three intervals, 89.46
-/// degrees to grazing, are one: outside the 0-89 degrees the furnace is
-/// held to, and the scales there only weigh the few paths that leave
-/// within half a degree of the horizon), and its last interval (20.5 to 0
-/// degrees) is split in [`SCALE_MU_TOP_SPLIT`]. Near the normal the
-/// plain grid's last interval spans 20.5 degrees; seen from the dense
-/// side of a rough, low-index dielectric the exact scale changes by half
-/// its value across it (Beckmann 1.9 glass 1.125 from inside: 0.95 at
-/// 20.5 degrees, 1.49 at the normal) and the furnace was off by up to
-/// 2.9% at 14 degrees (version 6).
-pub const SCALE_MU_PLAIN_INTERVALS: usize = 31;
-/// Parts the plain cosine grid's last interval (next to the normal) is
-/// split into ([`SCALE_MU_PLAIN_INTERVALS`]).
-pub const SCALE_MU_TOP_SPLIT: usize = 3;
-const _: () = assert!(
-    SCALE_MU_PLAIN_INTERVALS - 2 + SCALE_MU_TOP_SPLIT == SCALE_MU_N,
-    "two plain nodes left out, the last interval split"
-);
+/// Lobe node (of the lobe table's [`MU_N`] cosine nodes `j / 19` in
+/// `sqrt(mu)`) from which the furnace scale table's cosine grid puts
+/// [`SCALE_MU_TOP_PARTS`] elements in every lobe interval (version 8).
+pub const SCALE_MU_TOP_FROM: usize = 18;
+/// Quadratic elements per lobe interval from lobe node
+/// [`SCALE_MU_TOP_FROM`] to the normal.
+pub const SCALE_MU_TOP_PARTS: usize = 2;
+/// Elements of the furnace scale table's cosine grid (version 8): the
+/// scales are quadratic in `sqrt(mu)` on each (through its two end nodes
+/// and its midpoint) and continuous from one to the next. Eval
+/// interpolates the lobe linearly in `sqrt(mu)` between the lobe table's
+/// cosine nodes, so the albedo of the lobe it reads, and the exact scale
+/// with it, has a kink at every lobe node; the elements end at lobe
+/// nodes. One element from grazing to lobe node 2 (89.37 degrees: outside
+/// the 0-89 degrees the furnace is held to), one per lobe interval up to
+/// lobe node [`SCALE_MU_TOP_FROM`] (26.2 degrees), [`SCALE_MU_TOP_PARTS`]
+/// per interval from there to the normal, where the scale of a rough,
+/// low-index dielectric seen from its dense side bends most (Beckmann 1.9
+/// glass 1.125 from inside: 0.95 at 20.5 degrees, 1.49 at the normal).
+/// Version 7's 32 nodes (linear between them, `p / 31` in `sqrt(mu)`)
+/// missed the kinks: measured with the exact scales of 22 materials
+/// (`gen_tabulated -- --mu-pilot`), worst furnace error 1.20% (GGX 1.9
+/// glass 1.05 from inside at 26.2 degrees, a lobe node); on this grid
+/// 0.28%.
+pub const SCALE_MU_ELEMS: usize =
+    1 + (SCALE_MU_TOP_FROM - 2) + (MU_N - 1 - SCALE_MU_TOP_FROM) * SCALE_MU_TOP_PARTS;
+/// Cosine nodes of the furnace scale table per side ([`scale_grid_mu`]):
+/// the ends and midpoints of the [`SCALE_MU_ELEMS`] elements.
+pub const SCALE_MU_N: usize = 2 * SCALE_MU_ELEMS + 1;
+/// `u16` steps after the scale table's last value, zero: eval reads a
+/// node's three values as four (one 8-byte load) and init a row of
+/// [`NodeScales`] as whole lanes of eight.
+pub const SCALE_PAD: usize = 8;
 /// Index nodes of the scale table's low-index block (since version 6):
 /// its first `SCALE_LOW_ETA_N` index nodes (1.05 to 1.166, the split
 /// intervals of [`SCALE_ETA_SPLIT`] and their ends), on a finer roughness
@@ -407,10 +417,12 @@ pub const SCALE_LEN: usize =
 /// 4 intervals per lobe interval on both axes and 21 index nodes uniform
 /// in `ln E`; version 5 splits the first two index intervals,
 /// [`SCALE_ETA_SPLIT`]; version 6 has the low-index block,
-/// [`scale_low_split`]).
-pub const SCALE_MAGIC: &[u8; 37] = b"MSBSDF-TABULATED-DIELECTRIC-SCALE-v7\n";
-/// Total size of the scale table file in bytes.
-pub const SCALE_FILE_BYTES: usize = HEADER_BYTES + 2 * SCALE_LEN;
+/// [`scale_low_split`]; version 7 had 32 cosine nodes, linear between
+/// them; version 8 has quadratic elements, [`SCALE_MU_ELEMS`]).
+pub const SCALE_MAGIC: &[u8; 37] = b"MSBSDF-TABULATED-DIELECTRIC-SCALE-v8\n";
+/// Total size of the scale table file in bytes (the values and
+/// [`SCALE_PAD`] zero steps).
+pub const SCALE_FILE_BYTES: usize = HEADER_BYTES + 2 * (SCALE_LEN + SCALE_PAD);
 
 /// Roughness of node `a` of the scale table: node `x` of the grid uniform
 /// in `sqrt(alpha / MAX_ALPHA)` ([`SCALE_ROOT_N`] nodes), `x = a /
@@ -487,34 +499,53 @@ pub fn scale_eta_x(c: f32) -> f32 {
     s0 as f32 * c.min(1.0) + s1 as f32 * (c - 1.0).clamp(0.0, 1.0) + (c - 2.0).max(0.0)
 }
 
-/// Cosine of node `i` of the scale table (the inverse of
-/// [`scale_mu_x`]): 0, then the plain grid's nodes `p / 31` from `p` = 3
-/// to 30, then the last plain interval's split points and 1.
+/// Cosine of node `i` of the scale table: node `i` is at element
+/// coordinate `i / 2` ([`scale_mu_z`] inverted).
 pub fn scale_grid_mu(i: usize) -> f32 {
-    let last = SCALE_MU_PLAIN_INTERVALS - 1;
-    let p = match i {
-        0 => 0.0,
-        i if i + 2 <= last => (i + 2) as f32,
-        i => last as f32 + (i + 2 - last) as f32 / SCALE_MU_TOP_SPLIT as f32,
+    let z = i as f32 * 0.5;
+    let p = if z <= 1.0 {
+        2.0 * z
+    } else if z <= (SCALE_MU_TOP_FROM - 1) as f32 {
+        z + 1.0
+    } else {
+        (z + SCALE_MU_TOP_AT) / SCALE_MU_TOP_PARTS as f32
     };
-    let r = p / SCALE_MU_PLAIN_INTERVALS as f32;
+    let r = (p / (MU_N - 1) as f32).min(1.0);
     r * r
 }
 
-/// Continuous node coordinate in `[0, SCALE_MU_N - 1]` on the scale
-/// table's cosine grid ([`scale_grid_mu`]) of `r = sqrt(mu)` in `[0, 1]`,
-/// from the plain coordinate `p = 31 r`: `p / 3` on the first three plain
-/// intervals, `p - 2` up to 30, `28 + 3 (p - 30)` after it. The slopes
-/// rise, so the function is the largest of the three lines (three
-/// multiply-adds and two `max`; eval interpolates the scales linearly in
-/// it).
+/// Where the element coordinate's top line `T p - SCALE_MU_TOP_AT`
+/// ([`scale_mu_z`], `T` = [`SCALE_MU_TOP_PARTS`]) meets `p - 1` at lobe
+/// node [`SCALE_MU_TOP_FROM`].
+const SCALE_MU_TOP_AT: f32 = ((SCALE_MU_TOP_PARTS - 1) * SCALE_MU_TOP_FROM + 1) as f32;
+
+/// Continuous element coordinate in `[0, SCALE_MU_ELEMS]` on the scale
+/// table's cosine grid of `r = sqrt(mu)` in `[0, 1]`, from the lobe
+/// grid's coordinate `p = 19 r`: `p / 2` up to lobe node 2, `p - 1` up to
+/// lobe node [`SCALE_MU_TOP_FROM`], [`SCALE_MU_TOP_PARTS`] elements per
+/// lobe interval after it. The slopes rise, so it is the largest of the
+/// three lines (three multiply-adds and two `max`).
 #[inline(always)]
-pub fn scale_mu_x(r: f32) -> f32 {
-    const N: f32 = SCALE_MU_PLAIN_INTERVALS as f32;
-    const TOP: f32 = SCALE_MU_TOP_SPLIT as f32;
-    // Node 28 is the plain node 30 (= N - 1).
-    const TOP_AT: f32 = TOP * (N - 1.0) - (N - 3.0);
-    (r * (N / 3.0)).max(r * N - 2.0).max(r * (TOP * N) - TOP_AT)
+pub fn scale_mu_z(r: f32) -> f32 {
+    const P: f32 = (MU_N - 1) as f32;
+    const TOP: f32 = SCALE_MU_TOP_PARTS as f32;
+    (r * (P / 2.0))
+        .max(r * P - 1.0)
+        .max(r * (TOP * P) - SCALE_MU_TOP_AT)
+}
+
+/// The scale table's quadratic element at `r = sqrt(mu)`: the element's
+/// first node (its nodes are that one and the next two) and the three
+/// nodes' weights (Lagrange's on the element's ends and midpoint, the
+/// fourth lane 0), from [`scale_mu_z`].
+#[inline(always)]
+pub fn scale_mu_basis(r: f32) -> (usize, Vec4) {
+    let (e, u) = split_at(scale_mu_z(r), SCALE_MU_ELEMS + 1);
+    let v = 2.0 * u - 1.0;
+    (
+        2 * e,
+        Vec4::new(v * (u - 1.0), 4.0 * u * (1.0 - u), u * v, 0.0),
+    )
 }
 
 /// Index of a scale table entry: of the low-index block (`low`, roughness
@@ -1331,32 +1362,35 @@ pub fn scale_corners(alpha: f32, eta: f32) -> ScaleCorners {
 }
 
 /// The product `s(side_i, mu_i) s(side_o, mu_o)` of the furnace scales of
-/// a pair's directions at the scale triangle `t` (each linear in
-/// [`scale_mu_x`]), from the sides and `sqrt(mu)` of each: per corner the two
-/// directions' stored node pairs in SIMD lanes `[x_i, y_i, x_o, y_o]`
-/// (`tabulated::u16x2x2`: two 4-byte reads), summed over the corners and
-/// interpolated once (the interpolation is linear), the two factors of
-/// [`SCALE_STEP`] applied once to the product. A corner outside the file
-/// reads 0.
+/// a pair's directions at the scale triangle `t` (each quadratic on its
+/// element of the cosine grid, [`scale_mu_basis`]), from the sides and
+/// `sqrt(mu)` of each: per corner each direction's element nodes as the
+/// lanes of a `Vec4` (one 8-byte read: three nodes and the next value,
+/// weighted 0), summed over the corners and interpolated once (the
+/// interpolation is linear), the two factors of [`SCALE_STEP`] applied
+/// once to the product. A corner outside the file reads 0 (the file ends
+/// with [`SCALE_PAD`] zero steps, so the last element's read is inside).
 #[inline(always)]
 fn scale_pair(t: &Tri, (dense_i, root_i): (bool, f32), (dense_o, root_o): (bool, f32)) -> f32 {
-    let (i0, fi) = split_at(scale_mu_x(root_i), SCALE_MU_N);
-    let (o0, fo) = split_at(scale_mu_x(root_o), SCALE_MU_N);
+    let (i0, wi) = scale_mu_basis(root_i);
+    let (o0, wo) = scale_mu_basis(root_o);
     let (off_i, off_o) = (
         dense_i as usize * SCALE_MU_N + i0,
         dense_o as usize * SCALE_MU_N + o0,
     );
-    let pair = |at: usize| {
-        RAW_SCALE
-            .get(HEADER_BYTES + 2 * at..)
-            .and_then(|s| s.first_chunk::<4>())
-            .unwrap_or(&[0; 4])
+    let nodes = |at: usize| {
+        u16x4(
+            RAW_SCALE
+                .get(HEADER_BYTES + 2 * at..)
+                .and_then(|s| s.first_chunk::<8>()),
+        )
     };
-    let mut acc = Vec4::ZERO;
+    let (mut acc_i, mut acc_o) = (Vec4::ZERO, Vec4::ZERO);
     for &(b, w) in t {
-        acc += u16x2x2(pair(b as usize + off_i), pair(b as usize + off_o)) * w;
+        acc_i += nodes(b as usize + off_i) * w;
+        acc_o += nodes(b as usize + off_o) * w;
     }
-    (acc.x + (acc.y - acc.x) * fi) * (acc.z + (acc.w - acc.z) * fo) * (SCALE_STEP * SCALE_STEP)
+    acc_i.dot(wi) * acc_o.dot(wo) * (SCALE_STEP * SCALE_STEP)
 }
 
 /// Largest furnace scale (the generator keeps the scales within `[0, 4]`;
@@ -1369,7 +1403,9 @@ pub const SCALE_MAX: f32 = 4.0;
 pub const SCALE_STEP: f32 = SCALE_MAX / 65535.0;
 
 /// The furnace scales of one scale triangle at every cosine node of both
-/// sides, `[side][mu]` (what eval interpolates linearly in [`scale_mu_x`]),
+/// sides, `[side][mu]` (what eval interpolates, [`scale_mu_basis`]; the
+/// last row's lanes after the `2 SCALE_MU_N` nodes hold the next node's
+/// values or [`SCALE_PAD`]'s zeros, never read),
 /// rounded to multiples of [`SCALE_STEP`] (16 bits: as f32 they would add
 /// 128 bytes to every material, of any model): the corners' stored steps
 /// interpolated and rounded eight at a time ([`interp_u16x8`]), the eight
@@ -1377,7 +1413,7 @@ pub const SCALE_STEP: f32 = SCALE_MAX / 65535.0;
 /// instructions more per init). A corner outside the file reads 0.
 #[inline]
 fn node_scales(t: &Tri) -> NodeScales {
-    const ROW: usize = 4 * SCALE_MU_N;
+    const ROW: usize = 16 * NODE_ROWS;
     let rows = t.map(|(b, _)| {
         RAW_SCALE
             .get(HEADER_BYTES + 2 * b as usize..)
@@ -1397,13 +1433,20 @@ fn node_scales(t: &Tri) -> NodeScales {
         row(5),
         row(6),
         row(7),
+        row(8),
+        row(9),
     ]
 }
 
+/// Rows of eight of [`NodeScales`].
+const NODE_ROWS: usize = (2 * SCALE_MU_N).div_ceil(8);
 /// The furnace scales of an isotropic material at the cosine nodes
-/// `[side][mu]` ([`node_scales`]), in eight rows of eight.
-type NodeScales = [[u16; 8]; 8];
-const _: () = assert!(2 * SCALE_MU_N == 64, "node_scales writes 8 rows of 8");
+/// `[side][mu]` ([`node_scales`]), in rows of eight.
+type NodeScales = [[u16; 8]; NODE_ROWS];
+const _: () = assert!(
+    NODE_ROWS == 10 && 8 * NODE_ROWS <= 2 * SCALE_MU_N + SCALE_PAD,
+    "node_scales writes 10 rows of 8, all within the file"
+);
 
 /// Eight scales of a scale triangle from its corners' rows of eight
 /// stored steps `q_k` (little-endian `u16`) and the weights `w1`, `w2` of
@@ -1679,7 +1722,7 @@ impl TabulatedDielectric {
             // An anisotropic material reads the scales at each pair's
             // effective roughness (`multiple_with`), never these.
             scale: if ndf.alpha_x != ndf.alpha_y {
-                [[0; 8]; 8]
+                [[0; 8]; NODE_ROWS]
             } else {
                 node_scales(&scale_tri(alpha_root(alpha_rms), &scale_row))
             },
@@ -1804,21 +1847,18 @@ impl TabulatedDielectric {
     }
 
     /// The furnace scale of an isotropic material on one side (`dense`) at
-    /// `sqrt(mu)`, linear in [`scale_mu_x`] between the node values, in units
-    /// of [`SCALE_STEP`].
+    /// `sqrt(mu)`, quadratic on its element of the cosine grid
+    /// ([`scale_mu_basis`]), in units of [`SCALE_STEP`].
     #[inline(always)]
     fn node_scale(&self, dense: bool, root_mu: f32) -> f32 {
-        let (i0, f) = split_at(scale_mu_x(root_mu), SCALE_MU_N);
+        let (i0, w) = scale_mu_basis(root_mu);
         match self
             .scale
             .as_flattened()
             .get(dense as usize * SCALE_MU_N + i0..)
-            .and_then(|s| s.first_chunk::<2>())
+            .and_then(|s| s.first_chunk::<3>())
         {
-            Some(&[x, y]) => {
-                let (x, y) = (f32::from(x), f32::from(y));
-                x + (y - x) * f
-            }
+            Some(&[x, y, z]) => f32::from(x) * w.x + f32::from(y) * w.y + f32::from(z) * w.z,
             None => 0.0,
         }
     }
