@@ -2317,7 +2317,7 @@ mod dielectric {
     /// `--split`, the lobe nodes of `--drop` left out. `--quadratic`: the
     /// scales quadratic in `sqrt(mu)` on elements of three consecutive
     /// nodes (the grid needs an odd number), as the library's grid since
-    /// version 8 (`lib` always reads the library's interpolation).
+    /// version 9 (`lib` always reads the library's interpolation).
     pub fn mu_pilot_main(args: &[String]) {
         use msbsdf::multiple::tabulated_dielectric::{SCALE_MU_N, scale_grid_mu};
         let grid: String = arg(args, "--grid", "lib".to_string());

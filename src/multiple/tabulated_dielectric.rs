@@ -312,12 +312,12 @@ pub const SCALE_ETA_SPLIT: [usize; 2] = [3, 2];
 pub const SCALE_ETA_N: usize = SCALE_ETA_PLAIN_N + SCALE_ETA_SPLIT[0] + SCALE_ETA_SPLIT[1] - 2;
 /// Lobe node (of the lobe table's [`MU_N`] cosine nodes `j / 19` in
 /// `sqrt(mu)`) from which the furnace scale table's cosine grid puts
-/// [`SCALE_MU_TOP_PARTS`] elements in every lobe interval (version 8).
+/// [`SCALE_MU_TOP_PARTS`] elements in every lobe interval (version 9).
 pub const SCALE_MU_TOP_FROM: usize = 18;
 /// Quadratic elements per lobe interval from lobe node
 /// [`SCALE_MU_TOP_FROM`] to the normal.
 pub const SCALE_MU_TOP_PARTS: usize = 2;
-/// Elements of the furnace scale table's cosine grid (version 8): the
+/// Elements of the furnace scale table's cosine grid (version 9): the
 /// scales are quadratic in `sqrt(mu)` on each (through its two end nodes
 /// and its midpoint) and continuous from one to the next. Eval
 /// interpolates the lobe linearly in `sqrt(mu)` between the lobe table's
@@ -418,8 +418,9 @@ pub const SCALE_LEN: usize =
 /// in `ln E`; version 5 splits the first two index intervals,
 /// [`SCALE_ETA_SPLIT`]; version 6 has the low-index block,
 /// [`scale_low_split`]; version 7 had 32 cosine nodes, linear between
-/// them; version 8 has quadratic elements, [`SCALE_MU_ELEMS`]).
-pub const SCALE_MAGIC: &[u8; 37] = b"MSBSDF-TABULATED-DIELECTRIC-SCALE-v8\n";
+/// them; version 8, tried on the lobe nodes and linear, was not adopted;
+/// version 9 has quadratic elements, [`SCALE_MU_ELEMS`]).
+pub const SCALE_MAGIC: &[u8; 37] = b"MSBSDF-TABULATED-DIELECTRIC-SCALE-v9\n";
 /// Total size of the scale table file in bytes (the values and
 /// [`SCALE_PAD`] zero steps).
 pub const SCALE_FILE_BYTES: usize = HEADER_BYTES + 2 * (SCALE_LEN + SCALE_PAD);
