@@ -323,19 +323,20 @@ pub const SCALE_MU_TOP_PARTS: usize = 2;
 /// interpolates the lobe linearly in `sqrt(mu)` between the lobe table's
 /// cosine nodes, so the albedo of the lobe it reads, and the exact scale
 /// with it, has a kink at every lobe node; the elements end at lobe
-/// nodes. One element from grazing to lobe node 2 (89.37 degrees: outside
-/// the 0-89 degrees the furnace is held to), one per lobe interval up to
-/// lobe node [`SCALE_MU_TOP_FROM`] (26.2 degrees), [`SCALE_MU_TOP_PARTS`]
-/// per interval from there to the normal, where the scale of a rough,
+/// nodes. One per lobe interval from lobe node 2 (89.37 degrees) to lobe
+/// node [`SCALE_MU_TOP_FROM`] (26.2 degrees), [`SCALE_MU_TOP_PARTS`] per
+/// interval from there to the normal, where the scale of a rough,
 /// low-index dielectric seen from its dense side bends most (Beckmann 1.9
-/// glass 1.125 from inside: 0.95 at 20.5 degrees, 1.49 at the normal).
-/// Version 7's 32 nodes (linear between them, `p / 31` in `sqrt(mu)`)
-/// missed the kinks: measured with the exact scales of 22 materials
-/// (`gen_tabulated -- --mu-pilot`), worst furnace error 1.20% (GGX 1.9
-/// glass 1.05 from inside at 26.2 degrees, a lobe node); on this grid
-/// 0.28%.
+/// glass 1.125 from inside: 0.95 at 20.5 degrees, 1.49 at the normal);
+/// closer to grazing than lobe node 2, outside the 0-89 degrees the
+/// furnace is held to, the scale is node 0's (the solve knows it: it
+/// weighs the few paths that leave there). Version 7's 32 nodes (linear
+/// between them, `p / 31` in `sqrt(mu)`) missed the kinks: measured with
+/// the exact scales of 22 materials (`gen_tabulated -- --mu-pilot`),
+/// worst furnace error 1.20% (GGX 1.9 glass 1.05 from inside at 26.2
+/// degrees, a lobe node); on this grid 0.28%.
 pub const SCALE_MU_ELEMS: usize =
-    1 + (SCALE_MU_TOP_FROM - 2) + (MU_N - 1 - SCALE_MU_TOP_FROM) * SCALE_MU_TOP_PARTS;
+    (SCALE_MU_TOP_FROM - 2) + (MU_N - 1 - SCALE_MU_TOP_FROM) * SCALE_MU_TOP_PARTS;
 /// Cosine nodes of the furnace scale table per side ([`scale_grid_mu`]):
 /// the ends and midpoints of the [`SCALE_MU_ELEMS`] elements.
 pub const SCALE_MU_N: usize = 2 * SCALE_MU_ELEMS + 1;
@@ -501,13 +502,11 @@ pub fn scale_eta_x(c: f32) -> f32 {
 }
 
 /// Cosine of node `i` of the scale table: node `i` is at element
-/// coordinate `i / 2` ([`scale_mu_z`] inverted).
+/// coordinate `i / 2` ([`scale_mu_z`] inverted; node 0 is lobe node 2).
 pub fn scale_grid_mu(i: usize) -> f32 {
     let z = i as f32 * 0.5;
-    let p = if z <= 1.0 {
-        2.0 * z
-    } else if z <= (SCALE_MU_TOP_FROM - 1) as f32 {
-        z + 1.0
+    let p = if z <= (SCALE_MU_TOP_FROM - 2) as f32 {
+        z + 2.0
     } else {
         (z + SCALE_MU_TOP_AT) / SCALE_MU_TOP_PARTS as f32
     };
@@ -516,23 +515,21 @@ pub fn scale_grid_mu(i: usize) -> f32 {
 }
 
 /// Where the element coordinate's top line `T p - SCALE_MU_TOP_AT`
-/// ([`scale_mu_z`], `T` = [`SCALE_MU_TOP_PARTS`]) meets `p - 1` at lobe
+/// ([`scale_mu_z`], `T` = [`SCALE_MU_TOP_PARTS`]) meets `p - 2` at lobe
 /// node [`SCALE_MU_TOP_FROM`].
-const SCALE_MU_TOP_AT: f32 = ((SCALE_MU_TOP_PARTS - 1) * SCALE_MU_TOP_FROM + 1) as f32;
+const SCALE_MU_TOP_AT: f32 = ((SCALE_MU_TOP_PARTS - 1) * SCALE_MU_TOP_FROM + 2) as f32;
 
 /// Continuous element coordinate in `[0, SCALE_MU_ELEMS]` on the scale
 /// table's cosine grid of `r = sqrt(mu)` in `[0, 1]`, from the lobe
-/// grid's coordinate `p = 19 r`: `p / 2` up to lobe node 2, `p - 1` up to
-/// lobe node [`SCALE_MU_TOP_FROM`], [`SCALE_MU_TOP_PARTS`] elements per
-/// lobe interval after it. The slopes rise, so it is the largest of the
-/// three lines (three multiply-adds and two `max`).
+/// grid's coordinate `p = 19 r`: 0 up to lobe node 2, `p - 2` up to lobe
+/// node [`SCALE_MU_TOP_FROM`], [`SCALE_MU_TOP_PARTS`] elements per lobe
+/// interval after it. The slopes rise, so it is the largest of the three
+/// lines (two multiply-adds and two `max`).
 #[inline(always)]
 pub fn scale_mu_z(r: f32) -> f32 {
     const P: f32 = (MU_N - 1) as f32;
     const TOP: f32 = SCALE_MU_TOP_PARTS as f32;
-    (r * (P / 2.0))
-        .max(r * P - 1.0)
-        .max(r * (TOP * P) - SCALE_MU_TOP_AT)
+    (r * P - 2.0).max(r * (TOP * P) - SCALE_MU_TOP_AT).max(0.0)
 }
 
 /// The scale table's quadratic element at `r = sqrt(mu)`: the element's
