@@ -133,8 +133,8 @@
 //! (`data/tabulated_aniso_dielectric.bin`, `gen_tabulated_aniso --
 //! --dielectric`): per NDF, pair of the lobe table's roughness nodes,
 //! index node of its own ([`DCORR_ETA_N`]: the lobe table's index nodes,
-//! the midpoints of its intervals, the quarter points of the lowest and
-//! its first eighth point) and side, on [`DCORR_PHI`] (10) azimuths
+//! the midpoints of its intervals, the first quarter point of the lowest
+//! and its first eighth point) and side, on [`DCORR_PHI`] (10) azimuths
 //! (uniform in `tabulated::dcorr_phi` of the diamond angle, stretched per
 //! block towards its smoother axis by [`dcorr_stretch`]: no
 //! `atan2`)
@@ -590,39 +590,43 @@ pub const DCORR_PHI: usize = 10;
 pub const DCORR_BLOCK: usize = 2 * DCORR_PHI * AN_MU;
 /// Relative index nodes of the anisotropic furnace correction: the lobe
 /// table's [`ETA_N`] (where the lobe's linear interpolation in `ln E` has
-/// its kinks) and the midpoints in `ln E` of its intervals, the quarter
-/// points of the lowest interval (1.05 to 1.295) and the eighth point
-/// 1.078: 14 nodes, uniform in `ln E` at the lobe table's coordinate step
-/// 1/2 above 1.295, 1/4 from 1.107 to 1.295 and 1/8 below
-/// (`DCORR_KNOT_NODE`). The factors move with the index steeply enough
-/// that linear interpolation over the lobe table's 6 left 2.2% of albedo
-/// between nodes at 1.5 (7 nodes, with the midpoint of the lowest
+/// its kinks) and the midpoints in `ln E` of its intervals, and in the
+/// lowest interval (1.05 to 1.295) its first quarter point 1.107 and
+/// first eighth point 1.078: 13 nodes, uniform in `ln E` at the lobe
+/// table's coordinate step 1/2 above 1.166, 1/4 from 1.107 to 1.166 and
+/// 1/8 below (`DCORR_KNOT_NODE`). The factors move with the index steeply
+/// enough that linear interpolation over the lobe table's 6 left 2.2% of
+/// albedo between nodes at 1.5 (7 nodes, with the midpoint of the lowest
 /// interval, until session 13), and fastest near 1 (4% halfway between
 /// 1.05 and 1.166 with 11 uniform nodes; 3.2% halfway between 1.05 and
-/// 1.107 and 1.7% between 1.166 and 1.295 with 12).
-pub const DCORR_ETA_N: usize = 2 * ETA_N + 2;
+/// 1.107 and 1.7% between 1.166 and 1.295 with 12). Version 10 had 14,
+/// with the third quarter point 1.229 too; version 11 leaves it out for
+/// the library's size budget (the scale table's cosine grid of version 9
+/// took 46 kB more): version 10 was no better than version 8 between
+/// 1.229 and 1.295 (1.71% at 1.262 against 1.69% at 1.229 without it).
+pub const DCORR_ETA_N: usize = 2 * ETA_N + 1;
 /// Values of the correction table `[ndf][pair][eta][side][phi][mu]`.
 pub const DCORR_LEN: usize = NDF_N * DCORR_PAIRS * DCORR_ETA_N * DCORR_BLOCK;
 /// Size of the correction file: a text header of [`HEADER_BYTES`] and
 /// [`DCORR_LEN`] little-endian `u16` (`tabulated::corr_encode`).
 pub const DCORR_FILE_BYTES: usize = HEADER_BYTES + 2 * DCORR_LEN;
 /// First bytes of the correction file.
-pub const DCORR_MAGIC: &[u8; 38] = b"MSBSDF-TABULATED-DIELECTRIC-ANISO-v10\n";
+pub const DCORR_MAGIC: &[u8; 38] = b"MSBSDF-TABULATED-DIELECTRIC-ANISO-v11\n";
 
 /// The anisotropic correction's index grid as knots of a piecewise
 /// linear map between its node coordinate ([`DCORR_KNOT_NODE`]) and the
 /// lobe table's index coordinate ([`DCORR_KNOT_LOBE`], [`eta_coord`]),
 /// both linear in `ln E`: lobe coordinate step 1/8 up to node 2 (1.05,
-/// 1.078, 1.107), 1/4 up to node 5 (1.166, 1.229, 1.295), 1/2 above (the
-/// lobe table's nodes and the midpoints of its intervals). Both
+/// 1.078, 1.107), 1/4 up to node 3 (1.166), 1/2 above (1.295 and the
+/// lobe table's other nodes and the midpoints of its intervals). Both
 /// directions of the map read these knots ([`dcorr_grid_eta`],
 /// `dcorr_eta_coord`).
-const DCORR_KNOT_NODE: [f32; 4] = [0.0, 2.0, 5.0, (DCORR_ETA_N - 1) as f32];
+const DCORR_KNOT_NODE: [f32; 4] = [0.0, 2.0, 3.0, (DCORR_ETA_N - 1) as f32];
 /// The lobe table's index coordinates of the knots [`DCORR_KNOT_NODE`].
-const DCORR_KNOT_LOBE: [f32; 4] = [0.0, 0.25, 1.0, (ETA_N - 1) as f32];
+const DCORR_KNOT_LOBE: [f32; 4] = [0.0, 0.25, 0.5, (ETA_N - 1) as f32];
 
 const _: () = assert!(
-    (DCORR_ETA_N - 1 - 5) == 2 * (ETA_N - 1 - 1),
+    (DCORR_ETA_N - 1 - 3) == 2 * (ETA_N - 1) - 1,
     "the knots' last segment has the lobe coordinate step 1/2"
 );
 
@@ -2515,7 +2519,7 @@ mod tests {
         }
         assert!((dcorr_grid_eta(0) - ETA_MIN).abs() < 1e-6);
         assert!((dcorr_grid_eta(DCORR_ETA_N - 1) - ETA_MAX).abs() < 1e-5);
-        for joint in [0.25f32, 1.0] {
+        for joint in [0.25f32, 0.5] {
             let (lo, hi) = (dcorr_eta_coord(joint - 1e-6), dcorr_eta_coord(joint + 1e-6));
             assert!((hi - lo).abs() < 1e-4, "joint {joint}: {lo} / {hi}");
         }
