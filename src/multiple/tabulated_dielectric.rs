@@ -534,18 +534,24 @@ pub fn scale_mu_z(r: f32) -> f32 {
     (r * P - 2.0).max(r * (TOP * P) - SCALE_MU_TOP_AT).max(0.0)
 }
 
-/// The scale table's quadratic element at `r = sqrt(mu)`: the element's
-/// first node (its nodes are that one and the next two) and the three
-/// nodes' weights (Lagrange's on the element's ends and midpoint, the
-/// fourth lane 0), from [`scale_mu_z`].
+/// The scale table's quadratic element at `r = sqrt(mu)` ([`scale_mu_z`]):
+/// its first node (its nodes are that one and the next two) and the
+/// position `u` in `[0, 1]` on it.
+#[inline(always)]
+pub fn scale_mu_element(r: f32) -> (usize, f32) {
+    let (e, u) = split_at(scale_mu_z(r), SCALE_MU_ELEMS + 1);
+    (2 * e, u)
+}
+
+/// The scale table's quadratic element at `r = sqrt(mu)` and its three
+/// nodes' weights ([`scale_mu_element`]; Lagrange's on the element's ends
+/// and midpoint, `(2u - 1)(u - 1)`, `4u (1 - u)`, `u (2u - 1)`, as
+/// polynomials in `u` in SIMD lanes; the fourth lane 0).
 #[inline(always)]
 pub fn scale_mu_basis(r: f32) -> (usize, Vec4) {
-    let (e, u) = split_at(scale_mu_z(r), SCALE_MU_ELEMS + 1);
-    let v = 2.0 * u - 1.0;
-    (
-        2 * e,
-        Vec4::new(v * (u - 1.0), 4.0 * u * (1.0 - u), u * v, 0.0),
-    )
+    let (i0, u) = scale_mu_element(r);
+    let w = Vec4::new(2.0, -4.0, 2.0, 0.0) * (u * u) + Vec4::new(-3.0, 4.0, -1.0, 0.0) * u;
+    (i0, w + Vec4::X)
 }
 
 /// Index of a scale table entry: of the low-index block (`low`, roughness
@@ -1382,17 +1388,18 @@ fn scale_pair(t: &Tri, (dense_i, root_i): (bool, f32), (dense_o, root_o): (bool,
         dense_i as usize * SCALE_MU_N + i0,
         dense_o as usize * SCALE_MU_N + o0,
     );
-    let nodes = |at: usize| {
-        u16x4(
-            RAW_SCALE
-                .get(HEADER_BYTES + 2 * at..)
-                .and_then(|s| s.first_chunk::<8>()),
-        )
-    };
+    // A corner's row of both sides and four steps more (one bounds check
+    // per corner; every element's 8-byte read is inside it).
+    const ROW: usize = 2 * (2 * SCALE_MU_N + 4);
+    const _: () = assert!(4 <= SCALE_PAD && 2 * (2 * SCALE_MU_N - 3) + 8 <= ROW);
     let (mut acc_i, mut acc_o) = (Vec4::ZERO, Vec4::ZERO);
     for &(b, w) in t {
-        acc_i += nodes(b as usize + off_i) * w;
-        acc_o += nodes(b as usize + off_o) * w;
+        let row = RAW_SCALE
+            .get(HEADER_BYTES + 2 * b as usize..)
+            .and_then(|s| s.first_chunk::<ROW>());
+        let nodes = |off: usize| u16x4(row.and_then(|r| r.get(2 * off..)?.first_chunk::<8>()));
+        acc_i += nodes(off_i) * w;
+        acc_o += nodes(off_o) * w;
     }
     acc_i.dot(wi) * acc_o.dot(wo) * (SCALE_STEP * SCALE_STEP)
 }
@@ -1859,14 +1866,18 @@ impl TabulatedDielectric {
     /// ([`scale_mu_basis`]), in units of [`SCALE_STEP`].
     #[inline(always)]
     fn node_scale(&self, dense: bool, root_mu: f32) -> f32 {
-        let (i0, w) = scale_mu_basis(root_mu);
+        let (i0, u) = scale_mu_element(root_mu);
         match self
             .scale
             .as_flattened()
             .get(dense as usize * SCALE_MU_N + i0..)
             .and_then(|s| s.first_chunk::<3>())
         {
-            Some(&[x, y, z]) => f32::from(x) * w.x + f32::from(y) * w.y + f32::from(z) * w.z,
+            // The quadratic through the three nodes, in powers of `u`.
+            Some(&[x, y, z]) => {
+                let (x, y, z) = (f32::from(x), f32::from(y), f32::from(z));
+                x + u * ((4.0 * y - 3.0 * x - z) + u * (2.0 * (x + z) - 4.0 * y))
+            }
             None => 0.0,
         }
     }
