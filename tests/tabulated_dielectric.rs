@@ -494,18 +494,17 @@ fn anisotropic_furnace_at_correction_nodes() {
 fn anisotropic_furnace_between_index_nodes() {
     let (a3, a6, a2, a4) = (grid_alpha(3), grid_alpha(6), grid_alpha(2), grid_alpha(4));
     let mut failed = String::new();
-    // Halfway between nodes 0-1 to 4-5 (the lowest lobe interval), 6-7,
-    // 8-9 and 11-12.
+    // Halfway between nodes 0-1 to 3-4 (the lowest lobe interval), 5-6,
+    // 7-8 and 10-11 (version 11's nodes: 1.229 is not one).
     let mid = |e: usize| (dcorr_grid_eta(e) * dcorr_grid_eta(e + 1)).sqrt();
     for (eta, bound) in [
         (mid(0), 0.012f64),
         (mid(1), 0.012),
         (mid(2), 0.012),
-        (mid(3), 0.01),
-        (mid(4), 0.008),
-        (mid(6), 0.01),
-        (mid(8), 0.007),
-        (mid(11), 0.005),
+        (mid(3), 0.02),
+        (mid(5), 0.01),
+        (mid(7), 0.007),
+        (mid(10), 0.005),
     ] {
         let (report, worst) = aniso_furnace(&[(a3, a6), (a2, a4)], eta);
         println!("eta {eta:.4}: worst |albedo - 1| = {worst:.4}");
