@@ -1461,11 +1461,11 @@ const _: () = assert!(
 );
 
 /// The weights `w1`, `w2` of a scale triangle's corners 1 and 2 as the
-/// 16-bit fractions [`interp_u16x8`] multiplies by: `floor(65536 w)`, at
-/// most 65535, so that their sum is at most 65536 (`w1 + w2 <= 1`).
+/// 16-bit fractions [`interp_u16x8`] multiplies by: `65536 w` rounded to
+/// nearest, at most 65535 (their sum is at most 65537: `w1 + w2 <= 1`).
 #[inline(always)]
 fn weights_u16(w1: f32, w2: f32) -> [u16; 2] {
-    [w1, w2].map(|w| (w * 65536.0).clamp(0.0, 65535.0) as u16)
+    [w1, w2].map(|w| (w * 65536.0 + 0.5).clamp(0.0, 65535.0) as u16)
 }
 
 /// The high half of the 32-bit product of two `u16`, `floor(q w / 65536)`
@@ -1480,11 +1480,13 @@ fn mul_hi(q: u16, w: u16) -> u16 {
 /// stored steps `q_k` (little-endian `u16`) and the weights `W1`, `W2` of
 /// corners 1 and 2 as 16-bit fractions ([`weights_u16`]): `q_0 - hi(q_0
 /// W1) - hi(q_0 W2) + hi(q_1 W1) + hi(q_2 W2)` with `hi(q W) = floor(q W /
-/// 65536)`, the subtractions and additions saturating (the value is at
-/// least 0 since `W1 + W2 <= 65536`, and at most 65535). It is the
-/// interpolation `q_0 + w1 (q_1 - q_0) + w2 (q_2 - q_0)` within 3 steps
-/// ([`SCALE_STEP`], 1.8e-4 absolute; each floor and each weight's
-/// rounding is less than one), exact at corner 0 and within one step at
+/// 65536)`, the subtractions and additions saturating (the value stays
+/// in `[0, 65535]`: with `W1 + W2 <= 65537` the first three terms are
+/// above -1, so at least 0). It is the interpolation `q_0 + w1 (q_1 -
+/// q_0) + w2 (q_2 - q_0)` within 3 steps ([`SCALE_STEP`], 1.8e-4
+/// absolute: the four floors' fractions add up to less than 2 either
+/// way, each weight's rounding, at most 2^-17, times a step difference
+/// below 65536 to less than one half), exact at corner 0 and within one step at
 /// corners 1 and 2 (`W` = 65535 for a weight 1: `q - hi(q 65535)` is 1
 /// for every `q > 0`, so exact where both steps are above 0). On x86-64
 /// in SIMD lanes, five `pmulhuw` and four saturating adds per row of
@@ -2510,7 +2512,7 @@ mod tests {
             });
             for &(w1, w2) in &weights {
                 let w = weights_u16(w1, w2);
-                assert!(u32::from(w[0]) + u32::from(w[1]) <= 65536);
+                assert!(u32::from(w[0]) + u32::from(w[1]) <= 65537);
                 let o = interp_u16x8([&bytes[0], &bytes[1], &bytes[2]], w);
                 for k in 0..8 {
                     let [a, b, c] = rows.map(|r| r[k]);
