@@ -329,8 +329,10 @@ fn furnace_at_low_roughness_near_grazing() {
 /// 0.98%, Beckmann 1.9 glass 1.2 from inside at 24 degrees, in the next
 /// interval (29.4 to 20.5 degrees, unchanged: 0.99% with version 6);
 /// within the split interval at most 0.53% (Beckmann 1.9 glass 1.08
-/// from inside at 8 degrees). Bounded at 1.1%: the 0.5% is not
-/// met here.
+/// from inside at 8 degrees). With version 9 (session 31: quadratic
+/// elements that end at the lobe table's cosine nodes, two in its last
+/// interval, 26.2 degrees to the normal): 0.48%, bounded at 0.6% (it was
+/// 1.1%).
 #[test]
 fn furnace_near_the_normal_at_low_index() {
     let (report, worst) = isotropic_furnace(
@@ -338,7 +340,7 @@ fn furnace_near_the_normal_at_low_index() {
         &[0.7, 1.3, 1.9],
         &[1.05, 1.08, 1.125, 1.2, 1.3],
     );
-    assert!(worst < 0.011, "{report}");
+    assert!(worst < 0.006, "{report}");
 }
 
 /// White furnace of rough glass of low index at the lobe table's cosine
@@ -349,9 +351,11 @@ fn furnace_near_the_normal_at_low_index() {
 /// table's cosine nodes (`p / 31` in `sqrt(mu)`, version 7) fall between
 /// them: no test or sweep had looked at these angles. Measured worst
 /// 1.33% (GGX 1.9 glass 1.05 from inside at 26.17 degrees; GGX 1.3 at
-/// 87.46 degrees 1.25%), bounded at 1.4%: the 0.5% is not met
-/// here. A scale grid on the lobe's nodes (version 8, tried in session 30,
-/// `docs/tabulated_dielectric.md`) gave 0.21% here but more elsewhere.
+/// 87.46 degrees 1.25%). A scale grid on the lobe's nodes (version 8,
+/// tried in session 30, `docs/tabulated_dielectric.md`) gave 0.21% here
+/// but more elsewhere. With version 9 (session 31: the scales quadratic
+/// on elements that end at the lobe's nodes): 0.23%, bounded at the
+/// issue's 0.5% (it was 1.4%).
 #[test]
 fn furnace_at_the_lobe_nodes() {
     let (report, worst) = isotropic_furnace(
@@ -359,7 +363,7 @@ fn furnace_at_the_lobe_nodes() {
         &[1.3, 1.9],
         &[1.05, 1.125, 1.2],
     );
-    assert!(worst < 0.014, "{report}");
+    assert!(worst < 0.005, "{report}");
 }
 
 /// Anisotropic glass with a roughness below the correction's node 1
@@ -456,9 +460,10 @@ fn anisotropic_furnace_at_correction_nodes() {
 /// The anisotropic furnace at the roughness nodes of
 /// `anisotropic_furnace_at_correction_nodes` and indices halfway in `ln E`
 /// between the correction's index nodes (`tabulated_dielectric::dcorr_grid_eta`:
-/// 14, the lobe table's 6, the midpoints of its intervals, the quarter
-/// points of the lowest, 1.107 and 1.229, and its first eighth point,
-/// 1.078), the same directions: what the linear
+/// 13, the lobe table's 6, the midpoints of its intervals, the first
+/// quarter point of the lowest, 1.107, and its first eighth point,
+/// 1.078; 14 with the third quarter point 1.229 until session 31), the
+/// same directions: what the linear
 /// interpolation in `ln E` leaves, where it is largest. With 7 index nodes (the lobe table's 6 and the midpoint
 /// 1.166 of the lowest interval; until session 13) the worst at 1.15, 1.5,
 /// 1.8 and 2.7 was 0.0170, 0.0220, 0.0092 and 0.0057 (all Beckmann or GGX
@@ -489,23 +494,30 @@ fn anisotropic_furnace_at_correction_nodes() {
 /// regenerated): 0.0111, 0.0105, 0.0105, 0.0061, 0.0059, 0.0090, 0.0058,
 /// 0.0035 (bounds unchanged). Fitted scale nodes (session 28, correction
 /// regenerated): 0.0110, 0.0107, 0.0105, 0.0062, 0.0060, 0.0091, 0.0056,
-/// 0.0035 (bounds unchanged).
+/// 0.0035 (bounds unchanged). Version 11 of the correction (session 31,
+/// 13 index nodes: 1.229 left out for the library's size budget) with
+/// version 7's scales: 0.0110, 0.0109, 0.0107, then halfway between
+/// 1.166 and 1.295 (1.229) 0.0164 where 1.197 and 1.262 had 0.0073 and
+/// 0.0058 with version 10, 0.0089, 0.0056, 0.0035; with the scale
+/// table's version 9 (the correction still solved on version 6's
+/// scales): 0.0111, 0.0111, 0.0112, 0.0168, 0.0095, 0.0056, 0.0034. The
+/// bound at 1.229 is 0.02 (those at 1.197 and 1.262 were 0.01 and
+/// 0.008).
 #[test]
 fn anisotropic_furnace_between_index_nodes() {
     let (a3, a6, a2, a4) = (grid_alpha(3), grid_alpha(6), grid_alpha(2), grid_alpha(4));
     let mut failed = String::new();
-    // Halfway between nodes 0-1 to 4-5 (the lowest lobe interval), 6-7,
-    // 8-9 and 11-12.
+    // Halfway between nodes 0-1 to 3-4 (the lowest lobe interval), 5-6,
+    // 7-8 and 10-11 (version 11's nodes: 1.229 is not one).
     let mid = |e: usize| (dcorr_grid_eta(e) * dcorr_grid_eta(e + 1)).sqrt();
     for (eta, bound) in [
         (mid(0), 0.012f64),
         (mid(1), 0.012),
         (mid(2), 0.012),
-        (mid(3), 0.01),
-        (mid(4), 0.008),
-        (mid(6), 0.01),
-        (mid(8), 0.007),
-        (mid(11), 0.005),
+        (mid(3), 0.02),
+        (mid(5), 0.01),
+        (mid(7), 0.007),
+        (mid(10), 0.005),
     ] {
         let (report, worst) = aniso_furnace(&[(a3, a6), (a2, a4)], eta);
         println!("eta {eta:.4}: worst |albedo - 1| = {worst:.4}");

@@ -1523,11 +1523,23 @@ mod dielectric {
         broad: usize,
     }
 
+    /// A cosine's interpolation weights on a grid's nodes: up to three
+    /// (node, weight) pairs (unused ones of weight 0).
+    type Basis = [(usize, f64); 3];
+
+    /// Linear interpolation at node coordinate `x` on a grid of `fm` nodes.
+    fn linear_basis(x: f32, fm: usize) -> Basis {
+        let x = x as f64;
+        let y0 = (x as usize).min(fm - 2);
+        let fr = x - y0 as f64;
+        [(y0, 1.0 - fr), (y0 + 1, fr), (0, 0.0)]
+    }
+
     /// `M(x, y)`: the albedo of `tab`'s unscaled multiply scattered lobe
     /// (`multiple_unscaled`, exactly as eval reads it) from source node `x =
     /// (side, i)` (side 0 the outside, `z > 0`; cosine `mu(i)`) split onto
     /// the hat functions of the grid of `fm` cosines per side (the node
-    /// coordinate of a cosine `node_x(mu)` in `[0, fm - 1]`) at `wo`'s side
+    /// weights of a cosine `basis(mu)`) at `wo`'s side
     /// and cosine, `y = (side, j)`; `2 fm x 2 fm`.
     fn lobe_rows(
         tab: &msbsdf::multiple::tabulated_dielectric::TabulatedDielectric,
@@ -1535,20 +1547,17 @@ mod dielectric {
         q: Quadrature,
         fm: usize,
         mu: impl Fn(usize) -> f32,
-        node_x: impl Fn(f32) -> f32,
+        basis: impl Fn(f32) -> Basis,
     ) -> Vec<Vec<f64>> {
         let Quadrature { ng, broad } = q;
-        let fine_x = |mu: f32| node_x(mu.clamp(0.0, 1.0)) as f64;
         // Reflection proposal: GGX visible normals (see `scale_main`).
         let proposal = Ndf::new(msbsdf::ndf::NdfKind::Ggx, alpha, alpha);
         let single1 = Single::new(proposal, CONDUCTOR_F1, G2Form::HeightCorrelated);
         let mut m = vec![vec![0.0f64; 2 * fm]; 2 * fm];
         let add = |row: &mut Vec<f64>, side: usize, mu: f32, v: f64| {
-            let x = fine_x(mu);
-            let y0 = (x as usize).min(fm - 2);
-            let fr = x - y0 as f64;
-            row[side * fm + y0] += v * (1.0 - fr);
-            row[side * fm + y0 + 1] += v * fr;
+            for (y, w) in basis(mu.clamp(0.0, 1.0)) {
+                row[side * fm + y] += v * w;
+            }
         };
         for sd in 0..2 {
             let flip = |v: Vec3| {
@@ -1711,7 +1720,7 @@ mod dielectric {
                 q,
                 MU_N,
                 |i| grid_mu(i).max(1e-5),
-                |mu| mu.sqrt() * (MU_N - 1) as f32,
+                |mu| linear_basis(mu.sqrt() * (MU_N - 1) as f32, MU_N),
             );
             // Target `max(A, floor)^power`, `A` the lobe's albedo from the
             // node; a few Jacobi steps of the symmetric scaling from
@@ -1856,9 +1865,9 @@ mod dielectric {
     pub fn scale_main(args: &[String]) {
         use msbsdf::multiple::tabulated_dielectric::{
             SCALE_ALPHA_N, SCALE_ETA_N, SCALE_ETA_PLAIN_N, SCALE_ETA_SPLIT, SCALE_FINE_INTERVALS,
-            SCALE_FINE_SPLIT, SCALE_LOW_ALPHA_N, SCALE_LOW_ETA_N, SCALE_MAX, SCALE_MU_N,
-            SCALE_ROOT_N, alpha_coord, header, scale_alpha_x, scale_grid_alpha, scale_grid_eta,
-            scale_grid_mu, scale_index, scale_low_grid_alpha,
+            SCALE_FINE_SPLIT, SCALE_LOW_ALPHA_N, SCALE_LOW_ETA_N, SCALE_MAX, SCALE_MU_ELEMS,
+            SCALE_MU_N, SCALE_PAD, SCALE_ROOT_N, alpha_coord, header, scale_alpha_x,
+            scale_grid_alpha, scale_grid_eta, scale_grid_mu, scale_index, scale_low_grid_alpha,
         };
         // Roughness of node `a` of the low-index block (`low`) or the main
         // block.
@@ -2144,7 +2153,7 @@ mod dielectric {
              E_ss: SINGLE reflection + transmission quadrature {quad} x {quad} (compensation::single_albedo)\n\
              albedo of the unscaled lobe vs 1 - E_ss: worst relative deviation {before:.3e} (targets > 1e-3); after scaling: {after:.3e} (targets > 1e-4, rows not empty; scales within [0, {scale_max}] during the solve, 0 where the target is 0: {zeros} nodes)\n\
              scales between {smin:.4} and {smax:.4}\n\
-             grid: index nodes {SCALE_ETA_N} (uniform in ln E with {SCALE_ETA_PLAIN_N} nodes, its first two intervals split in {SCALE_ETA_SPLIT:?}); low-index block ndf {NDF_N} x alpha {SCALE_LOW_ALPHA_N} (uniform in sqrt(alpha / 2) with {SCALE_ROOT_N} nodes, its first {SCALE_FINE_INTERVALS} intervals split in {SCALE_FINE_SPLIT}, then per lobe interval its first two split as the index's) x eta {SCALE_LOW_ETA_N} (the first) x side 2 x mu {SCALE_MU_N}, then the main block ndf {NDF_N} x alpha {SCALE_ALPHA_N} (the same sqrt(alpha) grid, only its first {SCALE_FINE_INTERVALS} intervals split in {SCALE_FINE_SPLIT}) x eta {} (from node {}) x side 2 x mu {SCALE_MU_N}\n\
+             grid: index nodes {SCALE_ETA_N} (uniform in ln E with {SCALE_ETA_PLAIN_N} nodes, its first two intervals split in {SCALE_ETA_SPLIT:?}); low-index block ndf {NDF_N} x alpha {SCALE_LOW_ALPHA_N} (uniform in sqrt(alpha / 2) with {SCALE_ROOT_N} nodes, its first {SCALE_FINE_INTERVALS} intervals split in {SCALE_FINE_SPLIT}, then per lobe interval its first two split as the index's) x eta {SCALE_LOW_ETA_N} (the first) x side 2 x mu {SCALE_MU_N}, then the main block ndf {NDF_N} x alpha {SCALE_ALPHA_N} (the same sqrt(alpha) grid, only its first {SCALE_FINE_INTERVALS} intervals split in {SCALE_FINE_SPLIT}) x eta {} (from node {}) x side 2 x mu {SCALE_MU_N} (the ends and midpoints of {SCALE_MU_ELEMS} elements on the lobe table's cosine nodes, the scale quadratic in sqrt(mu) on each: tabulated_dielectric::scale_mu_basis), then {SCALE_PAD} zero steps\n\
              {kept}\
              wall time: {:.0} s on {threads} threads\n\
              {SCALE_STORAGE}\n",
@@ -2158,9 +2167,15 @@ mod dielectric {
         write_scale_table(&out, &head, &scale);
     }
 
-    /// Writes a scale table file: the header `head` and the 16-bit steps.
+    /// Writes a scale table file: the header `head`, the 16-bit steps and
+    /// the zero padding.
     fn write_scale_table(out: &str, head: &str, scale: &[u16]) {
-        let payload: Vec<u8> = scale.iter().flat_map(|q| q.to_le_bytes()).collect();
+        use msbsdf::multiple::tabulated_dielectric::SCALE_PAD;
+        let payload: Vec<u8> = scale
+            .iter()
+            .chain(&[0; SCALE_PAD])
+            .flat_map(|q| q.to_le_bytes())
+            .collect();
         super::write_bytes(
             out,
             head,
@@ -2214,14 +2229,29 @@ mod dielectric {
     /// The furnace scales of NDF `n` at roughness `alpha` and relative index
     /// `eta` (at least 1) on the scale grid's cosines ([`ScaleSolve`]).
     fn solve_scales(n: usize, alpha: f32, eta: f32, q: Quadrature, quad: usize) -> ScaleSolve {
-        use msbsdf::multiple::tabulated_dielectric::{SCALE_MU_N, scale_grid_mu, scale_mu_x};
-        solve_scales_on(n, alpha, eta, q, quad, SCALE_MU_N, &scale_grid_mu, &|mu| {
-            scale_mu_x(mu.sqrt())
-        })
+        use msbsdf::multiple::tabulated_dielectric::{SCALE_MU_N, scale_grid_mu};
+        solve_scales_on(
+            n,
+            alpha,
+            eta,
+            q,
+            quad,
+            SCALE_MU_N,
+            &scale_grid_mu,
+            &lib_basis,
+        )
+    }
+
+    /// The library's interpolation weights of a cosine on the scale
+    /// table's grid (`scale_mu_basis`: quadratic elements).
+    fn lib_basis(mu: f32) -> Basis {
+        let (i0, w) = msbsdf::multiple::tabulated_dielectric::scale_mu_basis(mu.sqrt());
+        [(i0, w.x as f64), (i0 + 1, w.y as f64), (i0 + 2, w.z as f64)]
     }
 
     /// [`solve_scales`] on any cosine grid of `fm` nodes per side: node
-    /// `i`'s cosine `grid_mu(i)`, a cosine's node coordinate `node_x(mu)`.
+    /// `i`'s cosine `grid_mu(i)`, a cosine's interpolation weights on the
+    /// nodes `basis(mu)`.
     #[allow(clippy::too_many_arguments)]
     fn solve_scales_on(
         n: usize,
@@ -2231,12 +2261,12 @@ mod dielectric {
         quad: usize,
         fm: usize,
         grid_mu: &dyn Fn(usize) -> f32,
-        node_x: &dyn Fn(f32) -> f32,
+        basis: &dyn Fn(f32) -> Basis,
     ) -> ScaleSolve {
         use msbsdf::multiple::tabulated_dielectric::{SCALE_MAX, TabulatedDielectric};
         let ndf = Ndf::new(NDFS[n], alpha, alpha);
         let tab = TabulatedDielectric::new(ndf, Facet::Dielectric { eta });
-        let m = lobe_rows(&tab, alpha, q, fm, |i| grid_mu(i).max(1e-3), node_x);
+        let m = lobe_rows(&tab, alpha, q, fm, |i| grid_mu(i).max(1e-3), basis);
         let mut target = vec![0.0f64; 2 * fm];
         for sd in 0..2 {
             for i in 0..fm {
@@ -2284,7 +2314,10 @@ mod dielectric {
     /// version 7's (`p / 31`, `p` = 0 and 3 to 30, the last interval in
     /// thirds); `plain:N` the nodes `p / N`; `lobe` the lobe table's `j /
     /// 19`, interval `J` (lobe node `J` to `J + 1`) split in `K` parts by
-    /// `--split`, the lobe nodes of `--drop` left out.
+    /// `--split`, the lobe nodes of `--drop` left out. `--quadratic`: the
+    /// scales quadratic in `sqrt(mu)` on elements of three consecutive
+    /// nodes (the grid needs an odd number), as the library's grid since
+    /// version 9 (`lib` always reads the library's interpolation).
     pub fn mu_pilot_main(args: &[String]) {
         use msbsdf::multiple::tabulated_dielectric::{SCALE_MU_N, scale_grid_mu};
         let grid: String = arg(args, "--grid", "lib".to_string());
@@ -2341,10 +2374,35 @@ mod dielectric {
             }
         };
         let fm = roots.len();
-        let node_x = |mu: f32| {
+        // `--quadratic`: the scales quadratic in `sqrt(mu)` on elements of
+        // three consecutive nodes (0-2, 2-4, ...), continuous at their
+        // ends; linear between nodes otherwise.
+        let quadratic = args.iter().any(|a| a == "--quadratic");
+        assert!(
+            !quadratic || fm % 2 == 1,
+            "--quadratic needs an odd number of nodes, the grid has {fm}"
+        );
+        let basis = |mu: f32| -> Basis {
             let r = (mu.max(0.0) as f64).sqrt();
-            let k = roots.partition_point(|&x| x <= r).clamp(1, fm - 1) - 1;
-            (k as f64 + (r - roots[k]) / (roots[k + 1] - roots[k])).min((fm - 1) as f64) as f32
+            if grid == "lib" {
+                lib_basis(mu.max(0.0))
+            } else if quadratic {
+                let k = (roots.partition_point(|&x| x <= r).clamp(1, fm - 1) - 1) / 2 * 2;
+                let k = k.min(fm - 3);
+                let (a, m, b) = (roots[k], roots[k + 1], roots[k + 2]);
+                let u = ((r - a) / (b - a)).clamp(0.0, 1.0);
+                let um = (m - a) / (b - a);
+                [
+                    (k, (u - um) * (u - 1.0) / um),
+                    (k + 1, u * (u - 1.0) / (um * (um - 1.0))),
+                    (k + 2, u * (u - um) / (1.0 - um)),
+                ]
+            } else {
+                let k = roots.partition_point(|&x| x <= r).clamp(1, fm - 1) - 1;
+                let x =
+                    (k as f64 + (r - roots[k]) / (roots[k + 1] - roots[k])).min((fm - 1) as f64);
+                linear_basis(x as f32, fm)
+            }
         };
         let cases: Vec<(usize, f32, f32)> = triples_arg(args, "--cases").unwrap_or_default();
         let q = Quadrature {
@@ -2378,7 +2436,7 @@ mod dielectric {
                 quad,
                 fm,
                 &|i| (roots[i] * roots[i]) as f32,
-                &node_x,
+                &basis,
             );
             let ndf = Ndf::new(NDFS[n], alpha, alpha);
             let tab = msbsdf::multiple::tabulated_dielectric::TabulatedDielectric::new(
@@ -2395,20 +2453,20 @@ mod dielectric {
                     q,
                     fm,
                     |i| chunk[i.min(chunk.len() - 1)].max(1e-3),
-                    node_x,
+                    basis,
                 );
                 for (k, &mu) in chunk.iter().enumerate() {
                     let row = &m[sd * fm + k];
                     let inner: f64 = (0..2 * fm).map(|y| row[y] * sol.sc[y]).sum();
-                    let x = node_x(mu) as f64;
-                    let i = (x as usize).min(fm - 2);
-                    let f = x - i as f64;
-                    let s = sol.sc[sd * fm + i] * (1.0 - f) + sol.sc[sd * fm + i + 1] * f;
+                    let s: f64 = basis(mu)
+                        .iter()
+                        .map(|&(y, w)| sol.sc[sd * fm + y] * w)
+                        .sum();
                     let target = (1.0 - ess(ndf, eta_rel, dir(mu.max(1e-3)), quad)).max(0.0);
                     let e = s * inner - target;
                     if print_rows {
                         println!(
-                            "  {:.2} deg: x {x:.3} s {s:.4} inner {inner:.4} target {target:.4} e {e:+.4}",
+                            "  {:.2} deg: s {s:.4} inner {inner:.4} target {target:.4} e {e:+.4}",
                             mu.acos().to_degrees()
                         );
                     }

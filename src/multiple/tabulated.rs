@@ -871,7 +871,7 @@ fn corr_rows(at: usize) -> Option<(Vec4, Vec4)> {
 /// x86-64 one 8-byte load, one unpack and one conversion (the scalar
 /// form's four loads and conversions were a third of [`corr_at`]).
 #[inline(always)]
-fn u16x4(b: Option<&[u8; 8]>) -> Vec4 {
+pub(crate) fn u16x4(b: Option<&[u8; 8]>) -> Vec4 {
     let Some(b) = b else {
         return Vec4::ZERO;
     };
