@@ -344,7 +344,7 @@ pub const SCALE_MU_ELEMS: usize =
 pub const SCALE_MU_N: usize = 2 * SCALE_MU_ELEMS + 1;
 /// `u16` steps after the scale table's last value, zero: eval reads a
 /// node's three values as four (one 8-byte load) and init a row of
-/// [`NodeScales`] as whole lanes of eight.
+/// the material's scales as whole lanes of eight.
 pub const SCALE_PAD: usize = 8;
 /// Index nodes of the scale table's low-index block (since version 6):
 /// its first `SCALE_LOW_ETA_N` index nodes (1.05 to 1.166, the split
