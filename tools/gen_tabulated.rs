@@ -41,6 +41,94 @@ use msbsdf::single::{G2Form, Single};
 use std::f64::consts::PI;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
+#[path = "harness/cli.rs"]
+mod cli;
+#[path = "harness/git.rs"]
+mod git;
+
+/// Every option `main` and its modes read (`cli::check_options` rejects
+/// the others).
+const OPTIONS: &[&str] = &[
+    "--alpha",
+    "--base",
+    "--between",
+    "--broad",
+    "--cases",
+    "--conductor-pack",
+    "--corners",
+    "--dielectric",
+    "--dielectric-check",
+    "--dielectric-ir",
+    "--dielectric-lobe-pack",
+    "--dielectric-normalize",
+    "--dielectric-pack",
+    "--dielectric-scale",
+    "--dielectric-scale-fit",
+    "--dielectric-v5",
+    "--drop",
+    "--dump",
+    "--eta",
+    "--evals",
+    "--exact",
+    "--extra-eta",
+    "--floor",
+    "--fresnel-walks",
+    "--from-dump",
+    "--gram-samples",
+    "--grid",
+    "--iterations",
+    "--keep",
+    "--lawson",
+    "--low-2d",
+    "--mu-pilot",
+    "--ng",
+    "--only",
+    "--only-alpha",
+    "--only-cases",
+    "--only-ndf",
+    "--out",
+    "--pair",
+    "--pilot",
+    "--pilot-lawson",
+    "--pilot-nodes",
+    "--power",
+    "--print-rows",
+    "--quad",
+    "--quadratic",
+    "--scale",
+    "--schlick-walks",
+    "--split",
+    "--table",
+    "--threads",
+    "--verbose",
+    "--walks",
+];
+
+const USAGE: &str = "\
+gen_tabulated: the tables of MSBSDF_MODEL_TABULATED (the module documentation of
+tools/gen_tabulated.rs and of its `dielectric` module has the details).
+
+Writes a committed table (run on a clean tree; the header records the commit):
+  (no mode option) [--walks N] [--fresnel-walks N] [--gram-samples N] [--threads N] [--out PATH]
+                                  data/tabulated_conductor.bin (the conductor lobes)
+  --scale                         data/tabulated_scale.bin (conductor furnace scales)
+  --dielectric                    data/tabulated_dielectric.bin (the glass lobes)
+  --dielectric-scale              data/tabulated_dielectric_scale.bin, exact nodes
+  --dielectric-scale-fit --exact EXACT.bin [--lawson K] [--low-2d --base FITTED.bin]
+                                  the same table with nodes fitted along roughness
+  --conductor-pack / --dielectric-pack / --dielectric-lobe-pack / --dielectric-v5 FILE
+                                  rewrite an older version of a table
+  --dielectric-normalize          the lobe table normalised (--power P --floor F)
+Measures (writes nothing):
+  --dielectric-check [--evals N]  the glass table against the reference and walks
+  --mu-pilot [--quadratic] [--grid lib|v7|plain:N|lobe]
+                                  exact scales on a trial cosine grid
+  --dielectric-scale --only N,A,E [--alpha X] [--eta E] [--between]
+  --dielectric-scale-fit --exact EXACT.bin --pilot N,L,E
+                                  one row of the scale solve or fit
+  --dielectric-ir MODEL NDF eval|sample|pdf|init CALLS
+                                  the callgrind driver of glass calls";
+
 const NDFS: [NdfKind; NDF_N] = [NdfKind::Beckmann, NdfKind::Ggx];
 const SEED_LOBE: u64 = 20261124;
 const SEED_FRESNEL: u64 = 20261125;
@@ -403,24 +491,6 @@ fn write_bytes(
     eprintln!("wrote {out} ({} bytes)", bytes.len());
 }
 
-fn git_commit() -> String {
-    let run = |args: &[&str]| {
-        std::process::Command::new("git")
-            .args(args)
-            .output()
-            .ok()
-            .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
-            .unwrap_or_default()
-    };
-    let head = run(&["rev-parse", "HEAD"]);
-    let dirty = !run(&["status", "--porcelain", "--untracked-files=no"]).is_empty();
-    if dirty {
-        format!("{head} (with uncommitted changes)")
-    } else {
-        head
-    }
-}
-
 /// The `A:B:C` triples of option `name`'s comma-separated value (those
 /// that parse), if the option is given.
 fn triples_arg<A: std::str::FromStr, B: std::str::FromStr, C: std::str::FromStr>(
@@ -684,7 +754,7 @@ fn scale_main(args: &[String]) {
          layout: per (ndf {NDF_N}, scale alpha {SCALE_ALPHA_N}, scale mu {SCALE_MU_N}) node two u16: the scale s = {SCALE_MAX} (v / 65535)^2 and the first-facet Schlick weight (v / 65535)^2 (resampled bilinearly from the lobe grid); then the all-facets weights, f32 per (ndf, alpha node)\n\
          wall time: {:.0} s on {threads} threads\n",
         args[1..].join(" "),
-        git_commit(),
+        git::commit(),
         t0.elapsed().as_secs_f64(),
     );
     write_bytes(
@@ -699,6 +769,7 @@ fn scale_main(args: &[String]) {
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
+    cli::check_options(&args, OPTIONS, USAGE);
     if args.iter().any(|a| a == "--dielectric-ir") {
         dielectric::ir(&args);
         return;
@@ -1088,7 +1159,7 @@ fn finish(
          grid: ndf {NDF_N} x alpha {ALPHA_N} x (mu_i, mu_o) with mu_i node <= mu_o node ({R_PAIRS} of mu_i {MU_N} x mu_o {MU_N}) x {CELL} floats (K = {K_STORED} cosine terms of a {K_FIT}-term fit, peaked weight B, order fractions 2, 3, 4)\n\
          {}wall time: {:.0} s on {threads} threads\n",
         args[1..].join(" "),
-        git_commit(),
+        git::commit(),
         (sym_num / sym_den.max(1e-300)).sqrt(),
         sym_max,
         (sym_num3 / sym_den3.max(1e-300)).sqrt(),
@@ -1242,7 +1313,7 @@ fn repack(args: &[String], rest: &[String], spec: &Repack, pack: fn(&[f32]) -> V
         old.trim_end_matches('\0'),
         String::from_utf8_lossy(spec.old_magic).trim_end(),
         args[1..].join(" "),
-        git_commit(),
+        git::commit(),
         spec.layout,
     );
     let mut payload = pack(block);
@@ -1268,8 +1339,8 @@ fn repack(args: &[String], rest: &[String], spec: &Repack, pack: fn(&[f32]) -> V
 /// plus transmitted albedo `E_ss` by quadrature gives the furnace targets.
 mod dielectric {
     use super::{
-        CONDUCTOR_F1, K_FIT, NDFS, RIDGE, arg, dir, fit_node, git_commit, gram_entries, node_mu,
-        parallel, sinkhorn, sinkhorn_within, triples_arg,
+        CONDUCTOR_F1, K_FIT, NDFS, RIDGE, arg, dir, fit_node, git, gram_entries, node_mu, parallel,
+        sinkhorn, sinkhorn_within, triples_arg,
     };
     use glam::Vec3;
     use msbsdf::Rng;
@@ -1796,7 +1867,7 @@ mod dielectric {
              normalisation: cargo run --release --example gen_tabulated -- {} (commit {}): per node the lobes times u(mu_i) u(mu_o) towards the albedo max(A, {floor})^{power} from every cosine node of both sides, A the walk's lobe's ({iters} symmetric Jacobi steps from u = sqrt(target / A); factors {umin:.4e} .. {umax:.4e}); albedo after vs the target: worst relative deviation {after:.3e} (A >= {floor}); quadrature {}; {:.0} s on {threads} threads\n",
             String::from_utf8_lossy(MAGIC),
             args[1..].join(" "),
-            git_commit(),
+            git::commit(),
             if broad > 0 {
                 format!("--broad {broad}")
             } else {
@@ -2159,7 +2230,7 @@ mod dielectric {
              {SCALE_STORAGE}\n",
             String::from_utf8_lossy(SCALE_MAGIC),
             args[1..].join(" "),
-            git_commit(),
+            git::commit(),
             SCALE_ETA_N + 1 - SCALE_LOW_ETA_N,
             SCALE_LOW_ETA_N - 1,
             t0.elapsed().as_secs_f64(),
@@ -3043,7 +3114,7 @@ mod dielectric {
              {SCALE_STORAGE}\n",
             String::from_utf8_lossy(SCALE_MAGIC),
             args[1..].join(" "),
-            git_commit(),
+            git::commit(),
             jobs.len(),
             100.0 * moved,
             match &base {
@@ -3332,7 +3403,7 @@ mod dielectric {
              wall time: {:.0} s on {threads} threads\n",
             String::from_utf8_lossy(MAGIC),
             args[1..].join(" "),
-            git_commit(),
+            git::commit(),
             (sym_num / sym_den.max(1e-300)).sqrt(),
             (t_num / t_den.max(1e-300)).sqrt(),
             match opt("--from-dump") {

@@ -74,8 +74,55 @@ use msbsdf::ndf::{Ndf, NdfKind};
 use msbsdf::rng::Rng;
 use msbsdf::single::{G2Form, Single};
 
+#[path = "harness/cli.rs"]
+mod cli;
 #[path = "harness/git.rs"]
 mod git;
+
+/// Every option `main` reads (`cli::check_options` rejects the others).
+const OPTIONS: &[&str] = &[
+    "--alphas",
+    "--at",
+    "--azimuths",
+    "--check",
+    "--dielectric",
+    "--dielectric-at",
+    "--dielectric-drop-1229",
+    "--dielectric-eta-scan",
+    "--dielectric-random",
+    "--dielectric-sweep",
+    "--etas",
+    "--grazing",
+    "--ir",
+    "--isotropic",
+    "--only",
+    "--parts",
+    "--quad",
+    "--rows",
+    "--scan",
+    "--sweep",
+    "--thetas",
+];
+
+const USAGE: &str = "\
+gen_tabulated_aniso: the anisotropic correction tables of MSBSDF_MODEL_TABULATED
+(the module documentation of tools/gen_tabulated_aniso.rs has the details).
+
+Writes a committed table (run on a clean tree; the header records the commit):
+  (no mode option) [--quad N]     data/tabulated_aniso.bin, conductors (~80 min)
+  --dielectric [--quad N] [--only K]
+                                  data/tabulated_aniso_dielectric.bin (~40 min)
+  --dielectric-drop-1229 FILE     version 10 -> 11 (drops index node 1.229)
+Measures (writes nothing):
+  --check [--quad N]              conductor furnace at the test's materials
+  --at NDF AX AY THETA PHI0 PHI1 STEP / --sweep / --scan NDF AX AY0 AY1 THETA PHI
+                                  conductor furnace along azimuths, sweeps, lines
+  --dielectric-at NDF AX AY ETA THETA PHI [--parts]   (MC=N: sampled too)
+  --dielectric-sweep [--isotropic] [--etas E,..] [--rows N]
+  --dielectric-random [COUNT] [--isotropic] [--grazing]
+  --dielectric-eta-scan [--quad N]
+  sweeps take --azimuths N --thetas T,.. --alphas A,..
+  --ir MODEL NDF CALLS ...        the callgrind driver of anisotropic eval";
 
 const NDFS: [NdfKind; 2] = [NdfKind::Beckmann, NdfKind::Ggx];
 
@@ -383,6 +430,7 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
+    cli::check_options(&args, OPTIONS, USAGE);
     let quad_arg: Option<usize> = args
         .iter()
         .position(|a| a == "--quad")

@@ -10,6 +10,7 @@
 
 #![allow(dead_code, clippy::needless_range_loop)]
 
+pub mod cli;
 pub mod git;
 pub mod reference;
 pub mod speed;
