@@ -176,7 +176,7 @@ use crate::multiple::tabulated::{
     u16x4,
 };
 use crate::multiple::tabulated::{
-    DIELECTRIC_BLEND_S2, MAX_ALPHA, MU_N, albedo_mu_split, alpha_proj2, cos_phi, cosine_sample,
+    DIELECTRIC_BLEND_S2, MAX_ALPHA, MU_N, alpha_proj2, cos_phi, cosine_sample, dcorr_mu_split,
     grid_dirs3, ndf_index, split, split_at, split_root, text_header,
 };
 use crate::ndf::Ndf;
@@ -619,7 +619,7 @@ pub const DCORR_LEN: usize = NDF_N * DCORR_PAIRS * DCORR_ETA_N * DCORR_BLOCK;
 /// [`DCORR_LEN`] little-endian `u16` (`tabulated::corr_encode`).
 pub const DCORR_FILE_BYTES: usize = HEADER_BYTES + 2 * DCORR_LEN;
 /// First bytes of the correction file.
-pub const DCORR_MAGIC: &[u8; 38] = b"MSBSDF-TABULATED-DIELECTRIC-ANISO-v11\n";
+pub const DCORR_MAGIC: &[u8; 38] = b"MSBSDF-TABULATED-DIELECTRIC-ANISO-v12\n";
 
 /// The anisotropic correction's index grid as knots of a piecewise
 /// linear map between its node coordinate ([`DCORR_KNOT_NODE`]) and the
@@ -865,7 +865,7 @@ fn dcorr_corners(ndf: usize, ax: f32, ay: f32, eta: (usize, usize, f32)) -> DCor
 /// once, the three azimuth coordinates in SIMD lanes).
 #[inline]
 fn dcorr_dirs(rho: Vec4, w: Vec3) -> [AnisoDir; 3] {
-    grid_dirs3(dcorr_phi4(diamond4(w, rho)), albedo_mu_split(w), DCORR_PHI)
+    grid_dirs3(dcorr_phi4(diamond4(w, rho)), dcorr_mu_split(w), DCORR_PHI)
 }
 
 /// The correction `s` of a direction on `side` (0 thin, 1 dense) at its
@@ -2622,7 +2622,7 @@ mod tests {
                     let c = dcorr_corners(ndf, grid_alpha(jx), grid_alpha(jy), (e, e + 1, 0.0));
                     for side in 0..2 {
                         for k in 0..DCORR_PHI {
-                            for i in [0, 5, 11, AN_MU - 1] {
+                            for i in [0, 1, 5, 11, AN_MU - 3, AN_MU - 2, AN_MU - 1] {
                                 // The node as the lower one of its cell, or
                                 // the upper one of the last cell.
                                 let (k0, fk) = if k + 1 < DCORR_PHI {
@@ -2670,7 +2670,7 @@ mod tests {
                 }
             }
         }
-        assert_eq!(checked, NDF_N * 6 * 3 * 2 * DCORR_PHI * 4);
+        assert_eq!(checked, NDF_N * 6 * 3 * 2 * DCORR_PHI * 7);
     }
 
     /// The peaked part's `f_ss1 |wo.z|` that eval takes from SINGLE
