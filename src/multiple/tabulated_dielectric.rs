@@ -140,7 +140,9 @@
 //! (uniform in `tabulated::dcorr_phi` of the diamond angle, stretched per
 //! block towards its smoother axis by [`dcorr_stretch`]: no
 //! `atan2`)
-//! and ENERGY_COMPENSATED's anisotropic cosine grid, the factors
+//! and 16 cosines (`tabulated::dcorr_grid_mu`: ENERGY_COMPENSATED's
+//! anisotropic cosine grid with its second node moved to 14.6 degrees,
+//! version 12), the factors
 //! that give the lobe the albedo `1 - E_ss(w)` (SINGLE's reflected plus
 //! transmitted albedo by quadrature) at every node from both sides; linear
 //! on triangles in roughness, linear in `ln E`, bilinear in azimuth and
@@ -593,8 +595,9 @@ pub const DCORR_PHI: usize = 10;
 /// [`DCORR_PHI`] azimuths uniform in `tabulated::dcorr_phi` (within 0.35 degrees of
 /// uniform in `phi` at `rho` = 1, from the diamond angle `rho |y| / (|x| +
 /// rho |y|)` without an `atan2`, `rho` the block's
-/// [`dcorr_stretch`]) and ENERGY_COMPENSATED's anisotropic cosine
-/// grid (side 0 thin, 1 dense).
+/// [`dcorr_stretch`]) and 16 cosines (`tabulated::dcorr_grid_mu`,
+/// version 12: ENERGY_COMPENSATED's anisotropic cosine grid without its
+/// node at 89.2 degrees, with one at 14.6; side 0 thin, 1 dense).
 pub const DCORR_BLOCK: usize = 2 * DCORR_PHI * AN_MU;
 /// Relative index nodes of the anisotropic furnace correction: the lobe
 /// table's [`ETA_N`] (where the lobe's linear interpolation in `ln E` has
