@@ -87,7 +87,6 @@ const OPTIONS: &[&str] = &[
     "--check",
     "--dielectric",
     "--dielectric-at",
-    "--dielectric-drop-1229",
     "--dielectric-eta-scan",
     "--dielectric-random",
     "--dielectric-sweep",
@@ -112,7 +111,6 @@ Writes a committed table (run on a clean tree; the header records the commit):
   (no mode option) [--quad N]     data/tabulated_aniso.bin, conductors (~80 min)
   --dielectric [--quad N] [--only K]
                                   data/tabulated_aniso_dielectric.bin (~40 min)
-  --dielectric-drop-1229 FILE     version 10 -> 11 (drops index node 1.229)
 Measures (writes nothing):
   --check [--quad N]              conductor furnace at the test's materials
   --at NDF AX AY THETA PHI0 PHI1 STEP / --sweep / --scan NDF AX AY0 AY1 THETA PHI
@@ -506,14 +504,6 @@ fn main() {
     }
     if args.iter().any(|a| a == "--dielectric-eta-scan") {
         dielectric_eta_scan(quad_arg.unwrap_or(64));
-        return;
-    }
-    if let Some(p) = args.iter().position(|a| a == "--dielectric-drop-1229") {
-        let Some(path) = args.get(p + 1) else {
-            eprintln!("--dielectric-drop-1229 needs the path of a version-10 file");
-            std::process::exit(2);
-        };
-        dielectric_drop_1229(path);
         return;
     }
     if args.iter().any(|a| a == "--dielectric") {
@@ -1269,59 +1259,6 @@ fn solve_within<R: AsRef<[f64]>>(m: &[R], target: &[f64], zero_empty: bool) -> (
     (s.iter().map(|&v| v as f32).collect(), stats)
 }
 
-/// `--dielectric-drop-1229 PATH`: rewrites a version-10 correction file
-/// (14 index nodes) as version 11 into `data/tabulated_aniso_dielectric.bin`:
-/// the same blocks without those of index node 4 (1.229, the lowest lobe
-/// interval's third quarter point; every block is solved on its own, so
-/// the other nodes' values are what the generator gives on version 11's
-/// grid), its header kept after a line saying so.
-fn dielectric_drop_1229(path: &str) {
-    use msbsdf::multiple::tabulated_dielectric::{
-        DCORR_BLOCK, DCORR_ETA_N, DCORR_FILE_BYTES, DCORR_LEN, DCORR_MAGIC, DCORR_PAIRS, NDF_N,
-    };
-    const OLD_ETA_N: usize = 14;
-    const DROP: usize = 4;
-    const OLD_MAGIC: &[u8] = b"MSBSDF-TABULATED-DIELECTRIC-ANISO-v10\n";
-    assert_eq!(
-        DCORR_ETA_N,
-        OLD_ETA_N - 1,
-        "the library's grid is version 11's"
-    );
-    let raw = std::fs::read(path).unwrap_or_else(|e| panic!("{path}: {e}"));
-    let old_len = NDF_N * DCORR_PAIRS * OLD_ETA_N * DCORR_BLOCK;
-    assert!(
-        raw.starts_with(OLD_MAGIC) && raw.len() == HEADER_BYTES + 2 * old_len,
-        "{path} is not a version-10 correction file"
-    );
-    let old: Vec<u16> = raw[HEADER_BYTES..]
-        .chunks_exact(2)
-        .map(|b| u16::from_le_bytes([b[0], b[1]]))
-        .collect();
-    let mut table = Vec::with_capacity(DCORR_LEN);
-    for (k, block) in old.chunks_exact(DCORR_BLOCK).enumerate() {
-        if k % OLD_ETA_N != DROP {
-            table.extend_from_slice(block);
-        }
-    }
-    assert_eq!(table.len(), DCORR_LEN);
-    let old_text = String::from_utf8_lossy(&raw[OLD_MAGIC.len()..HEADER_BYTES]);
-    let header = format!(
-        "Version 11: version 10 (below) without index node 4 (1.229), by \
-         cargo run --release --example gen_tabulated_aniso -- --dielectric-drop-1229 {path}; \
-         commit {}; 13 index nodes, the others' blocks unchanged.\n{}",
-        git::commit(),
-        old_text.trim_end_matches(['\0', ' '])
-    );
-    let bytes = table_bytes(DCORR_MAGIC, &header, &table);
-    assert_eq!(bytes.len(), DCORR_FILE_BYTES);
-    let out = format!(
-        "{}/data/tabulated_aniso_dielectric.bin",
-        env!("CARGO_MANIFEST_DIR")
-    );
-    std::fs::write(&out, bytes).unwrap_or_else(|e| panic!("{out}: {e}"));
-    eprintln!("wrote {out}");
-}
-
 /// `--dielectric`: `data/tabulated_aniso_dielectric.bin`, the anisotropic
 /// furnace correction of TABULATED's dielectric tier: per NDF, pair of the
 /// lobe table's roughness nodes `1 <= jx <= jy` (9 per axis), index node
@@ -1382,7 +1319,7 @@ fn dielectric(args: &[String], quad: usize) {
     }
     let command: Vec<String> = args.iter().skip(1).cloned().collect();
     let header = format!(
-        "DIELECTRIC ANISO_CORRECTION v11 (MSBSDF_MODEL_TABULATED, dielectric facets): factors s \
+        "DIELECTRIC ANISO_CORRECTION v12 (MSBSDF_MODEL_TABULATED, dielectric facets): factors s \
          per [ndf: Beckmann, GGX][pair of the lobe table's roughness nodes 1 <= jx <= jy <= \
          {}][index node: {DCORR_ETA_N}, in ln E from {ETA_MIN} to {ETA_MAX}: the lobe \
          table's nodes, the midpoints of its intervals, the first quarter point of the lowest \
@@ -1391,8 +1328,9 @@ fn dielectric(args: &[String], quad: usize) {
          (azimuth: uniform nodes from 0 to 1 of u = c - 0.4637 c (1 - c) (1 - 2 c), c = rho \
          |y| / (|x| + rho |y|) the diamond angle stretched by the block's rho = sqrt(jy / jx) \
          (tabulated::dcorr_stretch), tabulated::dcorr_phi, within 0.35 degrees of phi / 90 \
-         degrees at rho = 1; mu: ENERGY_COMPENSATED's anisotropic cosine grid) as \
-         little-endian u16 v, \
+         degrees at rho = 1; mu: ENERGY_COMPENSATED's anisotropic cosine grid without its \
+         second node and with one at the angle midpoint of its last interval, \
+         tabulated::dcorr_grid_mu) as little-endian u16 v, \
          s = {CORR_MAX} (v / 65535)^2, after this {HEADER_BYTES}-byte header; (jx > jy, k) \
          reads (jy, jx, {} - k); an axis at node 0 reads 1. The lobe \
          (TabulatedDielectric::without_aniso_correction minus SINGLE) scaled by s(wi) s(wo) \

@@ -140,7 +140,9 @@
 //! (uniform in `tabulated::dcorr_phi` of the diamond angle, stretched per
 //! block towards its smoother axis by [`dcorr_stretch`]: no
 //! `atan2`)
-//! and ENERGY_COMPENSATED's anisotropic cosine grid, the factors
+//! and 16 cosines (`tabulated::dcorr_grid_mu`: ENERGY_COMPENSATED's
+//! anisotropic cosine grid with its second node moved to 14.6 degrees,
+//! version 12), the factors
 //! that give the lobe the albedo `1 - E_ss(w)` (SINGLE's reflected plus
 //! transmitted albedo by quadrature) at every node from both sides; linear
 //! on triangles in roughness, linear in `ln E`, bilinear in azimuth and
@@ -176,7 +178,7 @@ use crate::multiple::tabulated::{
     u16x4,
 };
 use crate::multiple::tabulated::{
-    DIELECTRIC_BLEND_S2, MAX_ALPHA, MU_N, albedo_mu_split, alpha_proj2, cos_phi, cosine_sample,
+    DIELECTRIC_BLEND_S2, MAX_ALPHA, MU_N, alpha_proj2, cos_phi, cosine_sample, dcorr_mu_split,
     grid_dirs3, ndf_index, split, split_at, split_root, text_header,
 };
 use crate::ndf::Ndf;
@@ -593,8 +595,9 @@ pub const DCORR_PHI: usize = 10;
 /// [`DCORR_PHI`] azimuths uniform in `tabulated::dcorr_phi` (within 0.35 degrees of
 /// uniform in `phi` at `rho` = 1, from the diamond angle `rho |y| / (|x| +
 /// rho |y|)` without an `atan2`, `rho` the block's
-/// [`dcorr_stretch`]) and ENERGY_COMPENSATED's anisotropic cosine
-/// grid (side 0 thin, 1 dense).
+/// [`dcorr_stretch`]) and 16 cosines (`tabulated::dcorr_grid_mu`,
+/// version 12: ENERGY_COMPENSATED's anisotropic cosine grid without its
+/// node at 89.2 degrees, with one at 14.6; side 0 thin, 1 dense).
 pub const DCORR_BLOCK: usize = 2 * DCORR_PHI * AN_MU;
 /// Relative index nodes of the anisotropic furnace correction: the lobe
 /// table's [`ETA_N`] (where the lobe's linear interpolation in `ln E` has
@@ -619,7 +622,7 @@ pub const DCORR_LEN: usize = NDF_N * DCORR_PAIRS * DCORR_ETA_N * DCORR_BLOCK;
 /// [`DCORR_LEN`] little-endian `u16` (`tabulated::corr_encode`).
 pub const DCORR_FILE_BYTES: usize = HEADER_BYTES + 2 * DCORR_LEN;
 /// First bytes of the correction file.
-pub const DCORR_MAGIC: &[u8; 38] = b"MSBSDF-TABULATED-DIELECTRIC-ANISO-v11\n";
+pub const DCORR_MAGIC: &[u8; 38] = b"MSBSDF-TABULATED-DIELECTRIC-ANISO-v12\n";
 
 /// The anisotropic correction's index grid as knots of a piecewise
 /// linear map between its node coordinate ([`DCORR_KNOT_NODE`]) and the
@@ -865,7 +868,7 @@ fn dcorr_corners(ndf: usize, ax: f32, ay: f32, eta: (usize, usize, f32)) -> DCor
 /// once, the three azimuth coordinates in SIMD lanes).
 #[inline]
 fn dcorr_dirs(rho: Vec4, w: Vec3) -> [AnisoDir; 3] {
-    grid_dirs3(dcorr_phi4(diamond4(w, rho)), albedo_mu_split(w), DCORR_PHI)
+    grid_dirs3(dcorr_phi4(diamond4(w, rho)), dcorr_mu_split(w), DCORR_PHI)
 }
 
 /// The correction `s` of a direction on `side` (0 thin, 1 dense) at its
@@ -2622,7 +2625,7 @@ mod tests {
                     let c = dcorr_corners(ndf, grid_alpha(jx), grid_alpha(jy), (e, e + 1, 0.0));
                     for side in 0..2 {
                         for k in 0..DCORR_PHI {
-                            for i in [0, 5, 11, AN_MU - 1] {
+                            for i in [0, 1, 5, 11, AN_MU - 3, AN_MU - 2, AN_MU - 1] {
                                 // The node as the lower one of its cell, or
                                 // the upper one of the last cell.
                                 let (k0, fk) = if k + 1 < DCORR_PHI {
@@ -2670,7 +2673,7 @@ mod tests {
                 }
             }
         }
-        assert_eq!(checked, NDF_N * 6 * 3 * 2 * DCORR_PHI * 4);
+        assert_eq!(checked, NDF_N * 6 * 3 * 2 * DCORR_PHI * 7);
     }
 
     /// The peaked part's `f_ss1 |wo.z|` that eval takes from SINGLE
