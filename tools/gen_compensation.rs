@@ -21,6 +21,8 @@
 //! in `src/multiple/compensation.rs`; `tests/compensation.rs` checks
 //! random table entries against SINGLE's sampled albedo.
 
+#[path = "harness/cli.rs"]
+mod cli;
 #[path = "harness/git.rs"]
 mod git;
 
@@ -157,7 +159,18 @@ fn flat3(v: &[Vec<Vec<f32>>]) -> Vec<f32> {
     v.iter().flatten().flatten().copied().collect()
 }
 
+/// Every option `main` reads (`cli::check_options` rejects the others).
+const OPTIONS: &[&str] = &["--ms", "--aniso"];
+
+const USAGE: &str = "\
+gen_compensation: ENERGY_COMPENSATED's tables under src/tables (the module documentation
+of tools/gen_compensation.rs has the details).
+  (no option)  conductor_e.bin, conductor_e_avg.bin, dielectric_e.bin (about a minute)
+  --ms         conductor_ms_cos_hist.bin, conductor_ms_tint.bin
+  --aniso      conductor_e_aniso.bin";
+
 fn main() {
+    cli::check_options(&std::env::args().collect::<Vec<_>>(), OPTIONS, USAGE);
     if std::env::args().any(|a| a == "--ms") {
         ms_tables();
         return;

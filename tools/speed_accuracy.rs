@@ -336,7 +336,14 @@ fn lobes(r: &RefMaterial, theta_i: f32, transmit: bool, k: u32) -> (Panel, Panel
     )
 }
 
+/// Every option `main` reads (`harness::cli::check_options` rejects the
+/// others).
+const OPTIONS: &[&str] = &["--docs", "--quick", "--reference", "--table"];
+
+const USAGE: &str = "speed_accuracy: speed against accuracy of every (model, estimator) the library accepts\n(writes the charts and tables under --docs DIR, default docs; the module documentation of\ntools/speed_accuracy.rs has the details).\nOptions: --docs --quick --reference --table";
+
 fn main() {
+    harness::cli::check_options(&std::env::args().collect::<Vec<_>>(), OPTIONS, USAGE);
     let quick = harness::arg_flag("--quick");
     let ref_path =
         harness::arg_value("--reference").unwrap_or_else(|| "data/reference_values.csv".into());

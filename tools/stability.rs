@@ -95,7 +95,14 @@ fn albedo(m: &Material, wi: Vec3, n: u64, seed: u64) -> (f64, f64, u64, f64, f64
     (mean, rs, bad, absorbed as f64 / n as f64, ns)
 }
 
+/// Every option `main` reads (`harness::cli::check_options` rejects the
+/// others).
+const OPTIONS: &[&str] = &["--out", "--samples"];
+
+const USAGE: &str = "stability: sweeps every (model, estimator) over grazing incidence, roughness and index\n(--samples N, default 4000; --out DIR, default docs; the module documentation of\ntools/stability.rs has the details).\nOptions: --out --samples";
+
 fn main() {
+    harness::cli::check_options(&std::env::args().collect::<Vec<_>>(), OPTIONS, USAGE);
     let samples: u64 = harness::arg_value("--samples")
         .and_then(|s| s.parse().ok())
         .unwrap_or(4000);
