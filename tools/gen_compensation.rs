@@ -170,7 +170,7 @@ of tools/gen_compensation.rs has the details).
   --aniso      conductor_e_aniso.bin";
 
 fn main() {
-    cli::check_options(&std::env::args().collect::<Vec<_>>(), OPTIONS, USAGE);
+    cli::check_options(OPTIONS, USAGE);
     if std::env::args().any(|a| a == "--ms") {
         ms_tables();
         return;

@@ -77,7 +77,7 @@ const OPTIONS: &[&str] = &[
 const USAGE: &str = "gen_reference: the converged HEITZ_RANDOM_WALK reference of the speed-vs-accuracy harness\n(data/reference_values.csv, data/reference_albedo.csv; the module documentation of\ntools/gen_reference.rs has the details).\nOptions: --albedo-only --albedo-samples --analyse --budget --check --check-only --estimate --forced-conductor --forced-dielectric --items --max-samples --no-albedo --one-way --only --out --pairs --pilot --plain --quick --resume --samples --seed --target --top";
 
 fn main() {
-    harness::cli::check_options(&std::env::args().collect::<Vec<_>>(), OPTIONS, USAGE);
+    harness::cli::check_options(OPTIONS, USAGE);
     let quick = harness::arg_flag("--quick");
     let parse = |name: &str, default: f64| {
         harness::arg_value(name)

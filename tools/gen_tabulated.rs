@@ -769,7 +769,7 @@ fn scale_main(args: &[String]) {
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    cli::check_options(&args, OPTIONS, USAGE);
+    cli::check_options(OPTIONS, USAGE);
     if args.iter().any(|a| a == "--dielectric-ir") {
         dielectric::ir(&args);
         return;

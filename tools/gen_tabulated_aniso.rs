@@ -428,7 +428,7 @@ fn block(n: usize, jx: usize, jy: usize, quad: usize) -> (Vec<[f32; 2]>, Stats) 
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    cli::check_options(&args, OPTIONS, USAGE);
+    cli::check_options(OPTIONS, USAGE);
     let quad_arg: Option<usize> = args
         .iter()
         .position(|a| a == "--quad")

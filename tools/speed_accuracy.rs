@@ -343,7 +343,7 @@ const OPTIONS: &[&str] = &["--docs", "--quick", "--reference", "--table"];
 const USAGE: &str = "speed_accuracy: speed against accuracy of every (model, estimator) the library accepts\n(writes the charts and tables under --docs DIR, default docs; the module documentation of\ntools/speed_accuracy.rs has the details).\nOptions: --docs --quick --reference --table";
 
 fn main() {
-    harness::cli::check_options(&std::env::args().collect::<Vec<_>>(), OPTIONS, USAGE);
+    harness::cli::check_options(OPTIONS, USAGE);
     let quick = harness::arg_flag("--quick");
     let ref_path =
         harness::arg_value("--reference").unwrap_or_else(|| "data/reference_values.csv".into());

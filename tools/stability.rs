@@ -102,7 +102,7 @@ const OPTIONS: &[&str] = &["--out", "--samples"];
 const USAGE: &str = "stability: sweeps every (model, estimator) over grazing incidence, roughness and index\n(--samples N, default 4000; --out DIR, default docs; the module documentation of\ntools/stability.rs has the details).\nOptions: --out --samples";
 
 fn main() {
-    harness::cli::check_options(&std::env::args().collect::<Vec<_>>(), OPTIONS, USAGE);
+    harness::cli::check_options(OPTIONS, USAGE);
     let samples: u64 = harness::arg_value("--samples")
         .and_then(|s| s.parse().ok())
         .unwrap_or(4000);
