@@ -80,6 +80,7 @@ const OPTIONS: &[&str] = &[
     "--keep",
     "--lawson",
     "--low-2d",
+    "--low-from",
     "--mu-pilot",
     "--ng",
     "--only",
@@ -113,8 +114,10 @@ Writes a committed table (run on a clean tree; the header records the commit):
                                   data/tabulated_conductor.bin (the conductor lobes)
   --scale                         data/tabulated_scale.bin (conductor furnace scales)
   --dielectric                    data/tabulated_dielectric.bin (the glass lobes)
-  --dielectric-scale              data/tabulated_dielectric_scale.bin, exact nodes
+  --dielectric-scale [--keep V9.bin]
+                                  data/tabulated_dielectric_scale.bin, exact nodes
   --dielectric-scale-fit --exact EXACT.bin [--lawson K] [--low-2d --base FITTED.bin]
+                         [--low-from FITTED_V9.bin]
                                   the same table with nodes fitted along roughness
   --conductor-pack / --dielectric-pack / --dielectric-lobe-pack / --dielectric-v5 FILE
                                   rewrite an older version of a table
@@ -1925,20 +1928,22 @@ mod dielectric {
     /// roughness `A` and index `E` with weights `W` (what another grid
     /// would give, before building it). `--only`'s roughness node is one
     /// of the main block's grid.
-    /// `--keep V5.bin` copies the nodes of a version-5 table (every node of
-    /// the main block, and those of the low-index block on version 5's
-    /// roughness grid) and solves only the low-index block's new roughness
-    /// nodes (`scale_low_split`; the committed version 6, from `git show
-    /// 047d22b:data/tabulated_dielectric_scale.bin`, 222 s): the generator
-    /// is deterministic, so with the same lobe table a full run computes
-    /// the same values for the kept nodes (version 5 was made so from
-    /// version 4 by the generator at commit 047d22b).
+    /// `--keep V9.bin` copies the nodes of a version-9 table (every node
+    /// but the main block's roughness node `SCALE_HALF_NODE`, new in
+    /// version 10) and solves only that node (the committed version 10's
+    /// exact nodes, from `git show 4f047c6:data/tabulated_dielectric_scale.bin`,
+    /// the exact nodes of version 9): the generator is deterministic, so
+    /// with the same lobe table a full run computes the same values for
+    /// the kept nodes. (Until version 10 `--keep` read a version-5 table
+    /// and solved the low-index block's new nodes; commit 745213e has
+    /// that form.)
     pub fn scale_main(args: &[String]) {
         use msbsdf::multiple::tabulated_dielectric::{
             SCALE_ALPHA_N, SCALE_ETA_N, SCALE_ETA_PLAIN_N, SCALE_ETA_SPLIT, SCALE_FINE_INTERVALS,
-            SCALE_FINE_SPLIT, SCALE_LOW_ALPHA_N, SCALE_LOW_ETA_N, SCALE_MAX, SCALE_MU_ELEMS,
-            SCALE_MU_N, SCALE_PAD, SCALE_ROOT_N, alpha_coord, header, scale_alpha_x,
-            scale_grid_alpha, scale_grid_eta, scale_grid_mu, scale_index, scale_low_grid_alpha,
+            SCALE_FINE_SPLIT, SCALE_HALF_INTERVAL, SCALE_HALF_NODE, SCALE_LOW_ALPHA_N,
+            SCALE_LOW_ETA_N, SCALE_MAX, SCALE_MU_ELEMS, SCALE_MU_N, SCALE_PAD, SCALE_ROOT_N,
+            header, scale_grid_alpha, scale_grid_eta, scale_grid_mu, scale_index,
+            scale_low_grid_alpha,
         };
         // Roughness of node `a` of the low-index block (`low`) or the main
         // block.
@@ -2042,26 +2047,13 @@ mod dielectric {
                 jobs.push((n, low, a, e, grid_alpha_of(low, a), scale_grid_eta(e)));
             }
         }
-        // `--keep V5.bin`: the nodes of a version-5 table (every node of
-        // the main block, and of the low-index block those on version 5's
-        // roughness grid) are copied from it (the generator is
-        // deterministic: a full run with the same lobe table computes the
-        // same values), only the low-index block's new roughness nodes
-        // are solved.
-        let keep = table_arg(
-            args,
-            "--keep",
-            b"MSBSDF-TABULATED-DIELECTRIC-SCALE-v5\n",
-            HEADER_BYTES + 2 * NDF_N * SCALE_ALPHA_N * SCALE_ETA_N * 2 * fm,
-        );
-        // Version 5's roughness node (its grid is the main block's) that
-        // node `a` of a block is, if any.
-        let v5_node = |low: bool, a: usize| {
-            let x = scale_alpha_x(alpha_coord(grid_alpha_of(low, a)) / (ALPHA_N - 1) as f32);
-            ((x - x.round()).abs() < 1e-3).then_some(x.round() as usize)
-        };
+        // `--keep V9.bin`: the nodes of a version-9 table (every node but
+        // the main block's SCALE_HALF_NODE) are copied from it (the
+        // generator is deterministic: a full run with the same lobe table
+        // computes the same values), only the new node is solved.
+        let keep = table_arg(args, "--keep", PREV_SCALE_MAGIC, PREV_SCALE_FILE_BYTES);
         if keep.is_some() && only.is_none() {
-            jobs.retain(|&(_, low, a, _, _, _)| v5_node(low, a).is_none());
+            jobs.retain(|&(_, low, a, _, _, _)| prev_node(low, a).is_none());
         }
         let res = parallel(
             &jobs,
@@ -2148,22 +2140,10 @@ mod dielectric {
         // Roughness node 0 (no multiple scattering) keeps 1.
         let mut scale = vec![scale_steps(1.0); SCALE_LEN];
         if let Some((raw, _)) = &keep {
-            for n in 0..NDF_N {
-                for (low, na, e_range) in [
-                    (true, SCALE_LOW_ALPHA_N, 0..SCALE_LOW_ETA_N),
-                    (false, SCALE_ALPHA_N, SCALE_LOW_ETA_N - 1..SCALE_ETA_N),
-                ] {
-                    for a in 0..na {
-                        let Some(a5) = v5_node(low, a) else { continue };
-                        for e in e_range.clone() {
-                            for x in 0..2 * fm {
-                                let at = ((n * SCALE_ALPHA_N + a5) * SCALE_ETA_N + e) * 2 * fm + x;
-                                let b = HEADER_BYTES + 2 * at;
-                                scale[scale_index(n, low, a, e, x / fm, x % fm)] =
-                                    u16::from_le_bytes([raw[b], raw[b + 1]]);
-                            }
-                        }
-                    }
+            for (i, v) in scale.iter_mut().enumerate() {
+                if let Some(j) = prev_index(i) {
+                    let b = HEADER_BYTES + 2 * j;
+                    *v = u16::from_le_bytes([raw[b], raw[b + 1]]);
                 }
             }
         }
@@ -2207,7 +2187,7 @@ mod dielectric {
             Some((raw, path)) => {
                 let line = |key: &str| header_line(raw, key);
                 format!(
-                    "kept: the nodes of version 5's grid copied from {path} (version 5; its {}; {}), the low-index block's other roughness nodes solved here\n",
+                    "kept: the nodes of version 9's grid copied from {path} (version 9; its {}; {}), the main block's roughness node {SCALE_HALF_NODE} solved here\n",
                     line("command:"),
                     line("commit:")
                 )
@@ -2224,7 +2204,7 @@ mod dielectric {
              E_ss: SINGLE reflection + transmission quadrature {quad} x {quad} (compensation::single_albedo)\n\
              albedo of the unscaled lobe vs 1 - E_ss: worst relative deviation {before:.3e} (targets > 1e-3); after scaling: {after:.3e} (targets > 1e-4, rows not empty; scales within [0, {scale_max}] during the solve, 0 where the target is 0: {zeros} nodes)\n\
              scales between {smin:.4} and {smax:.4}\n\
-             grid: index nodes {SCALE_ETA_N} (uniform in ln E with {SCALE_ETA_PLAIN_N} nodes, its first two intervals split in {SCALE_ETA_SPLIT:?}); low-index block ndf {NDF_N} x alpha {SCALE_LOW_ALPHA_N} (uniform in sqrt(alpha / 2) with {SCALE_ROOT_N} nodes, its first {SCALE_FINE_INTERVALS} intervals split in {SCALE_FINE_SPLIT}, then per lobe interval its first two split as the index's) x eta {SCALE_LOW_ETA_N} (the first) x side 2 x mu {SCALE_MU_N}, then the main block ndf {NDF_N} x alpha {SCALE_ALPHA_N} (the same sqrt(alpha) grid, only its first {SCALE_FINE_INTERVALS} intervals split in {SCALE_FINE_SPLIT}) x eta {} (from node {}) x side 2 x mu {SCALE_MU_N} (the ends and midpoints of {SCALE_MU_ELEMS} elements on the lobe table's cosine nodes, the scale quadratic in sqrt(mu) on each: tabulated_dielectric::scale_mu_basis), then {SCALE_PAD} zero steps\n\
+             grid: index nodes {SCALE_ETA_N} (uniform in ln E with {SCALE_ETA_PLAIN_N} nodes, its first two intervals split in {SCALE_ETA_SPLIT:?}); low-index block ndf {NDF_N} x alpha {SCALE_LOW_ALPHA_N} (uniform in sqrt(alpha / 2) with {SCALE_ROOT_N} nodes, its first {SCALE_FINE_INTERVALS} intervals split in {SCALE_FINE_SPLIT}, then per lobe interval its first two split as the index's) x eta {SCALE_LOW_ETA_N} (the first) x side 2 x mu {SCALE_MU_N}, then the main block ndf {NDF_N} x alpha {SCALE_ALPHA_N} (the same sqrt(alpha) grid, its first {SCALE_FINE_INTERVALS} intervals split in {SCALE_FINE_SPLIT} and interval {SCALE_HALF_INTERVAL} in 2) x eta {} (from node {}) x side 2 x mu {SCALE_MU_N} (the ends and midpoints of {SCALE_MU_ELEMS} elements on the lobe table's cosine nodes, the scale quadratic in sqrt(mu) on each: tabulated_dielectric::scale_mu_basis), then {SCALE_PAD} zero steps\n\
              {kept}\
              wall time: {:.0} s on {threads} threads\n\
              {SCALE_STORAGE}\n",
@@ -2282,6 +2262,48 @@ mod dielectric {
             "{name}: {path} is not a scale table of the expected version and layout"
         );
         Some((raw, path.clone()))
+    }
+
+    /// First bytes of the previous layout of the scale table (version 9:
+    /// without the main block's roughness node `SCALE_HALF_NODE`), which
+    /// `--dielectric-scale --keep` and `--dielectric-scale-fit --low-from`
+    /// read.
+    const PREV_SCALE_MAGIC: &[u8] = b"MSBSDF-TABULATED-DIELECTRIC-SCALE-v9\n";
+    /// Size of a version-9 scale table file in bytes.
+    const PREV_SCALE_FILE_BYTES: usize = {
+        use msbsdf::multiple::tabulated_dielectric::{
+            SCALE_LEN, SCALE_MAIN_ETA_N, SCALE_MU_N, SCALE_PAD,
+        };
+        HEADER_BYTES + 2 * (SCALE_LEN - NDF_N * SCALE_MAIN_ETA_N * 2 * SCALE_MU_N + SCALE_PAD)
+    };
+
+    /// The version-9 roughness node that node `a` of a block (the
+    /// low-index block's if `low`) is: the same node, but in the main
+    /// block none for `SCALE_HALF_NODE` and `a - 1` above it.
+    fn prev_node(low: bool, a: usize) -> Option<usize> {
+        use msbsdf::multiple::tabulated_dielectric::SCALE_HALF_NODE;
+        match a {
+            _ if low || a < SCALE_HALF_NODE => Some(a),
+            _ if a == SCALE_HALF_NODE => None,
+            _ => Some(a - 1),
+        }
+    }
+
+    /// The index in a version-9 scale table of entry `i` of the current
+    /// layout (`scale_index`), if it has one: the low-index block (first
+    /// in both) is the same, the main block lost a roughness node.
+    fn prev_index(i: usize) -> Option<usize> {
+        use msbsdf::multiple::tabulated_dielectric::{
+            SCALE_ALPHA_N, SCALE_LOW_LEN, SCALE_MAIN_ETA_N, SCALE_MU_N,
+        };
+        if i < SCALE_LOW_LEN {
+            return Some(i);
+        }
+        let row = SCALE_MAIN_ETA_N * 2 * SCALE_MU_N;
+        let (node, rest) = ((i - SCALE_LOW_LEN) / row, (i - SCALE_LOW_LEN) % row);
+        let (n, a) = (node / SCALE_ALPHA_N, node % SCALE_ALPHA_N);
+        let a = prev_node(false, a)?;
+        Some(SCALE_LOW_LEN + (n * (SCALE_ALPHA_N - 1) + a) * row + rest)
     }
 
     /// One point's furnace scales (`--dielectric-scale`'s solve): the
@@ -2795,6 +2817,13 @@ mod dielectric {
     /// E` next to 1.05, and copies the rest from `FITTED.bin` (a table this
     /// command wrote without `--low-2d`); the committed table is made so.
     ///
+    /// `--low-from FITTED_V9.bin` copies the low-index block from a
+    /// version-9 table that `--low-2d` wrote (the committed version 9,
+    /// commit 745213e) and fits the main block alone: version 10 changed
+    /// only the main block's grid, so the low-index block's exact nodes and
+    /// midpoints, and its fit, are version 9's (the committed version 10 is
+    /// made so).
+    ///
     /// `--pilot N,L,E` (NDF, 1 for the low-index block, index node) fits one
     /// row with each number of Lawson steps of `--pilot-lawson K,K,...`
     /// (default 0,5,20) and prints the furnace (the worst `|albedo - 1|`
@@ -2805,8 +2834,9 @@ mod dielectric {
     /// `--out` as for `--dielectric-scale`.
     pub fn scale_fit_main(args: &[String]) {
         use msbsdf::multiple::tabulated_dielectric::{
-            SCALE_ALPHA_N, SCALE_ETA_N, SCALE_LOW_ALPHA_N, SCALE_LOW_ETA_N, SCALE_MU_N, header,
-            scale_grid_alpha, scale_grid_eta, scale_index, scale_low_grid_alpha,
+            SCALE_ALPHA_N, SCALE_ETA_N, SCALE_LOW_ALPHA_N, SCALE_LOW_ETA_N, SCALE_LOW_LEN,
+            SCALE_MU_N, header, scale_grid_alpha, scale_grid_eta, scale_index,
+            scale_low_grid_alpha,
         };
         let t0 = std::time::Instant::now();
         let fm = SCALE_MU_N;
@@ -2860,11 +2890,28 @@ mod dielectric {
         let low2d = args.iter().any(|a| a == "--low-2d");
         let base = table_arg(args, "--base", SCALE_MAGIC, SCALE_FILE_BYTES);
         assert!(!low2d || base.is_some(), "--low-2d needs --base");
+        // `--low-from FITTED_V9.bin`: the low-index block copied from a
+        // fitted version-9 table (its layout is version 10's), only the
+        // main block fitted.
+        let low_from = table_arg(args, "--low-from", PREV_SCALE_MAGIC, PREV_SCALE_FILE_BYTES);
+        assert!(
+            low_from.is_none() || !(low2d || pilot.is_some()),
+            "--low-from is for the main block's fit alone"
+        );
+        if let Some((raw, _)) = &low_from {
+            assert!(
+                header_line(raw, "low-2d:") != "?",
+                "--low-from: the table's low-index block is not the 2-d fit"
+            );
+        }
         let rows: Vec<(usize, bool, usize)> = match &pilot {
             Some(v) if v.len() == 3 => vec![(v[0], v[1] == 1, v[2])],
             Some(_) => panic!("--pilot N,L,E"),
             None if low2d => (0..NDF_N)
                 .flat_map(|n| (0..SCALE_LOW_ETA_N).map(move |e| (n, true, e)))
+                .collect(),
+            None if low_from.is_some() => (0..NDF_N)
+                .flat_map(|n| (SCALE_LOW_ETA_N - 1..SCALE_ETA_N).map(move |e| (n, false, e)))
                 .collect(),
             None => (0..NDF_N)
                 .flat_map(|n| {
@@ -2951,6 +2998,12 @@ mod dielectric {
                 .collect(),
             None => (0..SCALE_LEN).map(|i| scale_steps(exact(i))).collect(),
         };
+        if let Some((raw, _)) = &low_from {
+            for (i, v) in scale.iter_mut().enumerate().take(SCALE_LOW_LEN) {
+                let b = HEADER_BYTES + 2 * i;
+                *v = u16::from_le_bytes([raw[b], raw[b + 1]]);
+            }
+        }
         // The largest relative change of a node, and where.
         let (mut moved, mut moved_at) = (0.0f64, String::new());
         let mut note = |v: f64, s: f64, n: usize, low: bool, a: usize, e: usize, x: usize| {
@@ -3127,7 +3180,18 @@ mod dielectric {
                         line("commit:")
                     )
                 }
-                None => String::new(),
+                None => match &low_from {
+                    Some((raw, path)) => {
+                        let line = |key: &str| header_line(raw, key);
+                        format!(
+                            "low-index block: copied from {path} (version 9, the same layout there; {}; {}; {}), whose exact nodes are this table's; only the main block fitted here\n",
+                            line("command:"),
+                            line("commit:"),
+                            line("low-2d:")
+                        )
+                    }
+                    None => String::new(),
+                },
             },
             exact_line("command:"),
             exact_line("commit:"),
