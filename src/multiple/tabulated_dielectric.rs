@@ -88,8 +88,9 @@
 //! reflected plus transmitted albedo by deterministic quadrature): a
 //! symmetric (Sinkhorn) scaling of the interpolated, clamped lobes exactly
 //! as eval reads them, over the cosine nodes of both sides, solved at
-//! every node and at the midpoint of every roughness interval (and, in
-//! the low-index block, of every index interval); the stored node values
+//! every node and at the midpoint of every roughness and index interval
+//! (of every roughness interval alone in the main block until version
+//! 10); the stored node values
 //! are the weighted least-squares fit of both with the table's linear
 //! interpolation (`gen_tabulated -- --dielectric-scale-fit`, since
 //! session 28), so the furnace error between nodes is shared with the
