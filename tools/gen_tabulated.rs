@@ -51,6 +51,7 @@ mod git;
 const OPTIONS: &[&str] = &[
     "--alpha",
     "--base",
+    "--below-from",
     "--between",
     "--broad",
     "--cases",
@@ -64,6 +65,7 @@ const OPTIONS: &[&str] = &[
     "--dielectric-pack",
     "--dielectric-scale",
     "--dielectric-scale-fit",
+    "--dielectric-scale-splice",
     "--dielectric-v5",
     "--drop",
     "--dump",
@@ -72,6 +74,7 @@ const OPTIONS: &[&str] = &[
     "--exact",
     "--extra-eta",
     "--floor",
+    "--from",
     "--fresnel-walks",
     "--from-dump",
     "--gram-samples",
@@ -102,6 +105,7 @@ const OPTIONS: &[&str] = &[
     "--split",
     "--table",
     "--threads",
+    "--to-node",
     "--verbose",
     "--walks",
 ];
@@ -120,6 +124,8 @@ Writes a committed table (run on a clean tree; the header records the commit):
   --dielectric-scale-fit --exact EXACT.bin [--lawson K] [--low-2d --base FITTED.bin]
                          [--low-from FITTED_V9.bin [--main-2d]]
                                   the same table with nodes fitted along roughness
+  --dielectric-scale-splice --from FITTED.bin --below-from FITTED_V9.bin --to-node K
+                                  the main block's roughness nodes 0..=K from version 9
   --conductor-pack / --dielectric-pack / --dielectric-lobe-pack / --dielectric-v5 FILE
                                   rewrite an older version of a table
   --dielectric-normalize          the lobe table normalised (--power P --floor F)
@@ -792,6 +798,10 @@ fn main() {
     }
     if args.iter().any(|a| a == "--dielectric-scale-fit") {
         dielectric::scale_fit_main(&args);
+        return;
+    }
+    if args.iter().any(|a| a == "--dielectric-scale-splice") {
+        dielectric::scale_splice_main(&args);
         return;
     }
     if args.iter().any(|a| a == "--dielectric-scale") {
@@ -3230,6 +3240,81 @@ mod dielectric {
             exact_line("command:"),
             exact_line("commit:"),
             t0.elapsed().as_secs_f64(),
+        );
+        write_scale_table(&out, &head, &scale);
+    }
+
+    /// `--dielectric-scale-splice --from FITTED.bin --below-from
+    /// FITTED_V9.bin --to-node K` (the committed version 10, `K` = 13):
+    /// the table `FITTED.bin` (`--dielectric-scale-fit --main-2d` wrote it)
+    /// with the main block's roughness nodes `0..=K` (roughness up to
+    /// 0.049, below `SCALE_HALF_NODE`, so the same nodes in both layouts)
+    /// copied from a version-9 table fitted along roughness alone. Near
+    /// grazing at low roughness the scales change fastest with roughness
+    /// and the 2-d fit moved those nodes (Beckmann's by up to 0.36 of
+    /// scale): Beckmann 0.0096 glass 1.85 from inside at 88.7 degrees was
+    /// -1.16% with the 2-d fit's nodes there, -0.09% with version 9's.
+    /// Written to `--out` (default the committed table); nothing is
+    /// solved.
+    pub fn scale_splice_main(args: &[String]) {
+        use msbsdf::multiple::tabulated_dielectric::{
+            SCALE_ETA_N, SCALE_HALF_NODE, SCALE_LEN, SCALE_LOW_ETA_N, SCALE_MU_N, scale_index,
+        };
+        let (from, from_path) = table_arg(args, "--from", SCALE_MAGIC, SCALE_FILE_BYTES)
+            .expect("--from FITTED.bin: a version-10 scale table");
+        let (below, below_path) = table_arg(
+            args,
+            "--below-from",
+            PREV_SCALE_MAGIC,
+            PREV_SCALE_FILE_BYTES,
+        )
+        .expect("--below-from FITTED_V9.bin: a fitted version-9 scale table");
+        assert!(
+            header_line(&from, "main-2d:") != "?" && header_line(&below, "fit:") != "?",
+            "--from must be a --main-2d fit, --below-from a fitted table"
+        );
+        let k: usize = arg(args, "--to-node", usize::MAX);
+        assert!(k < SCALE_HALF_NODE, "--to-node K below {SCALE_HALF_NODE}");
+        let out: String = arg(
+            args,
+            "--out",
+            "data/tabulated_dielectric_scale.bin".to_string(),
+        );
+        let read = |raw: &[u8], i: usize| {
+            u16::from_le_bytes([raw[HEADER_BYTES + 2 * i], raw[HEADER_BYTES + 2 * i + 1]])
+        };
+        let mut scale: Vec<u16> = (0..SCALE_LEN).map(|i| read(&from, i)).collect();
+        let mut copied = 0usize;
+        for n in 0..NDF_N {
+            for a in 0..=k {
+                for e in SCALE_LOW_ETA_N - 1..SCALE_ETA_N {
+                    for x in 0..2 * SCALE_MU_N {
+                        let i = scale_index(n, false, a, e, x / SCALE_MU_N, x % SCALE_MU_N);
+                        let j = prev_index(i).expect("a version-9 node");
+                        scale[i] = read(&below, j);
+                        copied += 1;
+                    }
+                }
+            }
+        }
+        let from_head = String::from_utf8_lossy(&from[..HEADER_BYTES])
+            .trim_end_matches('\0')
+            .lines()
+            .skip(1)
+            .map(|l| format!("  {l}\n"))
+            .collect::<String>();
+        let head = format!(
+            "{}\
+             MSBSDF_MODEL_TABULATED dielectric furnace scales (layout: src/multiple/tabulated_dielectric.rs), spliced\n\
+             command: cargo run --release --example gen_tabulated -- {}\n\
+             commit: {}\n\
+             splice: the main block's roughness nodes 0 to {k} ({copied} values) from {below_path} (version 9, fitted along roughness alone; {}; {}), the rest from {from_path}, whose header follows\n\
+             {from_head}",
+            String::from_utf8_lossy(SCALE_MAGIC),
+            args[1..].join(" "),
+            git::commit(),
+            header_line(&below, "command:"),
+            header_line(&below, "commit:"),
         );
         write_scale_table(&out, &head, &scale);
     }
