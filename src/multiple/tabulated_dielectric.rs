@@ -89,8 +89,8 @@
 //! symmetric (Sinkhorn) scaling of the interpolated, clamped lobes exactly
 //! as eval reads them, over the cosine nodes of both sides, solved at
 //! every node and at the midpoint of every roughness and index interval
-//! (of every roughness interval alone in the main block until version
-//! 10); the stored node values
+//! (of the roughness intervals alone in the main block below roughness
+//! 0.05, and everywhere in it until version 10); the stored node values
 //! are the weighted least-squares fit of both with the table's linear
 //! interpolation (`gen_tabulated -- --dielectric-scale-fit`, since
 //! session 28), so the furnace error between nodes is shared with the
