@@ -51,6 +51,7 @@ mod git;
 const OPTIONS: &[&str] = &[
     "--alpha",
     "--base",
+    "--below-from",
     "--between",
     "--broad",
     "--cases",
@@ -64,6 +65,7 @@ const OPTIONS: &[&str] = &[
     "--dielectric-pack",
     "--dielectric-scale",
     "--dielectric-scale-fit",
+    "--dielectric-scale-splice",
     "--dielectric-v5",
     "--drop",
     "--dump",
@@ -72,6 +74,7 @@ const OPTIONS: &[&str] = &[
     "--exact",
     "--extra-eta",
     "--floor",
+    "--from",
     "--fresnel-walks",
     "--from-dump",
     "--gram-samples",
@@ -80,6 +83,8 @@ const OPTIONS: &[&str] = &[
     "--keep",
     "--lawson",
     "--low-2d",
+    "--low-from",
+    "--main-2d",
     "--mu-pilot",
     "--ng",
     "--only",
@@ -100,6 +105,7 @@ const OPTIONS: &[&str] = &[
     "--split",
     "--table",
     "--threads",
+    "--to-node",
     "--verbose",
     "--walks",
 ];
@@ -113,9 +119,13 @@ Writes a committed table (run on a clean tree; the header records the commit):
                                   data/tabulated_conductor.bin (the conductor lobes)
   --scale                         data/tabulated_scale.bin (conductor furnace scales)
   --dielectric                    data/tabulated_dielectric.bin (the glass lobes)
-  --dielectric-scale              data/tabulated_dielectric_scale.bin, exact nodes
+  --dielectric-scale [--keep V9.bin]
+                                  data/tabulated_dielectric_scale.bin, exact nodes
   --dielectric-scale-fit --exact EXACT.bin [--lawson K] [--low-2d --base FITTED.bin]
+                         [--low-from FITTED_V9.bin [--main-2d]]
                                   the same table with nodes fitted along roughness
+  --dielectric-scale-splice --from FITTED.bin --below-from FITTED_V9.bin --to-node K
+                                  the main block's roughness nodes 0..=K from version 9
   --conductor-pack / --dielectric-pack / --dielectric-lobe-pack / --dielectric-v5 FILE
                                   rewrite an older version of a table
   --dielectric-normalize          the lobe table normalised (--power P --floor F)
@@ -788,6 +798,10 @@ fn main() {
     }
     if args.iter().any(|a| a == "--dielectric-scale-fit") {
         dielectric::scale_fit_main(&args);
+        return;
+    }
+    if args.iter().any(|a| a == "--dielectric-scale-splice") {
+        dielectric::scale_splice_main(&args);
         return;
     }
     if args.iter().any(|a| a == "--dielectric-scale") {
@@ -1925,20 +1939,22 @@ mod dielectric {
     /// roughness `A` and index `E` with weights `W` (what another grid
     /// would give, before building it). `--only`'s roughness node is one
     /// of the main block's grid.
-    /// `--keep V5.bin` copies the nodes of a version-5 table (every node of
-    /// the main block, and those of the low-index block on version 5's
-    /// roughness grid) and solves only the low-index block's new roughness
-    /// nodes (`scale_low_split`; the committed version 6, from `git show
-    /// 047d22b:data/tabulated_dielectric_scale.bin`, 222 s): the generator
-    /// is deterministic, so with the same lobe table a full run computes
-    /// the same values for the kept nodes (version 5 was made so from
-    /// version 4 by the generator at commit 047d22b).
+    /// `--keep V9.bin` copies the nodes of a version-9 table (every node
+    /// but the main block's roughness node `SCALE_HALF_NODE`, new in
+    /// version 10) and solves only that node (the committed version 10's
+    /// exact nodes, from `git show 4f047c6:data/tabulated_dielectric_scale.bin`,
+    /// the exact nodes of version 9): the generator is deterministic, so
+    /// with the same lobe table a full run computes the same values for
+    /// the kept nodes. (Until version 10 `--keep` read a version-5 table
+    /// and solved the low-index block's new nodes; commit 745213e has
+    /// that form.)
     pub fn scale_main(args: &[String]) {
         use msbsdf::multiple::tabulated_dielectric::{
             SCALE_ALPHA_N, SCALE_ETA_N, SCALE_ETA_PLAIN_N, SCALE_ETA_SPLIT, SCALE_FINE_INTERVALS,
-            SCALE_FINE_SPLIT, SCALE_LOW_ALPHA_N, SCALE_LOW_ETA_N, SCALE_MAX, SCALE_MU_ELEMS,
-            SCALE_MU_N, SCALE_PAD, SCALE_ROOT_N, alpha_coord, header, scale_alpha_x,
-            scale_grid_alpha, scale_grid_eta, scale_grid_mu, scale_index, scale_low_grid_alpha,
+            SCALE_FINE_SPLIT, SCALE_HALF_INTERVAL, SCALE_HALF_NODE, SCALE_LOW_ALPHA_N,
+            SCALE_LOW_ETA_N, SCALE_MAX, SCALE_MU_ELEMS, SCALE_MU_N, SCALE_PAD, SCALE_ROOT_N,
+            header, scale_grid_alpha, scale_grid_eta, scale_grid_mu, scale_index,
+            scale_low_grid_alpha,
         };
         // Roughness of node `a` of the low-index block (`low`) or the main
         // block.
@@ -2042,26 +2058,13 @@ mod dielectric {
                 jobs.push((n, low, a, e, grid_alpha_of(low, a), scale_grid_eta(e)));
             }
         }
-        // `--keep V5.bin`: the nodes of a version-5 table (every node of
-        // the main block, and of the low-index block those on version 5's
-        // roughness grid) are copied from it (the generator is
-        // deterministic: a full run with the same lobe table computes the
-        // same values), only the low-index block's new roughness nodes
-        // are solved.
-        let keep = table_arg(
-            args,
-            "--keep",
-            b"MSBSDF-TABULATED-DIELECTRIC-SCALE-v5\n",
-            HEADER_BYTES + 2 * NDF_N * SCALE_ALPHA_N * SCALE_ETA_N * 2 * fm,
-        );
-        // Version 5's roughness node (its grid is the main block's) that
-        // node `a` of a block is, if any.
-        let v5_node = |low: bool, a: usize| {
-            let x = scale_alpha_x(alpha_coord(grid_alpha_of(low, a)) / (ALPHA_N - 1) as f32);
-            ((x - x.round()).abs() < 1e-3).then_some(x.round() as usize)
-        };
+        // `--keep V9.bin`: the nodes of a version-9 table (every node but
+        // the main block's SCALE_HALF_NODE) are copied from it (the
+        // generator is deterministic: a full run with the same lobe table
+        // computes the same values), only the new node is solved.
+        let keep = table_arg(args, "--keep", PREV_SCALE_MAGIC, PREV_SCALE_FILE_BYTES);
         if keep.is_some() && only.is_none() {
-            jobs.retain(|&(_, low, a, _, _, _)| v5_node(low, a).is_none());
+            jobs.retain(|&(_, low, a, _, _, _)| prev_node(low, a).is_none());
         }
         let res = parallel(
             &jobs,
@@ -2148,22 +2151,10 @@ mod dielectric {
         // Roughness node 0 (no multiple scattering) keeps 1.
         let mut scale = vec![scale_steps(1.0); SCALE_LEN];
         if let Some((raw, _)) = &keep {
-            for n in 0..NDF_N {
-                for (low, na, e_range) in [
-                    (true, SCALE_LOW_ALPHA_N, 0..SCALE_LOW_ETA_N),
-                    (false, SCALE_ALPHA_N, SCALE_LOW_ETA_N - 1..SCALE_ETA_N),
-                ] {
-                    for a in 0..na {
-                        let Some(a5) = v5_node(low, a) else { continue };
-                        for e in e_range.clone() {
-                            for x in 0..2 * fm {
-                                let at = ((n * SCALE_ALPHA_N + a5) * SCALE_ETA_N + e) * 2 * fm + x;
-                                let b = HEADER_BYTES + 2 * at;
-                                scale[scale_index(n, low, a, e, x / fm, x % fm)] =
-                                    u16::from_le_bytes([raw[b], raw[b + 1]]);
-                            }
-                        }
-                    }
+            for (i, v) in scale.iter_mut().enumerate() {
+                if let Some(j) = prev_index(i) {
+                    let b = HEADER_BYTES + 2 * j;
+                    *v = u16::from_le_bytes([raw[b], raw[b + 1]]);
                 }
             }
         }
@@ -2207,7 +2198,7 @@ mod dielectric {
             Some((raw, path)) => {
                 let line = |key: &str| header_line(raw, key);
                 format!(
-                    "kept: the nodes of version 5's grid copied from {path} (version 5; its {}; {}), the low-index block's other roughness nodes solved here\n",
+                    "kept: the nodes of version 9's grid copied from {path} (version 9; its {}; {}), the main block's roughness node {SCALE_HALF_NODE} solved here\n",
                     line("command:"),
                     line("commit:")
                 )
@@ -2224,7 +2215,7 @@ mod dielectric {
              E_ss: SINGLE reflection + transmission quadrature {quad} x {quad} (compensation::single_albedo)\n\
              albedo of the unscaled lobe vs 1 - E_ss: worst relative deviation {before:.3e} (targets > 1e-3); after scaling: {after:.3e} (targets > 1e-4, rows not empty; scales within [0, {scale_max}] during the solve, 0 where the target is 0: {zeros} nodes)\n\
              scales between {smin:.4} and {smax:.4}\n\
-             grid: index nodes {SCALE_ETA_N} (uniform in ln E with {SCALE_ETA_PLAIN_N} nodes, its first two intervals split in {SCALE_ETA_SPLIT:?}); low-index block ndf {NDF_N} x alpha {SCALE_LOW_ALPHA_N} (uniform in sqrt(alpha / 2) with {SCALE_ROOT_N} nodes, its first {SCALE_FINE_INTERVALS} intervals split in {SCALE_FINE_SPLIT}, then per lobe interval its first two split as the index's) x eta {SCALE_LOW_ETA_N} (the first) x side 2 x mu {SCALE_MU_N}, then the main block ndf {NDF_N} x alpha {SCALE_ALPHA_N} (the same sqrt(alpha) grid, only its first {SCALE_FINE_INTERVALS} intervals split in {SCALE_FINE_SPLIT}) x eta {} (from node {}) x side 2 x mu {SCALE_MU_N} (the ends and midpoints of {SCALE_MU_ELEMS} elements on the lobe table's cosine nodes, the scale quadratic in sqrt(mu) on each: tabulated_dielectric::scale_mu_basis), then {SCALE_PAD} zero steps\n\
+             grid: index nodes {SCALE_ETA_N} (uniform in ln E with {SCALE_ETA_PLAIN_N} nodes, its first two intervals split in {SCALE_ETA_SPLIT:?}); low-index block ndf {NDF_N} x alpha {SCALE_LOW_ALPHA_N} (uniform in sqrt(alpha / 2) with {SCALE_ROOT_N} nodes, its first {SCALE_FINE_INTERVALS} intervals split in {SCALE_FINE_SPLIT}, then per lobe interval its first two split as the index's) x eta {SCALE_LOW_ETA_N} (the first) x side 2 x mu {SCALE_MU_N}, then the main block ndf {NDF_N} x alpha {SCALE_ALPHA_N} (the same sqrt(alpha) grid, its first {SCALE_FINE_INTERVALS} intervals split in {SCALE_FINE_SPLIT} and interval {SCALE_HALF_INTERVAL} in 2) x eta {} (from node {}) x side 2 x mu {SCALE_MU_N} (the ends and midpoints of {SCALE_MU_ELEMS} elements on the lobe table's cosine nodes, the scale quadratic in sqrt(mu) on each: tabulated_dielectric::scale_mu_basis), then {SCALE_PAD} zero steps\n\
              {kept}\
              wall time: {:.0} s on {threads} threads\n\
              {SCALE_STORAGE}\n",
@@ -2282,6 +2273,48 @@ mod dielectric {
             "{name}: {path} is not a scale table of the expected version and layout"
         );
         Some((raw, path.clone()))
+    }
+
+    /// First bytes of the previous layout of the scale table (version 9:
+    /// without the main block's roughness node `SCALE_HALF_NODE`), which
+    /// `--dielectric-scale --keep` and `--dielectric-scale-fit --low-from`
+    /// read.
+    const PREV_SCALE_MAGIC: &[u8] = b"MSBSDF-TABULATED-DIELECTRIC-SCALE-v9\n";
+    /// Size of a version-9 scale table file in bytes.
+    const PREV_SCALE_FILE_BYTES: usize = {
+        use msbsdf::multiple::tabulated_dielectric::{
+            SCALE_LEN, SCALE_MAIN_ETA_N, SCALE_MU_N, SCALE_PAD,
+        };
+        HEADER_BYTES + 2 * (SCALE_LEN - NDF_N * SCALE_MAIN_ETA_N * 2 * SCALE_MU_N + SCALE_PAD)
+    };
+
+    /// The version-9 roughness node that node `a` of a block (the
+    /// low-index block's if `low`) is: the same node, but in the main
+    /// block none for `SCALE_HALF_NODE` and `a - 1` above it.
+    fn prev_node(low: bool, a: usize) -> Option<usize> {
+        use msbsdf::multiple::tabulated_dielectric::SCALE_HALF_NODE;
+        match a {
+            _ if low || a < SCALE_HALF_NODE => Some(a),
+            _ if a == SCALE_HALF_NODE => None,
+            _ => Some(a - 1),
+        }
+    }
+
+    /// The index in a version-9 scale table of entry `i` of the current
+    /// layout (`scale_index`), if it has one: the low-index block (first
+    /// in both) is the same, the main block lost a roughness node.
+    fn prev_index(i: usize) -> Option<usize> {
+        use msbsdf::multiple::tabulated_dielectric::{
+            SCALE_ALPHA_N, SCALE_LOW_LEN, SCALE_MAIN_ETA_N, SCALE_MU_N,
+        };
+        if i < SCALE_LOW_LEN {
+            return Some(i);
+        }
+        let row = SCALE_MAIN_ETA_N * 2 * SCALE_MU_N;
+        let (node, rest) = ((i - SCALE_LOW_LEN) / row, (i - SCALE_LOW_LEN) % row);
+        let (n, a) = (node / SCALE_ALPHA_N, node % SCALE_ALPHA_N);
+        let a = prev_node(false, a)?;
+        Some(SCALE_LOW_LEN + (n * (SCALE_ALPHA_N - 1) + a) * row + rest)
     }
 
     /// One point's furnace scales (`--dielectric-scale`'s solve): the
@@ -2795,6 +2828,20 @@ mod dielectric {
     /// E` next to 1.05, and copies the rest from `FITTED.bin` (a table this
     /// command wrote without `--low-2d`); the committed table is made so.
     ///
+    /// `--low-from FITTED_V9.bin` copies the low-index block from a
+    /// version-9 table that `--low-2d` wrote (the committed version 9,
+    /// commit 745213e) and fits the main block alone: version 10 changed
+    /// only the main block's grid, so the low-index block's exact nodes and
+    /// midpoints, and its fit, are version 9's (the committed version 10 is
+    /// made so).
+    ///
+    /// `--main-2d` (with `--low-from`) fits the main block as `--low-2d`
+    /// fits the low-index block: one sheet per NDF and source node over
+    /// the midpoints of its roughness and index intervals (version 10:
+    /// between the index nodes the exact scales bend too, Beckmann 1.3
+    /// glass 1.2 from inside at the normal: 0.60% off with exact nodes,
+    /// 0.12% with the roughness interpolated alone).
+    ///
     /// `--pilot N,L,E` (NDF, 1 for the low-index block, index node) fits one
     /// row with each number of Lawson steps of `--pilot-lawson K,K,...`
     /// (default 0,5,20) and prints the furnace (the worst `|albedo - 1|`
@@ -2805,8 +2852,9 @@ mod dielectric {
     /// `--out` as for `--dielectric-scale`.
     pub fn scale_fit_main(args: &[String]) {
         use msbsdf::multiple::tabulated_dielectric::{
-            SCALE_ALPHA_N, SCALE_ETA_N, SCALE_LOW_ALPHA_N, SCALE_LOW_ETA_N, SCALE_MU_N, header,
-            scale_grid_alpha, scale_grid_eta, scale_index, scale_low_grid_alpha,
+            SCALE_ALPHA_N, SCALE_ETA_N, SCALE_LOW_ALPHA_N, SCALE_LOW_ETA_N, SCALE_LOW_LEN,
+            SCALE_MU_N, header, scale_grid_alpha, scale_grid_eta, scale_index,
+            scale_low_grid_alpha,
         };
         let t0 = std::time::Instant::now();
         let fm = SCALE_MU_N;
@@ -2860,11 +2908,33 @@ mod dielectric {
         let low2d = args.iter().any(|a| a == "--low-2d");
         let base = table_arg(args, "--base", SCALE_MAGIC, SCALE_FILE_BYTES);
         assert!(!low2d || base.is_some(), "--low-2d needs --base");
+        // `--main-2d` (with `--low-from`): the main block fitted as one
+        // sheet per NDF and source node over the midpoints of its index
+        // intervals too.
+        let main2d = args.iter().any(|a| a == "--main-2d");
+        // `--low-from FITTED_V9.bin`: the low-index block copied from a
+        // fitted version-9 table (its layout is version 10's), only the
+        // main block fitted.
+        let low_from = table_arg(args, "--low-from", PREV_SCALE_MAGIC, PREV_SCALE_FILE_BYTES);
+        assert!(
+            low_from.is_none() || !(low2d || pilot.is_some()),
+            "--low-from is for the main block's fit alone"
+        );
+        assert!(!main2d || low_from.is_some(), "--main-2d needs --low-from");
+        if let Some((raw, _)) = &low_from {
+            assert!(
+                header_line(raw, "low-2d:") != "?",
+                "--low-from: the table's low-index block is not the 2-d fit"
+            );
+        }
         let rows: Vec<(usize, bool, usize)> = match &pilot {
             Some(v) if v.len() == 3 => vec![(v[0], v[1] == 1, v[2])],
             Some(_) => panic!("--pilot N,L,E"),
             None if low2d => (0..NDF_N)
                 .flat_map(|n| (0..SCALE_LOW_ETA_N).map(move |e| (n, true, e)))
+                .collect(),
+            None if low_from.is_some() => (0..NDF_N)
+                .flat_map(|n| (SCALE_LOW_ETA_N - 1..SCALE_ETA_N).map(move |e| (n, false, e)))
                 .collect(),
             None => (0..NDF_N)
                 .flat_map(|n| {
@@ -2926,13 +2996,23 @@ mod dielectric {
         let row_mids = |r: usize, na: usize| -> Vec<Option<&ScaleSolve>> {
             (0..na - 1).map(|a| mid_of.get(&(r, a)).copied()).collect()
         };
-        // `--low-2d`: the midpoints of the low-index block's index
+        // `--low-2d` / `--main-2d`: the midpoints of the block's index
         // intervals (NDF, roughness node, lower index node).
-        let ijobs: Vec<(usize, usize, usize)> = if low2d {
+        let (sheet_e0, sheet_na, sheet_ne) = if main2d {
+            (
+                SCALE_LOW_ETA_N - 1,
+                SCALE_ALPHA_N,
+                SCALE_ETA_N + 1 - SCALE_LOW_ETA_N,
+            )
+        } else {
+            (0, SCALE_LOW_ALPHA_N, SCALE_LOW_ETA_N)
+        };
+        let ijobs: Vec<(usize, usize, usize)> = if low2d || main2d {
             (0..NDF_N)
                 .flat_map(|n| {
-                    (1..SCALE_LOW_ALPHA_N)
-                        .flat_map(move |a| (0..SCALE_LOW_ETA_N - 1).map(move |e| (n, a, e)))
+                    (1..sheet_na).flat_map(move |a| {
+                        (sheet_e0..sheet_e0 + sheet_ne - 1).map(move |e| (n, a, e))
+                    })
                 })
                 .collect()
         } else {
@@ -2941,7 +3021,7 @@ mod dielectric {
         let ires = parallel(&ijobs, "index midpoints", threads, |_, &(n, a, e)| {
             // Eval's index coordinate is linear in `ln E` between nodes.
             let eta = (scale_grid_eta(e) * scale_grid_eta(e + 1)).sqrt();
-            solve_scales(n, scale_low_grid_alpha(a), eta, q, quad)
+            solve_scales(n, grid_alpha_of(low2d, a), eta, q, quad)
         });
         let mut scale: Vec<u16> = match &base {
             Some((raw, _)) => (0..SCALE_LEN)
@@ -2951,6 +3031,12 @@ mod dielectric {
                 .collect(),
             None => (0..SCALE_LEN).map(|i| scale_steps(exact(i))).collect(),
         };
+        if let Some((raw, _)) = &low_from {
+            for (i, v) in scale.iter_mut().enumerate().take(SCALE_LOW_LEN) {
+                let b = HEADER_BYTES + 2 * i;
+                *v = u16::from_le_bytes([raw[b], raw[b + 1]]);
+            }
+        }
         // The largest relative change of a node, and where.
         let (mut moved, mut moved_at) = (0.0f64, String::new());
         let mut note = |v: f64, s: f64, n: usize, low: bool, a: usize, e: usize, x: usize| {
@@ -2967,18 +3053,21 @@ mod dielectric {
                 );
             }
         };
-        if low2d {
-            let (na, ne) = (SCALE_LOW_ALPHA_N, SCALE_LOW_ETA_N);
+        if low2d || main2d {
+            let (low, e0, na, ne) = (low2d, sheet_e0, sheet_na, sheet_ne);
             for n in 0..NDF_N {
-                let row_of = |e: usize| rows.iter().position(|&r| r == (n, true, e));
+                let row_of = |e: usize| rows.iter().position(|&r| r == (n, low, e0 + e));
                 let rmid =
                     |a: usize, e: usize| row_of(e).and_then(|r| mid_of.get(&(r, a)).copied());
                 let imid = |a: usize, e: usize| {
-                    ijobs.iter().position(|&j| j == (n, a, e)).map(|p| &ires[p])
+                    ijobs
+                        .iter()
+                        .position(|&j| j == (n, a, e0 + e))
+                        .map(|p| &ires[p])
                 };
                 for x in 0..2 * fm {
                     let sx: Vec<f64> = (0..na * ne)
-                        .map(|k| exact(scale_index(n, true, k / ne, k % ne, x / fm, x % fm)))
+                        .map(|k| exact(scale_index(n, low, k / ne, e0 + k % ne, x / fm, x % fm)))
                         .collect();
                     let rpts: Vec<Option<&ScaleSolve>> =
                         (0..(na - 1) * ne).map(|k| rmid(k / ne, k % ne)).collect();
@@ -2997,9 +3086,9 @@ mod dielectric {
                         lawson,
                     );
                     for (k, vk) in v.iter().enumerate() {
-                        let (a, e) = (k / ne, k % ne);
-                        note(*vk, sx[k], n, true, a, e, x);
-                        scale[scale_index(n, true, a, e, x / fm, x % fm)] = scale_steps(*vk);
+                        let (a, e) = (k / ne, e0 + k % ne);
+                        note(*vk, sx[k], n, low, a, e, x);
+                        scale[scale_index(n, low, a, e, x / fm, x % fm)] = scale_steps(*vk);
                     }
                 }
             }
@@ -3023,7 +3112,7 @@ mod dielectric {
                 .map(|a| cols.iter().map(|c| c[a]).collect())
                 .collect()
         };
-        if !low2d && pilot.is_none() {
+        if !low2d && !main2d && pilot.is_none() {
             for (r, &(n, low, e)) in rows.iter().enumerate() {
                 for (a, va) in fit_one_row(r, lawson).iter().enumerate() {
                     for (x, &v) in va.iter().enumerate() {
@@ -3127,11 +3216,105 @@ mod dielectric {
                         line("commit:")
                     )
                 }
-                None => String::new(),
+                None => match &low_from {
+                    Some((raw, path)) => {
+                        let line = |key: &str| header_line(raw, key);
+                        format!(
+                            "low-index block: copied from {path} (version 9, the same layout there; {}; {}; {}), whose exact nodes are this table's; only the main block fitted here{}\n",
+                            line("command:"),
+                            line("commit:"),
+                            line("low-2d:"),
+                            if main2d {
+                                format!(
+                                    "\nmain-2d: the main block fitted over the midpoints of its roughness and index intervals ({} index midpoints, at sqrt(E_e E_e+1); eval interpolates a node's two neighbours there too), by conjugate gradients on its whole sheet per NDF and source node",
+                                    ijobs.len()
+                                )
+                            } else {
+                                String::new()
+                            }
+                        )
+                    }
+                    None => String::new(),
+                },
             },
             exact_line("command:"),
             exact_line("commit:"),
             t0.elapsed().as_secs_f64(),
+        );
+        write_scale_table(&out, &head, &scale);
+    }
+
+    /// `--dielectric-scale-splice --from FITTED.bin --below-from
+    /// FITTED_V9.bin --to-node K` (the committed version 10, `K` = 13):
+    /// the table `FITTED.bin` (`--dielectric-scale-fit --main-2d` wrote it)
+    /// with the main block's roughness nodes `0..=K` (roughness up to
+    /// 0.049, below `SCALE_HALF_NODE`, so the same nodes in both layouts)
+    /// copied from a version-9 table fitted along roughness alone. Near
+    /// grazing at low roughness the scales change fastest with roughness
+    /// and the 2-d fit moved those nodes (Beckmann's by up to 0.36 of
+    /// scale): Beckmann 0.0096 glass 1.85 from inside at 88.7 degrees was
+    /// -1.16% with the 2-d fit's nodes there, -0.09% with version 9's.
+    /// Written to `--out` (default the committed table); nothing is
+    /// solved.
+    pub fn scale_splice_main(args: &[String]) {
+        use msbsdf::multiple::tabulated_dielectric::{
+            SCALE_ETA_N, SCALE_HALF_NODE, SCALE_LEN, SCALE_LOW_ETA_N, SCALE_MU_N, scale_index,
+        };
+        let (from, from_path) = table_arg(args, "--from", SCALE_MAGIC, SCALE_FILE_BYTES)
+            .expect("--from FITTED.bin: a version-10 scale table");
+        let (below, below_path) = table_arg(
+            args,
+            "--below-from",
+            PREV_SCALE_MAGIC,
+            PREV_SCALE_FILE_BYTES,
+        )
+        .expect("--below-from FITTED_V9.bin: a fitted version-9 scale table");
+        assert!(
+            header_line(&from, "main-2d:") != "?" && header_line(&below, "fit:") != "?",
+            "--from must be a --main-2d fit, --below-from a fitted table"
+        );
+        let k: usize = arg(args, "--to-node", usize::MAX);
+        assert!(k < SCALE_HALF_NODE, "--to-node K below {SCALE_HALF_NODE}");
+        let out: String = arg(
+            args,
+            "--out",
+            "data/tabulated_dielectric_scale.bin".to_string(),
+        );
+        let read = |raw: &[u8], i: usize| {
+            u16::from_le_bytes([raw[HEADER_BYTES + 2 * i], raw[HEADER_BYTES + 2 * i + 1]])
+        };
+        let mut scale: Vec<u16> = (0..SCALE_LEN).map(|i| read(&from, i)).collect();
+        let mut copied = 0usize;
+        for n in 0..NDF_N {
+            for a in 0..=k {
+                for e in SCALE_LOW_ETA_N - 1..SCALE_ETA_N {
+                    for x in 0..2 * SCALE_MU_N {
+                        let i = scale_index(n, false, a, e, x / SCALE_MU_N, x % SCALE_MU_N);
+                        let j = prev_index(i).expect("a version-9 node");
+                        scale[i] = read(&below, j);
+                        copied += 1;
+                    }
+                }
+            }
+        }
+        let from_head = String::from_utf8_lossy(&from[..HEADER_BYTES])
+            .trim_end_matches('\0')
+            .lines()
+            .skip(1)
+            .map(|l| format!("  {l}\n"))
+            .collect::<String>();
+        let head = format!(
+            "{}\
+             MSBSDF_MODEL_TABULATED dielectric furnace scales (layout: src/multiple/tabulated_dielectric.rs), spliced\n\
+             command: cargo run --release --example gen_tabulated -- {}\n\
+             commit: {}\n\
+             splice: the main block's roughness nodes 0 to {k} ({copied} values) from {below_path} (version 9, fitted along roughness alone; {}; {}), the rest from {from_path}, whose header follows\n\
+             {from_head}",
+            String::from_utf8_lossy(SCALE_MAGIC),
+            args[1..].join(" "),
+            git::commit(),
+            header_line(&below, "command:"),
+            header_line(&below, "commit:"),
         );
         write_scale_table(&out, &head, &scale);
     }

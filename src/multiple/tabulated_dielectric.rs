@@ -88,8 +88,9 @@
 //! reflected plus transmitted albedo by deterministic quadrature): a
 //! symmetric (Sinkhorn) scaling of the interpolated, clamped lobes exactly
 //! as eval reads them, over the cosine nodes of both sides, solved at
-//! every node and at the midpoint of every roughness interval (and, in
-//! the low-index block, of every index interval); the stored node values
+//! every node and at the midpoint of every roughness and index interval
+//! (of the roughness intervals alone in the main block below roughness
+//! 0.05, and everywhere in it until version 10); the stored node values
 //! are the weighted least-squares fit of both with the table's linear
 //! interpolation (`gen_tabulated -- --dielectric-scale-fit`, since
 //! session 28), so the furnace error between nodes is shared with the
@@ -281,10 +282,29 @@ pub const SCALE_ROOT_N: usize = SCALE_PER_LOBE_INTERVAL * (ALPHA_N - 1) + 1;
 pub const SCALE_FINE_INTERVALS: usize = 4;
 /// See [`SCALE_FINE_INTERVALS`].
 pub const SCALE_FINE_SPLIT: usize = 3;
+/// The interval of the plain `sqrt(alpha)` grid ([`SCALE_ROOT_N`] nodes)
+/// that the scale table's main block halves (since version 10): roughness
+/// 0.0957 to 0.125, the last quarter of the lobe table's interval that
+/// ends at its node 0.125. Eval interpolates the lobes linearly in
+/// roughness, and just below that node the exact furnace scale bends
+/// most (GGX glass 1.5 from the dense side at 85 degrees: with exact
+/// nodes at the interval's ends the furnace at roughness 0.11 was 1.12%
+/// off; with the fitted nodes of version 9, +0.54%, the worst of the
+/// isotropic sweeps and random cases; with a node at 0.1099, 0.20% and
+/// 0.39% with exact nodes at the halves' midpoints). The node costs 5,624
+/// bytes. The lobe table's crease (see [`SCALE_PER_LOBE_INTERVAL`]) then
+/// crosses the halves between nodes where the index lies in the last
+/// quarter of a lobe index interval (GGX 0.117 glass 1.577 from inside,
+/// on the crease: 0.61% with exact nodes, against 0.90% on version 9's
+/// grid).
+pub const SCALE_HALF_INTERVAL: usize = 7;
 /// Roughness nodes of the furnace scale table's main block
 /// ([`scale_grid_alpha`]; the low-index block has
 /// [`SCALE_LOW_ALPHA_N`]).
-pub const SCALE_ALPHA_N: usize = SCALE_ROOT_N + SCALE_FINE_INTERVALS * (SCALE_FINE_SPLIT - 1);
+pub const SCALE_ALPHA_N: usize = SCALE_ROOT_N + SCALE_FINE_INTERVALS * (SCALE_FINE_SPLIT - 1) + 1;
+/// The main block's node at the middle of [`SCALE_HALF_INTERVAL`].
+pub const SCALE_HALF_NODE: usize =
+    SCALE_FINE_INTERVALS * SCALE_FINE_SPLIT + SCALE_HALF_INTERVAL - SCALE_FINE_INTERVALS + 1;
 /// Scale table intervals per interval of the lobe table, in roughness
 /// (above the split intervals) and in index alike (version 4). The lobe
 /// table is interpolated on triangles of its `(sqrt(alpha), ln E)`
@@ -424,22 +444,28 @@ pub const SCALE_LEN: usize =
 /// [`SCALE_ETA_SPLIT`]; version 6 has the low-index block,
 /// [`scale_low_split`]; version 7 had 32 cosine nodes, linear between
 /// them; version 8, tried on the lobe nodes and linear, was not adopted;
-/// version 9 has quadratic elements, [`SCALE_MU_ELEMS`]).
-pub const SCALE_MAGIC: &[u8; 37] = b"MSBSDF-TABULATED-DIELECTRIC-SCALE-v9\n";
+/// version 9 has quadratic elements, [`SCALE_MU_ELEMS`]; version 10 has
+/// the main block's node [`SCALE_HALF_NODE`]).
+pub const SCALE_MAGIC: &[u8; 38] = b"MSBSDF-TABULATED-DIELECTRIC-SCALE-v10\n";
 /// Total size of the scale table file in bytes (the values and
 /// [`SCALE_PAD`] zero steps).
 pub const SCALE_FILE_BYTES: usize = HEADER_BYTES + 2 * (SCALE_LEN + SCALE_PAD);
 
 /// Roughness of node `a` of the scale table: node `x` of the grid uniform
 /// in `sqrt(alpha / MAX_ALPHA)` ([`SCALE_ROOT_N`] nodes), `x = a /
-/// SCALE_FINE_SPLIT` in its first [`SCALE_FINE_INTERVALS`] intervals
+/// SCALE_FINE_SPLIT` in its first [`SCALE_FINE_INTERVALS`] intervals and
+/// `x` halfway along [`SCALE_HALF_INTERVAL`] at [`SCALE_HALF_NODE`]
 /// ([`scale_alpha_x`] inverted).
 pub fn scale_grid_alpha(a: usize) -> f32 {
     let fine = SCALE_FINE_INTERVALS * SCALE_FINE_SPLIT;
     let x = if a <= fine {
         a as f32 / SCALE_FINE_SPLIT as f32
-    } else {
+    } else if a < SCALE_HALF_NODE {
         (a - fine + SCALE_FINE_INTERVALS) as f32
+    } else if a == SCALE_HALF_NODE {
+        SCALE_HALF_INTERVAL as f32 + 0.5
+    } else {
+        (a - 1 - fine + SCALE_FINE_INTERVALS) as f32
     };
     let s = x / (SCALE_ROOT_N - 1) as f32;
     MAX_ALPHA * s * s
@@ -448,12 +474,14 @@ pub fn scale_grid_alpha(a: usize) -> f32 {
 /// Continuous node coordinate on the scale table's roughness grid
 /// ([`scale_grid_alpha`]) of a roughness's coordinate `root`
 /// (`alpha_root`, in `[0, 1]`): `x + (SCALE_FINE_SPLIT - 1) min(x,
-/// SCALE_FINE_INTERVALS)`, `x` the coordinate on the plain grid (a
-/// minimum and a multiply-add more than the plain grid).
+/// SCALE_FINE_INTERVALS) + clamp(x - SCALE_HALF_INTERVAL, 0, 1)`, `x`
+/// the coordinate on the plain grid (a minimum, a multiply-add, a
+/// subtraction, a clamp and an addition more than the plain grid).
 #[inline(always)]
 pub fn scale_alpha_x(root: f32) -> f32 {
     let x = root * (SCALE_ROOT_N - 1) as f32;
     x + (SCALE_FINE_SPLIT - 1) as f32 * x.min(SCALE_FINE_INTERVALS as f32)
+        + (x - SCALE_HALF_INTERVAL as f32).clamp(0.0, 1.0)
 }
 
 /// Roughness of node `a` of the scale table's low-index block
@@ -2292,10 +2320,17 @@ mod tests {
         assert!(
             (scale_grid_alpha(fine + 1) - plain(SCALE_FINE_INTERVALS as f32 + 1.0)).abs() < 1e-7
         );
+        // The half interval's node (version 10) halfway in `sqrt(alpha)`.
+        let h = SCALE_HALF_INTERVAL as f32;
+        assert!((scale_grid_alpha(SCALE_HALF_NODE - 1) - plain(h)).abs() < 1e-7);
+        assert!((scale_grid_alpha(SCALE_HALF_NODE) - plain(h + 0.5)).abs() < 1e-7);
+        assert!((scale_grid_alpha(SCALE_HALF_NODE + 1) - plain(h + 1.0)).abs() < 1e-7);
         // The lobe table's nodes among the scale table's.
         assert_eq!(SCALE_FINE_INTERVALS, SCALE_PER_LOBE_INTERVAL);
         for j in 1..ALPHA_N {
-            let a = fine + SCALE_PER_LOBE_INTERVAL * (j - 1);
+            let a = fine
+                + SCALE_PER_LOBE_INTERVAL * (j - 1)
+                + (SCALE_PER_LOBE_INTERVAL * j > SCALE_HALF_INTERVAL) as usize;
             let want = grid_alpha(j);
             assert!(
                 (scale_grid_alpha(a) - want).abs() <= 1e-6 * want,
@@ -2339,7 +2374,7 @@ mod tests {
 
     /// The low-index block's roughness grid (version 6): each node's
     /// roughness reads its own node, every node of the main block's grid
-    /// is one of its nodes, and the lobe table's crease (the diagonal of
+    /// but [`SCALE_HALF_NODE`] is one of its nodes, and the lobe table's crease (the diagonal of
     /// its `(sqrt(alpha), ln E)` squares, `triangle`) runs through its
     /// nodes and along the cuts of its triangles: at points on the crease
     /// between the nodes the triangle's corners with weight lie on it.
@@ -2351,10 +2386,10 @@ mod tests {
             assert!((x - a as f32).abs() < 1e-4, "low node {a}: coordinate {x}");
         }
         assert_eq!(scale_low_grid_alpha(SCALE_LOW_ALPHA_N - 1), MAX_ALPHA);
-        // Every main node is a low node, with the same roughness to the
-        // bit (the generator solves both; `--keep` copies one as the
-        // other).
-        for a in 0..SCALE_ALPHA_N {
+        // Every main node but the half interval's (version 10) is a low
+        // node, with the same roughness to the bit (the generator solves
+        // both).
+        for a in (0..SCALE_ALPHA_N).filter(|&a| a != SCALE_HALF_NODE) {
             let x = scale_low_alpha_x(alpha_root(scale_grid_alpha(a)));
             assert!(
                 (x - x.round()).abs() < 1e-4,
