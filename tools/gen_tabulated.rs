@@ -2153,8 +2153,7 @@ mod dielectric {
         if let Some((raw, _)) = &keep {
             for (i, v) in scale.iter_mut().enumerate() {
                 if let Some(j) = prev_index(i) {
-                    let b = HEADER_BYTES + 2 * j;
-                    *v = u16::from_le_bytes([raw[b], raw[b + 1]]);
+                    *v = table_step(raw, j);
                 }
             }
         }
@@ -2273,6 +2272,13 @@ mod dielectric {
             "{name}: {path} is not a scale table of the expected version and layout"
         );
         Some((raw, path.clone()))
+    }
+
+    /// Step `i` (a `scale_index`, or a version-9 table's [`prev_index`])
+    /// of the scale table file `raw`.
+    fn table_step(raw: &[u8], i: usize) -> u16 {
+        let b = HEADER_BYTES + 2 * i;
+        u16::from_le_bytes([raw[b], raw[b + 1]])
     }
 
     /// First bytes of the previous layout of the scale table (version 9:
@@ -2875,10 +2881,7 @@ mod dielectric {
             !exact_head.lines().any(|l| l.starts_with("fit:")),
             "--exact: this table's nodes are fitted, not exact"
         );
-        let exact = |i: usize| {
-            let b = HEADER_BYTES + 2 * i;
-            u16::from_le_bytes([raw[b], raw[b + 1]]) as f64 * SCALE_STEP as f64
-        };
+        let exact = |i: usize| table_step(&raw, i) as f64 * SCALE_STEP as f64;
         let grid_alpha_of = |low: bool, a: usize| {
             if low {
                 scale_low_grid_alpha(a)
@@ -3024,17 +3027,12 @@ mod dielectric {
             solve_scales(n, grid_alpha_of(low2d, a), eta, q, quad)
         });
         let mut scale: Vec<u16> = match &base {
-            Some((raw, _)) => (0..SCALE_LEN)
-                .map(|i| {
-                    u16::from_le_bytes([raw[HEADER_BYTES + 2 * i], raw[HEADER_BYTES + 2 * i + 1]])
-                })
-                .collect(),
+            Some((raw, _)) => (0..SCALE_LEN).map(|i| table_step(raw, i)).collect(),
             None => (0..SCALE_LEN).map(|i| scale_steps(exact(i))).collect(),
         };
         if let Some((raw, _)) = &low_from {
             for (i, v) in scale.iter_mut().enumerate().take(SCALE_LOW_LEN) {
-                let b = HEADER_BYTES + 2 * i;
-                *v = u16::from_le_bytes([raw[b], raw[b + 1]]);
+                *v = table_step(raw, i);
             }
         }
         // The largest relative change of a node, and where.
@@ -3053,18 +3051,17 @@ mod dielectric {
                 );
             }
         };
+        // The index midpoint solve of (NDF, roughness node, lower index
+        // node).
+        let imid_of: std::collections::HashMap<(usize, usize, usize), &ScaleSolve> =
+            ijobs.iter().copied().zip(&ires).collect();
         if low2d || main2d {
             let (low, e0, na, ne) = (low2d, sheet_e0, sheet_na, sheet_ne);
             for n in 0..NDF_N {
                 let row_of = |e: usize| rows.iter().position(|&r| r == (n, low, e0 + e));
                 let rmid =
                     |a: usize, e: usize| row_of(e).and_then(|r| mid_of.get(&(r, a)).copied());
-                let imid = |a: usize, e: usize| {
-                    ijobs
-                        .iter()
-                        .position(|&j| j == (n, a, e0 + e))
-                        .map(|p| &ires[p])
-                };
+                let imid = |a: usize, e: usize| imid_of.get(&(n, a, e0 + e)).copied();
                 for x in 0..2 * fm {
                     let sx: Vec<f64> = (0..na * ne)
                         .map(|k| exact(scale_index(n, low, k / ne, e0 + k % ne, x / fm, x % fm)))
@@ -3280,10 +3277,7 @@ mod dielectric {
             "--out",
             "data/tabulated_dielectric_scale.bin".to_string(),
         );
-        let read = |raw: &[u8], i: usize| {
-            u16::from_le_bytes([raw[HEADER_BYTES + 2 * i], raw[HEADER_BYTES + 2 * i + 1]])
-        };
-        let mut scale: Vec<u16> = (0..SCALE_LEN).map(|i| read(&from, i)).collect();
+        let mut scale: Vec<u16> = (0..SCALE_LEN).map(|i| table_step(&from, i)).collect();
         let mut copied = 0usize;
         for n in 0..NDF_N {
             for a in 0..=k {
@@ -3291,7 +3285,7 @@ mod dielectric {
                     for x in 0..2 * SCALE_MU_N {
                         let i = scale_index(n, false, a, e, x / SCALE_MU_N, x % SCALE_MU_N);
                         let j = prev_index(i).expect("a version-9 node");
-                        scale[i] = read(&below, j);
+                        scale[i] = table_step(&below, j);
                         copied += 1;
                     }
                 }
