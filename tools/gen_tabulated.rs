@@ -95,6 +95,7 @@ const OPTIONS: &[&str] = &[
     "--pilot",
     "--pilot-lawson",
     "--pilot-nodes",
+    "--points",
     "--power",
     "--print-rows",
     "--quad",
@@ -121,7 +122,7 @@ Writes a committed table (run on a clean tree; the header records the commit):
   --dielectric-scale [--keep V10.bin]
                                   data/tabulated_dielectric_scale.bin, exact nodes
   --dielectric-scale-fit --exact EXACT.bin [--lawson K] [--low-2d --base FITTED.bin]
-                         [--main-2d --base FITTED.bin]
+                         [--main-2d --base FITTED.bin] [--points FILE]
                                   the same table with nodes fitted along roughness
   --dielectric-scale-splice --from FITTED.bin --below-from FITTED_1D.bin --to-node K
                                   the main block's roughness nodes 0..=K from another fit
@@ -2615,6 +2616,93 @@ mod dielectric {
         println!("worst of all {all:.4}");
     }
 
+    /// First bytes of a `--points` file of the scale fit.
+    const POINTS_MAGIC: &[u8; 24] = b"MSBSDF-SCALE-POINTS-v1\n\0";
+
+    /// The scale solves of the fit's points `(NDF, roughness, index)`
+    /// (`--dielectric-scale-fit`): read from `cache` if it exists (it must
+    /// hold the same points, to the bit), else solved ([`solve_scales`])
+    /// and, with `cache`, written there: per point its NDF, roughness and
+    /// index and the scales and targets of every source node as f64 (the
+    /// fit reads nothing else; the lobe rows are not kept). A refit with
+    /// other weights or Lawson steps then takes seconds instead of the
+    /// solves' 20-50 minutes. Also returns where the solves came from
+    /// (for the table's header).
+    fn solved_points(
+        cache: Option<String>,
+        what: &str,
+        pts: Vec<(usize, f32, f32)>,
+        threads: usize,
+        q: Quadrature,
+        quad: usize,
+    ) -> (Vec<ScaleSolve>, String) {
+        use msbsdf::multiple::tabulated_dielectric::SCALE_MU_N;
+        let len = 2 * SCALE_MU_N;
+        let rec = 12 + 16 * len;
+        if let Some(path) = cache.as_deref() {
+            if let Ok(raw) = std::fs::read(path) {
+                let body = raw.strip_prefix(&POINTS_MAGIC[..]).unwrap_or_else(|| {
+                    panic!("--points: {path} is not a points file (delete it to solve anew)")
+                });
+                assert!(
+                    body.len() == pts.len() * rec,
+                    "--points: {path} holds {} points, this fit needs {} (delete it to solve anew)",
+                    body.len() / rec,
+                    pts.len()
+                );
+                let f64_at = |b: &[u8], k: usize| {
+                    f64::from_le_bytes(b[8 * k..8 * k + 8].try_into().expect("8 bytes"))
+                };
+                let out = pts
+                    .iter()
+                    .zip(body.chunks_exact(rec))
+                    .map(|(&(n, alpha, eta), r)| {
+                        let key = [n as u32, alpha.to_bits(), eta.to_bits()];
+                        let got: Vec<u32> = r[..12]
+                            .chunks_exact(4)
+                            .map(|c| u32::from_le_bytes(c.try_into().expect("4 bytes")))
+                            .collect();
+                        assert!(
+                            got == key,
+                            "--points: {path} holds other points than this fit's (delete it to solve anew)"
+                        );
+                        let v = &r[12..];
+                        ScaleSolve {
+                            sc: (0..len).map(|k| f64_at(v, k)).collect(),
+                            target: (0..len).map(|k| f64_at(v, len + k)).collect(),
+                            before: 0.0,
+                            after: 0.0,
+                            m: Vec::new(),
+                        }
+                    })
+                    .collect();
+                eprintln!("{what}: {} solves read from {path}", pts.len());
+                return (out, format!("read from {path}"));
+            }
+        }
+        let out = parallel(
+            &pts,
+            &format!("scale fit points ({what})"),
+            threads,
+            |_, &(n, a, e)| solve_scales(n, a, e, q, quad),
+        );
+        if let Some(path) = cache.as_deref() {
+            let mut raw = POINTS_MAGIC.to_vec();
+            for (&(n, alpha, eta), p) in pts.iter().zip(&out) {
+                for k in [n as u32, alpha.to_bits(), eta.to_bits()] {
+                    raw.extend(k.to_le_bytes());
+                }
+                for v in p.sc.iter().chain(&p.target) {
+                    raw.extend(v.to_le_bytes());
+                }
+            }
+            std::fs::write(path, raw).unwrap_or_else(|e| panic!("--points: writing {path}: {e}"));
+            eprintln!("{what}: {} solves written to {path}", pts.len());
+            return (out, format!("solved here, kept in {path}"));
+        }
+        (out, "solved here".to_string())
+    }
+
     /// The scaled multiply scattered albedo `s_x sum_y M(x, y) s_y` from
     /// source node `x` with scales `s`.
     fn furnace_row(s: &[f64], m: &[Vec<f64>], x: usize) -> f64 {
@@ -2847,6 +2935,10 @@ mod dielectric {
     /// low-index block and keeps version 10's main block through `--keep`
     /// and `--base`.)
     ///
+    /// `--points FILE` keeps the midpoints' solves in `FILE.roughness` and
+    /// `FILE.index` ([`solved_points`]) or reads them from there when they
+    /// exist, so that a refit with other `--lawson` steps takes seconds.
+    ///
     /// `--pilot N,L,E` (NDF, 1 for the low-index block, index node) fits one
     /// row with each number of Lawson steps of `--pilot-lawson K,K,...`
     /// (default 0,5,20) and prints the furnace (the worst `|albedo - 1|`
@@ -2979,10 +3071,36 @@ mod dielectric {
                 jobs.push((r, last, 0.0));
             }
         }
-        let res = parallel(&jobs, "scale fit points", threads, |_, &(r, a, f)| {
-            let (n, low, e) = rows[r];
-            solve_scales(n, alpha_at(low, a, f), scale_grid_eta(e), q, quad)
-        });
+        // `--points FILE`: the points' solves kept in (or read from)
+        // `FILE.roughness` and `FILE.index`.
+        let points: Option<String> = args
+            .iter()
+            .position(|a| a == "--points")
+            .and_then(|p| args.get(p + 1))
+            .cloned();
+        assert!(
+            points.is_none() || pilot.is_none(),
+            "--points is for the fit, not --pilot"
+        );
+        let solved = |tag: &str, pts: Vec<(usize, f32, f32)>| {
+            solved_points(
+                points.as_deref().map(|p| format!("{p}.{tag}")),
+                tag,
+                pts,
+                threads,
+                q,
+                quad,
+            )
+        };
+        let (res, res_from) = solved(
+            "roughness",
+            jobs.iter()
+                .map(|&(r, a, f)| {
+                    let (n, low, e) = rows[r];
+                    (n, alpha_at(low, a, f), scale_grid_eta(e))
+                })
+                .collect(),
+        );
         // The midpoint solve of row `r`'s roughness interval `a`, if any.
         let mid_of: std::collections::HashMap<(usize, usize), &ScaleSolve> = jobs
             .iter()
@@ -3015,11 +3133,18 @@ mod dielectric {
         } else {
             Vec::new()
         };
-        let ires = parallel(&ijobs, "index midpoints", threads, |_, &(n, a, e)| {
-            // Eval's index coordinate is linear in `ln E` between nodes.
-            let eta = (scale_grid_eta(e) * scale_grid_eta(e + 1)).sqrt();
-            solve_scales(n, grid_alpha_of(low2d, a), eta, q, quad)
-        });
+        let (ires, ires_from) = solved(
+            "index",
+            ijobs
+                .iter()
+                .map(|&(n, a, e)| {
+                    // Eval's index coordinate is linear in `ln E` between
+                    // nodes.
+                    let eta = (scale_grid_eta(e) * scale_grid_eta(e + 1)).sqrt();
+                    (n, grid_alpha_of(low2d, a), eta)
+                })
+                .collect(),
+        );
         let mut scale: Vec<u16> = match &base {
             Some((raw, _)) => (0..SCALE_LEN).map(|i| table_step(raw, i)).collect(),
             None => (0..SCALE_LEN).map(|i| scale_steps(exact(i))).collect(),
@@ -3184,6 +3309,7 @@ mod dielectric {
              fit: per row (NDF, block, index node) and source node (side, mu), node values v minimising sum_nodes w (v - s)^2 + sum_midpoints w ((v_a + v_a+1) / 2 - m)^2, s the exact node scales of {exact_path}, m the exact scales at the {} midpoints of the roughness intervals, w = (t / s)^2 at the midpoint (1 - E_ss over its scale; a node's the mean of its midpoints'); roughness node 0 and scale-0 nodes fixed; largest change of a node {:.2}% ({moved_at})\n\
              {}\
              exact nodes: {}; {}\n\
+             points: the roughness midpoints' solves {res_from}, the index midpoints' {ires_from}\n\
              quadrature: --broad {broad} (as --dielectric-scale); E_ss quadrature {quad} x {quad}; deterministic, no seeds\n\
              wall time: {:.0} s on {threads} threads\n\
              {SCALE_STORAGE}\n",
