@@ -2639,46 +2639,44 @@ mod dielectric {
         use msbsdf::multiple::tabulated_dielectric::SCALE_MU_N;
         let len = 2 * SCALE_MU_N;
         let rec = 12 + 16 * len;
-        if let Some(path) = cache.as_deref() {
-            if let Ok(raw) = std::fs::read(path) {
-                let body = raw.strip_prefix(&POINTS_MAGIC[..]).unwrap_or_else(|| {
-                    panic!("--points: {path} is not a points file (delete it to solve anew)")
-                });
-                assert!(
-                    body.len() == pts.len() * rec,
-                    "--points: {path} holds {} points, this fit needs {} (delete it to solve anew)",
-                    body.len() / rec,
-                    pts.len()
-                );
-                let f64_at = |b: &[u8], k: usize| {
-                    f64::from_le_bytes(b[8 * k..8 * k + 8].try_into().expect("8 bytes"))
-                };
-                let out = pts
-                    .iter()
-                    .zip(body.chunks_exact(rec))
-                    .map(|(&(n, alpha, eta), r)| {
-                        let key = [n as u32, alpha.to_bits(), eta.to_bits()];
-                        let got: Vec<u32> = r[..12]
-                            .chunks_exact(4)
-                            .map(|c| u32::from_le_bytes(c.try_into().expect("4 bytes")))
-                            .collect();
-                        assert!(
-                            got == key,
-                            "--points: {path} holds other points than this fit's (delete it to solve anew)"
-                        );
-                        let v = &r[12..];
-                        ScaleSolve {
-                            sc: (0..len).map(|k| f64_at(v, k)).collect(),
-                            target: (0..len).map(|k| f64_at(v, len + k)).collect(),
-                            before: 0.0,
-                            after: 0.0,
-                            m: Vec::new(),
-                        }
-                    })
-                    .collect();
-                eprintln!("{what}: {} solves read from {path}", pts.len());
-                return (out, format!("read from {path}"));
-            }
+        if let Some((path, Ok(raw))) = cache.as_deref().map(|p| (p, std::fs::read(p))) {
+            let body = raw.strip_prefix(&POINTS_MAGIC[..]).unwrap_or_else(|| {
+                panic!("--points: {path} is not a points file (delete it to solve anew)")
+            });
+            assert!(
+                body.len() == pts.len() * rec,
+                "--points: {path} holds {} points, this fit needs {} (delete it to solve anew)",
+                body.len() / rec,
+                pts.len()
+            );
+            let f64_at = |b: &[u8], k: usize| {
+                f64::from_le_bytes(b[8 * k..8 * k + 8].try_into().expect("8 bytes"))
+            };
+            let out = pts
+                .iter()
+                .zip(body.chunks_exact(rec))
+                .map(|(&(n, alpha, eta), r)| {
+                    let key = [n as u32, alpha.to_bits(), eta.to_bits()];
+                    let got: Vec<u32> = r[..12]
+                        .chunks_exact(4)
+                        .map(|c| u32::from_le_bytes(c.try_into().expect("4 bytes")))
+                        .collect();
+                    assert!(
+                        got == key,
+                        "--points: {path} holds other points than this fit's (delete it to solve anew)"
+                    );
+                    let v = &r[12..];
+                    ScaleSolve {
+                        sc: (0..len).map(|k| f64_at(v, k)).collect(),
+                        target: (0..len).map(|k| f64_at(v, len + k)).collect(),
+                        before: 0.0,
+                        after: 0.0,
+                        m: Vec::new(),
+                    }
+                })
+                .collect();
+            eprintln!("{what}: {} solves read from {path}", pts.len());
+            return (out, format!("read from {path}"));
         }
         let out = parallel(
             &pts,
