@@ -2617,13 +2617,24 @@ mod dielectric {
     }
 
     /// First bytes of a `--points` file of the scale fit.
-    const POINTS_MAGIC: &[u8; 24] = b"MSBSDF-SCALE-POINTS-v1\n\0";
+    const POINTS_MAGIC: &[u8; 24] = b"MSBSDF-SCALE-POINTS-v2\n\0";
+
+    /// The quadrature of a `--points` file ([`solved_points`]): `--ng`,
+    /// `--broad` and `--quad` as little-endian `u32`.
+    fn points_quadrature(q: Quadrature, quad: usize) -> Vec<u8> {
+        [q.ng, q.broad, quad]
+            .iter()
+            .flat_map(|&v| (v as u32).to_le_bytes())
+            .collect()
+    }
 
     /// The scale solves of the fit's points `(NDF, roughness, index)`
     /// (`--dielectric-scale-fit`): read from `cache` if it exists (it must
-    /// hold the same points, to the bit), else solved ([`solve_scales`])
-    /// and, with `cache`, written there: per point its NDF, roughness and
-    /// index and the scales and targets of every source node as f64 (the
+    /// hold the same points, to the bit, and quadrature), else solved
+    /// ([`solve_scales`]) and, with `cache`, written there: after the
+    /// magic the quadrature (`--ng`, `--broad`, `--quad` as `u32`), then
+    /// per point its NDF, roughness and index and the scales and targets
+    /// of every source node as f64 (the
     /// fit reads nothing else; the lobe rows are not kept). A refit with
     /// other weights or Lawson steps then takes seconds instead of the
     /// solves' 20-50 minutes. Also returns where the solves came from
@@ -2643,6 +2654,11 @@ mod dielectric {
             let body = raw.strip_prefix(&POINTS_MAGIC[..]).unwrap_or_else(|| {
                 panic!("--points: {path} is not a points file (delete it to solve anew)")
             });
+            let (quadrature, body) = body.split_at(12.min(body.len()));
+            assert!(
+                quadrature == points_quadrature(q, quad),
+                "--points: {path} was solved with another --ng / --broad / --quad (delete it to solve anew)"
+            );
             assert!(
                 body.len() == pts.len() * rec,
                 "--points: {path} holds {} points, this fit needs {} (delete it to solve anew)",
@@ -2686,6 +2702,7 @@ mod dielectric {
         );
         if let Some(path) = cache.as_deref() {
             let mut raw = POINTS_MAGIC.to_vec();
+            raw.extend(points_quadrature(q, quad));
             for (&(n, alpha, eta), p) in pts.iter().zip(&out) {
                 for k in [n as u32, alpha.to_bits(), eta.to_bits()] {
                     raw.extend(k.to_le_bytes());

@@ -283,7 +283,8 @@ pub const SCALE_FINE_INTERVALS: usize = 4;
 /// See [`SCALE_FINE_INTERVALS`].
 pub const SCALE_FINE_SPLIT: usize = 3;
 /// The interval of the plain `sqrt(alpha)` grid ([`SCALE_ROOT_N`] nodes)
-/// that the scale table's main block halves (since version 10; the low-index block since version 11): roughness
+/// that the scale table's main block halves (since version 10; the
+/// low-index block since version 11, [`scale_low_split`]): roughness
 /// 0.0957 to 0.125, the last quarter of the lobe table's interval that
 /// ends at its node 0.125. Eval interpolates the lobes linearly in
 /// roughness, and just below that node the exact furnace scale bends
@@ -2390,8 +2391,9 @@ mod tests {
 
     /// The low-index block's roughness grid (version 6): each node's
     /// roughness reads its own node, every node of the main block's grid
-    /// is one of its nodes ([`SCALE_HALF_NODE`] since version 11), and the lobe table's crease (the diagonal of
-    /// its `(sqrt(alpha), ln E)` squares, `triangle`) runs through its
+    /// is one of its nodes ([`SCALE_HALF_NODE`] since version 11), and
+    /// the lobe table's crease (the diagonal of its `(sqrt(alpha), ln E)`
+    /// squares, `triangle`) runs through its
     /// nodes and along the cuts of its triangles: at points on the crease
     /// between the nodes the triangle's corners with weight lie on it.
     /// And init's offsets of a triangle's corners are the generator's.
