@@ -222,9 +222,14 @@ fn furnace_of_glass_1_05_from_inside_near_grazing() {
 /// scale nodes (session 28) 1.05% when fitted along roughness alone and
 /// **0.56%** with the low-index block fitted over its index intervals'
 /// midpoints too (Beckmann 0.45 glass 1.069 from outside at 89 degrees,
-/// -0.56%: an index node, whose scales are fitted, not exact);
-/// bounded at 0.7% (1.1% until session 28, 2.9% until version 6): the
-/// issue's 0.5% is not met.
+/// -0.56%: an index node, whose scales are fitted, not exact; 0.57%
+/// with the block refitted for scale table version 11, +0.51% at 1.059
+/// beside it). With exact nodes the furnace there is 0.21% at 1.069 but
+/// 0.90% at 1.059: the bend in `ln E` is about 1% deep, and a fit of
+/// nodes interpolated linearly leaves about half of it at the nodes and
+/// the midpoints (20 Lawson steps instead of 3: 0.52%, but 0.59% at
+/// roughness 0.03 elsewhere, so not taken). Bounded at 0.7% (1.1% until
+/// session 28, 2.9% until version 6): the 0.5% is not met.
 #[test]
 fn furnace_between_the_lowest_index_nodes() {
     let (report, worst) = isotropic_furnace(
@@ -384,6 +389,28 @@ fn furnace_below_roughness_0_125_near_grazing() {
         &[80.0, 84.3, 85.0, 87.0, 89.0],
         &[0.107, 0.11, 0.114, 0.1173],
         &[1.5, 1.55, 1.577],
+    );
+    assert!(worst < 0.005, "{report}");
+}
+
+/// White furnace of isotropic glass of low index just below roughness
+/// 0.125 near grazing, from both sides: both NDFs, roughness 0.107 to
+/// 0.1173, `E` 1.107, 1.122, 1.14 and 1.151 (the scale table's low-index
+/// block: an index node, the midpoints of its intervals around 1.136 and
+/// the worst random case's index), 80 to 89 degrees (eval quadrature).
+/// The exact scale bends there as above
+/// (`furnace_below_roughness_0_125_near_grazing`), and the low-index
+/// block had no node at 0.11 until scale table version 11: GGX 0.111
+/// glass 1.14 from inside at 85.6 degrees was +0.56% with version 10,
+/// the worst of 1,000 random cases near grazing. Measured: 0.57% with
+/// version 10 (GGX 0.111 glass 1.107 from inside at 85.6 degrees),
+/// 0.23% with version 11; bounded at the 0.5%.
+#[test]
+fn furnace_below_roughness_0_125_near_grazing_at_low_index() {
+    let (report, worst) = isotropic_furnace(
+        &[80.0, 83.0, 85.6, 87.0, 89.0],
+        &[0.107, 0.111, 0.114, 0.1173],
+        &[1.107, 1.122, 1.14, 1.151],
     );
     assert!(worst < 0.005, "{report}");
 }

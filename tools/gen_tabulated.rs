@@ -83,7 +83,6 @@ const OPTIONS: &[&str] = &[
     "--keep",
     "--lawson",
     "--low-2d",
-    "--low-from",
     "--main-2d",
     "--mu-pilot",
     "--ng",
@@ -96,6 +95,7 @@ const OPTIONS: &[&str] = &[
     "--pilot",
     "--pilot-lawson",
     "--pilot-nodes",
+    "--points",
     "--power",
     "--print-rows",
     "--quad",
@@ -119,13 +119,13 @@ Writes a committed table (run on a clean tree; the header records the commit):
                                   data/tabulated_conductor.bin (the conductor lobes)
   --scale                         data/tabulated_scale.bin (conductor furnace scales)
   --dielectric                    data/tabulated_dielectric.bin (the glass lobes)
-  --dielectric-scale [--keep V9.bin]
+  --dielectric-scale [--keep V10.bin]
                                   data/tabulated_dielectric_scale.bin, exact nodes
   --dielectric-scale-fit --exact EXACT.bin [--lawson K] [--low-2d --base FITTED.bin]
-                         [--low-from FITTED_V9.bin [--main-2d]]
+                         [--main-2d --base FITTED.bin] [--points FILE]
                                   the same table with nodes fitted along roughness
-  --dielectric-scale-splice --from FITTED.bin --below-from FITTED_V9.bin --to-node K
-                                  the main block's roughness nodes 0..=K from version 9
+  --dielectric-scale-splice --from FITTED.bin --below-from FITTED_1D.bin --to-node K
+                                  the main block's roughness nodes 0..=K from another fit
   --conductor-pack / --dielectric-pack / --dielectric-lobe-pack / --dielectric-v5 FILE
                                   rewrite an older version of a table
   --dielectric-normalize          the lobe table normalised (--power P --floor F)
@@ -1939,20 +1939,21 @@ mod dielectric {
     /// roughness `A` and index `E` with weights `W` (what another grid
     /// would give, before building it). `--only`'s roughness node is one
     /// of the main block's grid.
-    /// `--keep V9.bin` copies the nodes of a version-9 table (every node
-    /// but the main block's roughness node `SCALE_HALF_NODE`, new in
-    /// version 10) and solves only that node (the committed version 10's
-    /// exact nodes, from `git show 4f047c6:data/tabulated_dielectric_scale.bin`,
-    /// the exact nodes of version 9): the generator is deterministic, so
-    /// with the same lobe table a full run computes the same values for
-    /// the kept nodes. (Until version 10 `--keep` read a version-5 table
-    /// and solved the low-index block's new nodes; commit 745213e has
-    /// that form.)
+    /// `--keep V10.bin` copies the nodes of a version-10 table (every node
+    /// but the low-index block's roughness node `SCALE_LOW_HALF_NODE`, new
+    /// in version 11) and solves only that node (the committed version
+    /// 11's exact nodes, from `git show b9b4934:data/tabulated_dielectric_scale.bin`,
+    /// the exact nodes of version 10, and the base of its fit, from the
+    /// committed version 10): the generator is deterministic, so with the
+    /// same lobe table a full run computes the same values for the kept
+    /// nodes. (Until version 11 `--keep` read a version-9 table and solved
+    /// the main block's `SCALE_HALF_NODE`, commit 9434f94; until version
+    /// 10 a version-5 table, commit 745213e.)
     pub fn scale_main(args: &[String]) {
         use msbsdf::multiple::tabulated_dielectric::{
             SCALE_ALPHA_N, SCALE_ETA_N, SCALE_ETA_PLAIN_N, SCALE_ETA_SPLIT, SCALE_FINE_INTERVALS,
-            SCALE_FINE_SPLIT, SCALE_HALF_INTERVAL, SCALE_HALF_NODE, SCALE_LOW_ALPHA_N,
-            SCALE_LOW_ETA_N, SCALE_MAX, SCALE_MU_ELEMS, SCALE_MU_N, SCALE_PAD, SCALE_ROOT_N,
+            SCALE_FINE_SPLIT, SCALE_HALF_INTERVAL, SCALE_LOW_ALPHA_N, SCALE_LOW_ETA_N,
+            SCALE_LOW_HALF_NODE, SCALE_MAX, SCALE_MU_ELEMS, SCALE_MU_N, SCALE_PAD, SCALE_ROOT_N,
             header, scale_grid_alpha, scale_grid_eta, scale_grid_mu, scale_index,
             scale_low_grid_alpha,
         };
@@ -2058,8 +2059,8 @@ mod dielectric {
                 jobs.push((n, low, a, e, grid_alpha_of(low, a), scale_grid_eta(e)));
             }
         }
-        // `--keep V9.bin`: the nodes of a version-9 table (every node but
-        // the main block's SCALE_HALF_NODE) are copied from it (the
+        // `--keep V10.bin`: the nodes of a version-10 table (every node but
+        // the low-index block's SCALE_LOW_HALF_NODE) are copied from it (the
         // generator is deterministic: a full run with the same lobe table
         // computes the same values), only the new node is solved.
         let keep = table_arg(args, "--keep", PREV_SCALE_MAGIC, PREV_SCALE_FILE_BYTES);
@@ -2197,7 +2198,7 @@ mod dielectric {
             Some((raw, path)) => {
                 let line = |key: &str| header_line(raw, key);
                 format!(
-                    "kept: the nodes of version 9's grid copied from {path} (version 9; its {}; {}), the main block's roughness node {SCALE_HALF_NODE} solved here\n",
+                    "kept: the nodes of version 10's grid copied from {path} (version 10; its {}; {}), the low-index block's roughness node {SCALE_LOW_HALF_NODE} solved here\n",
                     line("command:"),
                     line("commit:")
                 )
@@ -2214,7 +2215,7 @@ mod dielectric {
              E_ss: SINGLE reflection + transmission quadrature {quad} x {quad} (compensation::single_albedo)\n\
              albedo of the unscaled lobe vs 1 - E_ss: worst relative deviation {before:.3e} (targets > 1e-3); after scaling: {after:.3e} (targets > 1e-4, rows not empty; scales within [0, {scale_max}] during the solve, 0 where the target is 0: {zeros} nodes)\n\
              scales between {smin:.4} and {smax:.4}\n\
-             grid: index nodes {SCALE_ETA_N} (uniform in ln E with {SCALE_ETA_PLAIN_N} nodes, its first two intervals split in {SCALE_ETA_SPLIT:?}); low-index block ndf {NDF_N} x alpha {SCALE_LOW_ALPHA_N} (uniform in sqrt(alpha / 2) with {SCALE_ROOT_N} nodes, its first {SCALE_FINE_INTERVALS} intervals split in {SCALE_FINE_SPLIT}, then per lobe interval its first two split as the index's) x eta {SCALE_LOW_ETA_N} (the first) x side 2 x mu {SCALE_MU_N}, then the main block ndf {NDF_N} x alpha {SCALE_ALPHA_N} (the same sqrt(alpha) grid, its first {SCALE_FINE_INTERVALS} intervals split in {SCALE_FINE_SPLIT} and interval {SCALE_HALF_INTERVAL} in 2) x eta {} (from node {}) x side 2 x mu {SCALE_MU_N} (the ends and midpoints of {SCALE_MU_ELEMS} elements on the lobe table's cosine nodes, the scale quadratic in sqrt(mu) on each: tabulated_dielectric::scale_mu_basis), then {SCALE_PAD} zero steps\n\
+             grid: index nodes {SCALE_ETA_N} (uniform in ln E with {SCALE_ETA_PLAIN_N} nodes, its first two intervals split in {SCALE_ETA_SPLIT:?}); low-index block ndf {NDF_N} x alpha {SCALE_LOW_ALPHA_N} (uniform in sqrt(alpha / 2) with {SCALE_ROOT_N} nodes, its first {SCALE_FINE_INTERVALS} intervals split in {SCALE_FINE_SPLIT}, then per lobe interval its first two split as the index's, and interval {SCALE_HALF_INTERVAL} in 2) x eta {SCALE_LOW_ETA_N} (the first) x side 2 x mu {SCALE_MU_N}, then the main block ndf {NDF_N} x alpha {SCALE_ALPHA_N} (the same sqrt(alpha) grid, its first {SCALE_FINE_INTERVALS} intervals split in {SCALE_FINE_SPLIT} and interval {SCALE_HALF_INTERVAL} in 2) x eta {} (from node {}) x side 2 x mu {SCALE_MU_N} (the ends and midpoints of {SCALE_MU_ELEMS} elements on the lobe table's cosine nodes, the scale quadratic in sqrt(mu) on each: tabulated_dielectric::scale_mu_basis), then {SCALE_PAD} zero steps\n\
              {kept}\
              wall time: {:.0} s on {threads} threads\n\
              {SCALE_STORAGE}\n",
@@ -2274,53 +2275,53 @@ mod dielectric {
         Some((raw, path.clone()))
     }
 
-    /// Step `i` (a `scale_index`, or a version-9 table's [`prev_index`])
+    /// Step `i` (a `scale_index`, or a version-10 table's [`prev_index`])
     /// of the scale table file `raw`.
     fn table_step(raw: &[u8], i: usize) -> u16 {
         let b = HEADER_BYTES + 2 * i;
         u16::from_le_bytes([raw[b], raw[b + 1]])
     }
 
-    /// First bytes of the previous layout of the scale table (version 9:
-    /// without the main block's roughness node `SCALE_HALF_NODE`), which
-    /// `--dielectric-scale --keep` and `--dielectric-scale-fit --low-from`
-    /// read.
-    const PREV_SCALE_MAGIC: &[u8] = b"MSBSDF-TABULATED-DIELECTRIC-SCALE-v9\n";
-    /// Size of a version-9 scale table file in bytes.
+    /// First bytes of the previous layout of the scale table (version 10:
+    /// without the low-index block's roughness node
+    /// `SCALE_LOW_HALF_NODE`), which `--dielectric-scale --keep` reads.
+    const PREV_SCALE_MAGIC: &[u8] = b"MSBSDF-TABULATED-DIELECTRIC-SCALE-v10\n";
+    /// Values of one roughness node of the low-index block (all its index
+    /// nodes, both sides, every cosine).
+    const LOW_NODE_LEN: usize = {
+        use msbsdf::multiple::tabulated_dielectric::{SCALE_LOW_ETA_N, SCALE_MU_N};
+        SCALE_LOW_ETA_N * 2 * SCALE_MU_N
+    };
+    /// Size of a version-10 scale table file in bytes.
     const PREV_SCALE_FILE_BYTES: usize = {
-        use msbsdf::multiple::tabulated_dielectric::{
-            SCALE_LEN, SCALE_MAIN_ETA_N, SCALE_MU_N, SCALE_PAD,
-        };
-        HEADER_BYTES + 2 * (SCALE_LEN - NDF_N * SCALE_MAIN_ETA_N * 2 * SCALE_MU_N + SCALE_PAD)
+        use msbsdf::multiple::tabulated_dielectric::{SCALE_LEN, SCALE_PAD};
+        HEADER_BYTES + 2 * (SCALE_LEN - NDF_N * LOW_NODE_LEN + SCALE_PAD)
     };
 
-    /// The version-9 roughness node that node `a` of a block (the
-    /// low-index block's if `low`) is: the same node, but in the main
-    /// block none for `SCALE_HALF_NODE` and `a - 1` above it.
+    /// The version-10 roughness node that node `a` of a block (the
+    /// low-index block's if `low`) is: the same node, but in the low-index
+    /// block none for `SCALE_LOW_HALF_NODE` and `a - 1` above it.
     fn prev_node(low: bool, a: usize) -> Option<usize> {
-        use msbsdf::multiple::tabulated_dielectric::SCALE_HALF_NODE;
+        use msbsdf::multiple::tabulated_dielectric::SCALE_LOW_HALF_NODE;
         match a {
-            _ if low || a < SCALE_HALF_NODE => Some(a),
-            _ if a == SCALE_HALF_NODE => None,
+            _ if !low || a < SCALE_LOW_HALF_NODE => Some(a),
+            _ if a == SCALE_LOW_HALF_NODE => None,
             _ => Some(a - 1),
         }
     }
 
-    /// The index in a version-9 scale table of entry `i` of the current
+    /// The index in a version-10 scale table of entry `i` of the current
     /// layout (`scale_index`), if it has one: the low-index block (first
-    /// in both) is the same, the main block lost a roughness node.
+    /// in both) lost a roughness node, the main block is the same.
     fn prev_index(i: usize) -> Option<usize> {
-        use msbsdf::multiple::tabulated_dielectric::{
-            SCALE_ALPHA_N, SCALE_LOW_LEN, SCALE_MAIN_ETA_N, SCALE_MU_N,
-        };
-        if i < SCALE_LOW_LEN {
-            return Some(i);
+        use msbsdf::multiple::tabulated_dielectric::{SCALE_LOW_ALPHA_N, SCALE_LOW_LEN};
+        if i >= SCALE_LOW_LEN {
+            return Some(i - NDF_N * LOW_NODE_LEN);
         }
-        let row = SCALE_MAIN_ETA_N * 2 * SCALE_MU_N;
-        let (node, rest) = ((i - SCALE_LOW_LEN) / row, (i - SCALE_LOW_LEN) % row);
-        let (n, a) = (node / SCALE_ALPHA_N, node % SCALE_ALPHA_N);
-        let a = prev_node(false, a)?;
-        Some(SCALE_LOW_LEN + (n * (SCALE_ALPHA_N - 1) + a) * row + rest)
+        let (node, rest) = (i / LOW_NODE_LEN, i % LOW_NODE_LEN);
+        let (n, a) = (node / SCALE_LOW_ALPHA_N, node % SCALE_LOW_ALPHA_N);
+        let a = prev_node(true, a)?;
+        Some((n * (SCALE_LOW_ALPHA_N - 1) + a) * LOW_NODE_LEN + rest)
     }
 
     /// One point's furnace scales (`--dielectric-scale`'s solve): the
@@ -2615,6 +2616,108 @@ mod dielectric {
         println!("worst of all {all:.4}");
     }
 
+    /// First bytes of a `--points` file of the scale fit.
+    const POINTS_MAGIC: &[u8; 24] = b"MSBSDF-SCALE-POINTS-v2\n\0";
+
+    /// The quadrature of a `--points` file ([`solved_points`]): `--ng`,
+    /// `--broad` and `--quad` as little-endian `u32`.
+    fn points_quadrature(q: Quadrature, quad: usize) -> Vec<u8> {
+        [q.ng, q.broad, quad]
+            .iter()
+            .flat_map(|&v| (v as u32).to_le_bytes())
+            .collect()
+    }
+
+    /// The scale solves of the fit's points `(NDF, roughness, index)`
+    /// (`--dielectric-scale-fit`): read from `cache` if it exists (it must
+    /// hold the same points, to the bit, and quadrature), else solved
+    /// ([`solve_scales`]) and, with `cache`, written there: after the
+    /// magic the quadrature (`--ng`, `--broad`, `--quad` as `u32`), then
+    /// per point its NDF, roughness and index and the scales and targets
+    /// of every source node as f64 (the
+    /// fit reads nothing else; the lobe rows are not kept). A refit with
+    /// other weights or Lawson steps then takes seconds instead of the
+    /// solves' 20-50 minutes. Also returns where the solves came from
+    /// (for the table's header).
+    fn solved_points(
+        cache: Option<String>,
+        what: &str,
+        pts: Vec<(usize, f32, f32)>,
+        threads: usize,
+        q: Quadrature,
+        quad: usize,
+    ) -> (Vec<ScaleSolve>, String) {
+        use msbsdf::multiple::tabulated_dielectric::SCALE_MU_N;
+        let len = 2 * SCALE_MU_N;
+        let rec = 12 + 16 * len;
+        if let Some((path, Ok(raw))) = cache.as_deref().map(|p| (p, std::fs::read(p))) {
+            let body = raw.strip_prefix(&POINTS_MAGIC[..]).unwrap_or_else(|| {
+                panic!("--points: {path} is not a points file (delete it to solve anew)")
+            });
+            let (quadrature, body) = body.split_at(12.min(body.len()));
+            assert!(
+                quadrature == points_quadrature(q, quad),
+                "--points: {path} was solved with another --ng / --broad / --quad (delete it to solve anew)"
+            );
+            assert!(
+                body.len() == pts.len() * rec,
+                "--points: {path} holds {} points, this fit needs {} (delete it to solve anew)",
+                body.len() / rec,
+                pts.len()
+            );
+            let f64_at = |b: &[u8], k: usize| {
+                f64::from_le_bytes(b[8 * k..8 * k + 8].try_into().expect("8 bytes"))
+            };
+            let out = pts
+                .iter()
+                .zip(body.chunks_exact(rec))
+                .map(|(&(n, alpha, eta), r)| {
+                    let key = [n as u32, alpha.to_bits(), eta.to_bits()];
+                    let got: Vec<u32> = r[..12]
+                        .chunks_exact(4)
+                        .map(|c| u32::from_le_bytes(c.try_into().expect("4 bytes")))
+                        .collect();
+                    assert!(
+                        got == key,
+                        "--points: {path} holds other points than this fit's (delete it to solve anew)"
+                    );
+                    let v = &r[12..];
+                    ScaleSolve {
+                        sc: (0..len).map(|k| f64_at(v, k)).collect(),
+                        target: (0..len).map(|k| f64_at(v, len + k)).collect(),
+                        before: 0.0,
+                        after: 0.0,
+                        m: Vec::new(),
+                    }
+                })
+                .collect();
+            eprintln!("{what}: {} solves read from {path}", pts.len());
+            return (out, format!("read from {path}"));
+        }
+        let out = parallel(
+            &pts,
+            &format!("scale fit points ({what})"),
+            threads,
+            |_, &(n, a, e)| solve_scales(n, a, e, q, quad),
+        );
+        if let Some(path) = cache.as_deref() {
+            let mut raw = POINTS_MAGIC.to_vec();
+            raw.extend(points_quadrature(q, quad));
+            for (&(n, alpha, eta), p) in pts.iter().zip(&out) {
+                for k in [n as u32, alpha.to_bits(), eta.to_bits()] {
+                    raw.extend(k.to_le_bytes());
+                }
+                for v in p.sc.iter().chain(&p.target) {
+                    raw.extend(v.to_le_bytes());
+                }
+            }
+            std::fs::write(path, raw).unwrap_or_else(|e| panic!("--points: writing {path}: {e}"));
+            eprintln!("{what}: {} solves written to {path}", pts.len());
+            return (out, format!("solved here, kept in {path}"));
+        }
+        (out, "solved here".to_string())
+    }
+
     /// The scaled multiply scattered albedo `s_x sum_y M(x, y) s_y` from
     /// source node `x` with scales `s`.
     fn furnace_row(s: &[f64], m: &[Vec<f64>], x: usize) -> f64 {
@@ -2834,19 +2937,22 @@ mod dielectric {
     /// E` next to 1.05, and copies the rest from `FITTED.bin` (a table this
     /// command wrote without `--low-2d`); the committed table is made so.
     ///
-    /// `--low-from FITTED_V9.bin` copies the low-index block from a
-    /// version-9 table that `--low-2d` wrote (the committed version 9,
-    /// commit 745213e) and fits the main block alone: version 10 changed
-    /// only the main block's grid, so the low-index block's exact nodes and
-    /// midpoints, and its fit, are version 9's (the committed version 10 is
-    /// made so).
-    ///
-    /// `--main-2d` (with `--low-from`) fits the main block as `--low-2d`
+    /// `--main-2d --base FITTED.bin` fits the main block as `--low-2d`
     /// fits the low-index block: one sheet per NDF and source node over
     /// the midpoints of its roughness and index intervals (version 10:
     /// between the index nodes the exact scales bend too, Beckmann 1.3
     /// glass 1.2 from inside at the normal: 0.60% off with exact nodes,
-    /// 0.12% with the roughness interpolated alone).
+    /// 0.12% with the roughness interpolated alone), and copies the rest
+    /// (the low-index block) from `FITTED.bin`, whose low-index block must
+    /// be a `--low-2d` fit. (Version 10 was made with the form of commit
+    /// 9434f94, `--low-from FITTED_V9.bin --main-2d`, which took the
+    /// low-index block from a version-9 table; version 11 changed only the
+    /// low-index block and keeps version 10's main block through `--keep`
+    /// and `--base`.)
+    ///
+    /// `--points FILE` keeps the midpoints' solves in `FILE.roughness` and
+    /// `FILE.index` ([`solved_points`]) or reads them from there when they
+    /// exist, so that a refit with other `--lawson` steps takes seconds.
     ///
     /// `--pilot N,L,E` (NDF, 1 for the low-index block, index node) fits one
     /// row with each number of Lawson steps of `--pilot-lawson K,K,...`
@@ -2858,9 +2964,8 @@ mod dielectric {
     /// `--out` as for `--dielectric-scale`.
     pub fn scale_fit_main(args: &[String]) {
         use msbsdf::multiple::tabulated_dielectric::{
-            SCALE_ALPHA_N, SCALE_ETA_N, SCALE_LOW_ALPHA_N, SCALE_LOW_ETA_N, SCALE_LOW_LEN,
-            SCALE_MU_N, header, scale_grid_alpha, scale_grid_eta, scale_index,
-            scale_low_grid_alpha,
+            SCALE_ALPHA_N, SCALE_ETA_N, SCALE_LOW_ALPHA_N, SCALE_LOW_ETA_N, SCALE_MU_N, header,
+            scale_grid_alpha, scale_grid_eta, scale_index, scale_low_grid_alpha,
         };
         let t0 = std::time::Instant::now();
         let fm = SCALE_MU_N;
@@ -2911,23 +3016,19 @@ mod dielectric {
         let low2d = args.iter().any(|a| a == "--low-2d");
         let base = table_arg(args, "--base", SCALE_MAGIC, SCALE_FILE_BYTES);
         assert!(!low2d || base.is_some(), "--low-2d needs --base");
-        // `--main-2d` (with `--low-from`): the main block fitted as one
+        // `--main-2d --base FITTED.bin`: the main block fitted as one
         // sheet per NDF and source node over the midpoints of its index
-        // intervals too.
+        // intervals too, the low-index block copied from `FITTED.bin`.
         let main2d = args.iter().any(|a| a == "--main-2d");
-        // `--low-from FITTED_V9.bin`: the low-index block copied from a
-        // fitted version-9 table (its layout is version 10's), only the
-        // main block fitted.
-        let low_from = table_arg(args, "--low-from", PREV_SCALE_MAGIC, PREV_SCALE_FILE_BYTES);
         assert!(
-            low_from.is_none() || !(low2d || pilot.is_some()),
-            "--low-from is for the main block's fit alone"
+            !main2d || !(low2d || pilot.is_some()),
+            "--main-2d is for the main block's fit alone"
         );
-        assert!(!main2d || low_from.is_some(), "--main-2d needs --low-from");
-        if let Some((raw, _)) = &low_from {
+        assert!(!main2d || base.is_some(), "--main-2d needs --base");
+        if let (true, Some((raw, _))) = (main2d, &base) {
             assert!(
                 header_line(raw, "low-2d:") != "?",
-                "--low-from: the table's low-index block is not the 2-d fit"
+                "--base: the table's low-index block is not the 2-d fit"
             );
         }
         let rows: Vec<(usize, bool, usize)> = match &pilot {
@@ -2936,7 +3037,7 @@ mod dielectric {
             None if low2d => (0..NDF_N)
                 .flat_map(|n| (0..SCALE_LOW_ETA_N).map(move |e| (n, true, e)))
                 .collect(),
-            None if low_from.is_some() => (0..NDF_N)
+            None if main2d => (0..NDF_N)
                 .flat_map(|n| (SCALE_LOW_ETA_N - 1..SCALE_ETA_N).map(move |e| (n, false, e)))
                 .collect(),
             None => (0..NDF_N)
@@ -2985,10 +3086,36 @@ mod dielectric {
                 jobs.push((r, last, 0.0));
             }
         }
-        let res = parallel(&jobs, "scale fit points", threads, |_, &(r, a, f)| {
-            let (n, low, e) = rows[r];
-            solve_scales(n, alpha_at(low, a, f), scale_grid_eta(e), q, quad)
-        });
+        // `--points FILE`: the points' solves kept in (or read from)
+        // `FILE.roughness` and `FILE.index`.
+        let points: Option<String> = args
+            .iter()
+            .position(|a| a == "--points")
+            .and_then(|p| args.get(p + 1))
+            .cloned();
+        assert!(
+            points.is_none() || pilot.is_none(),
+            "--points is for the fit, not --pilot"
+        );
+        let solved = |tag: &str, pts: Vec<(usize, f32, f32)>| {
+            solved_points(
+                points.as_deref().map(|p| format!("{p}.{tag}")),
+                tag,
+                pts,
+                threads,
+                q,
+                quad,
+            )
+        };
+        let (res, res_from) = solved(
+            "roughness",
+            jobs.iter()
+                .map(|&(r, a, f)| {
+                    let (n, low, e) = rows[r];
+                    (n, alpha_at(low, a, f), scale_grid_eta(e))
+                })
+                .collect(),
+        );
         // The midpoint solve of row `r`'s roughness interval `a`, if any.
         let mid_of: std::collections::HashMap<(usize, usize), &ScaleSolve> = jobs
             .iter()
@@ -3021,20 +3148,22 @@ mod dielectric {
         } else {
             Vec::new()
         };
-        let ires = parallel(&ijobs, "index midpoints", threads, |_, &(n, a, e)| {
-            // Eval's index coordinate is linear in `ln E` between nodes.
-            let eta = (scale_grid_eta(e) * scale_grid_eta(e + 1)).sqrt();
-            solve_scales(n, grid_alpha_of(low2d, a), eta, q, quad)
-        });
+        let (ires, ires_from) = solved(
+            "index",
+            ijobs
+                .iter()
+                .map(|&(n, a, e)| {
+                    // Eval's index coordinate is linear in `ln E` between
+                    // nodes.
+                    let eta = (scale_grid_eta(e) * scale_grid_eta(e + 1)).sqrt();
+                    (n, grid_alpha_of(low2d, a), eta)
+                })
+                .collect(),
+        );
         let mut scale: Vec<u16> = match &base {
             Some((raw, _)) => (0..SCALE_LEN).map(|i| table_step(raw, i)).collect(),
             None => (0..SCALE_LEN).map(|i| scale_steps(exact(i))).collect(),
         };
-        if let Some((raw, _)) = &low_from {
-            for (i, v) in scale.iter_mut().enumerate().take(SCALE_LOW_LEN) {
-                *v = table_step(raw, i);
-            }
-        }
         // The largest relative change of a node, and where.
         let (mut moved, mut moved_at) = (0.0f64, String::new());
         let mut note = |v: f64, s: f64, n: usize, low: bool, a: usize, e: usize, x: usize| {
@@ -3195,6 +3324,7 @@ mod dielectric {
              fit: per row (NDF, block, index node) and source node (side, mu), node values v minimising sum_nodes w (v - s)^2 + sum_midpoints w ((v_a + v_a+1) / 2 - m)^2, s the exact node scales of {exact_path}, m the exact scales at the {} midpoints of the roughness intervals, w = (t / s)^2 at the midpoint (1 - E_ss over its scale; a node's the mean of its midpoints'); roughness node 0 and scale-0 nodes fixed; largest change of a node {:.2}% ({moved_at})\n\
              {}\
              exact nodes: {}; {}\n\
+             points: the roughness midpoints' solves {res_from}, the index midpoints' {ires_from}\n\
              quadrature: --broad {broad} (as --dielectric-scale); E_ss quadrature {quad} x {quad}; deterministic, no seeds\n\
              wall time: {:.0} s on {threads} threads\n\
              {SCALE_STORAGE}\n",
@@ -3204,6 +3334,16 @@ mod dielectric {
             jobs.len(),
             100.0 * moved,
             match &base {
+                Some((raw, path)) if main2d => {
+                    let line = |key: &str| header_line(raw, key);
+                    format!(
+                        "main-2d: the main block fitted over the midpoints of its roughness and index intervals ({} index midpoints, at sqrt(E_e E_e+1); eval interpolates a node's two neighbours there too), by conjugate gradients on its whole sheet per NDF and source node; the low-index block copied from {path} ({}; {}; {})\n",
+                        ijobs.len(),
+                        line("command:"),
+                        line("commit:"),
+                        line("low-2d:")
+                    )
+                }
                 Some((raw, path)) => {
                     let line = |key: &str| header_line(raw, key);
                     format!(
@@ -3213,26 +3353,7 @@ mod dielectric {
                         line("commit:")
                     )
                 }
-                None => match &low_from {
-                    Some((raw, path)) => {
-                        let line = |key: &str| header_line(raw, key);
-                        format!(
-                            "low-index block: copied from {path} (version 9, the same layout there; {}; {}; {}), whose exact nodes are this table's; only the main block fitted here{}\n",
-                            line("command:"),
-                            line("commit:"),
-                            line("low-2d:"),
-                            if main2d {
-                                format!(
-                                    "\nmain-2d: the main block fitted over the midpoints of its roughness and index intervals ({} index midpoints, at sqrt(E_e E_e+1); eval interpolates a node's two neighbours there too), by conjugate gradients on its whole sheet per NDF and source node",
-                                    ijobs.len()
-                                )
-                            } else {
-                                String::new()
-                            }
-                        )
-                    }
-                    None => String::new(),
-                },
+                None => String::new(),
             },
             exact_line("command:"),
             exact_line("commit:"),
@@ -3242,11 +3363,13 @@ mod dielectric {
     }
 
     /// `--dielectric-scale-splice --from FITTED.bin --below-from
-    /// FITTED_V9.bin --to-node K` (the committed version 10, `K` = 13):
+    /// FITTED_1D.bin --to-node K` (the committed version 10, `K` = 13):
     /// the table `FITTED.bin` (`--dielectric-scale-fit --main-2d` wrote it)
     /// with the main block's roughness nodes `0..=K` (roughness up to
-    /// 0.049, below `SCALE_HALF_NODE`, so the same nodes in both layouts)
-    /// copied from a version-9 table fitted along roughness alone. Near
+    /// 0.049 for 13) copied from a table of the same layout fitted along
+    /// roughness alone. (Version 10 was spliced with the form of commit
+    /// 9434f94, which read a version-9 `--below-from`: its main block's
+    /// nodes 0 to 13 are the same nodes in both layouts.) Near
     /// grazing at low roughness the scales change fastest with roughness
     /// and the 2-d fit moved those nodes (Beckmann's by up to 0.36 of
     /// scale): Beckmann 0.0096 glass 1.85 from inside at 88.7 degrees was
@@ -3255,23 +3378,18 @@ mod dielectric {
     /// solved.
     pub fn scale_splice_main(args: &[String]) {
         use msbsdf::multiple::tabulated_dielectric::{
-            SCALE_ETA_N, SCALE_HALF_NODE, SCALE_LEN, SCALE_LOW_ETA_N, SCALE_MU_N, scale_index,
+            SCALE_ALPHA_N, SCALE_ETA_N, SCALE_LEN, SCALE_LOW_ETA_N, SCALE_MU_N, scale_index,
         };
         let (from, from_path) = table_arg(args, "--from", SCALE_MAGIC, SCALE_FILE_BYTES)
-            .expect("--from FITTED.bin: a version-10 scale table");
-        let (below, below_path) = table_arg(
-            args,
-            "--below-from",
-            PREV_SCALE_MAGIC,
-            PREV_SCALE_FILE_BYTES,
-        )
-        .expect("--below-from FITTED_V9.bin: a fitted version-9 scale table");
+            .expect("--from FITTED.bin: a scale table of this version");
+        let (below, below_path) = table_arg(args, "--below-from", SCALE_MAGIC, SCALE_FILE_BYTES)
+            .expect("--below-from FITTED_1D.bin: a fitted scale table of this version");
         assert!(
             header_line(&from, "main-2d:") != "?" && header_line(&below, "fit:") != "?",
             "--from must be a --main-2d fit, --below-from a fitted table"
         );
         let k: usize = arg(args, "--to-node", usize::MAX);
-        assert!(k < SCALE_HALF_NODE, "--to-node K below {SCALE_HALF_NODE}");
+        assert!(k < SCALE_ALPHA_N, "--to-node K below {SCALE_ALPHA_N}");
         let out: String = arg(
             args,
             "--out",
@@ -3284,8 +3402,7 @@ mod dielectric {
                 for e in SCALE_LOW_ETA_N - 1..SCALE_ETA_N {
                     for x in 0..2 * SCALE_MU_N {
                         let i = scale_index(n, false, a, e, x / SCALE_MU_N, x % SCALE_MU_N);
-                        let j = prev_index(i).expect("a version-9 node");
-                        scale[i] = table_step(&below, j);
+                        scale[i] = table_step(&below, i);
                         copied += 1;
                     }
                 }
@@ -3302,7 +3419,7 @@ mod dielectric {
              MSBSDF_MODEL_TABULATED dielectric furnace scales (layout: src/multiple/tabulated_dielectric.rs), spliced\n\
              command: cargo run --release --example gen_tabulated -- {}\n\
              commit: {}\n\
-             splice: the main block's roughness nodes 0 to {k} ({copied} values) from {below_path} (version 9, fitted along roughness alone; {}; {}), the rest from {from_path}, whose header follows\n\
+             splice: the main block's roughness nodes 0 to {k} ({copied} values) from {below_path} (fitted along roughness alone; {}; {}), the rest from {from_path}, whose header follows\n\
              {from_head}",
             String::from_utf8_lossy(SCALE_MAGIC),
             args[1..].join(" "),
