@@ -79,7 +79,8 @@
 //! `data/tabulated_dielectric_scale.bin`
 //! (`gen_tabulated -- --dielectric-scale`): factors `s(side, mu)` on a
 //! finer grid ([`SCALE_ALPHA_N`] roughness values, [`SCALE_ETA_N`] indices,
-//! finer still between 1.05 and 1.166 ([`SCALE_ETA_SPLIT`]), where a
+//! finer still between 1.05 and 1.166 ([`SCALE_ETA_SPLIT`], crowded
+//! towards 1.05 by [`SCALE_LOW_KNOTS`]), where a
 //! block of its own has [`SCALE_LOW_ALPHA_N`] roughness values that follow
 //! the lobe table's crease ([`scale_low_split`]),
 //! [`SCALE_MU_N`] cosines per side; 16-bit multiples of [`SCALE_STEP`],
@@ -333,7 +334,7 @@ pub const SCALE_ETA_PLAIN_N: usize = SCALE_PER_LOBE_INTERVAL * (ETA_N - 1) + 1;
 /// not equal since version 12 ([`SCALE_LOW_KNOTS`]).
 pub const SCALE_ETA_SPLIT: [usize; 2] = [3, 2];
 /// The inner nodes of the first split index interval (1.05 to 1.107), as
-/// fractions of it in `ln E` (1.0606 and 1.0793; since version 12, 1/3
+/// fractions of it in `ln E` (1.0611 and 1.0791; since version 12, 1/3
 /// and 2/3 until version 11), and, so that the lobe table's crease still
 /// runs through nodes ([`scale_low_split`]), of the low-index block's
 /// roughness intervals split as it is. The exact scale bends in `ln E`
@@ -346,32 +347,17 @@ pub const SCALE_ETA_SPLIT: [usize; 2] = [3, 2];
 /// 0.55), over six materials (Beckmann 0.2, 0.45, 1, GGX 0.11, 0.3, 1.9,
 /// `gen_tabulated -- --dielectric-scale --between --corners`).
 pub const SCALE_LOW_KNOTS: [f32; 2] = [0.2, 0.52];
-/// `x(f)` for a fraction `f` in `[0, 1]` of an interval split at
-/// [`SCALE_LOW_KNOTS`]: `0`, `1`, `2`, `3` at its ends and knots, linear
-/// between, as the slopes `[1 / k1, then the changes at k1 and k2]`.
-const SCALE_KNOT_SLOPES: [f32; 3] = {
-    let [k1, k2] = SCALE_LOW_KNOTS;
-    let (s0, s1, s2) = (1.0 / k1, 1.0 / (k2 - k1), 1.0 / (1.0 - k2));
-    [s0, s1 - s0, s2 - s1]
-};
+/// The fractions of the ends and inner nodes of an interval split at
+/// [`SCALE_LOW_KNOTS`] (`knot_map`'s knots), and their node coordinates.
+const SCALE_KNOT_F: [f32; 4] = [0.0, SCALE_LOW_KNOTS[0], SCALE_LOW_KNOTS[1], 1.0];
+/// See [`SCALE_KNOT_F`].
+const SCALE_KNOT_X: [f32; 4] = [0.0, 1.0, 2.0, 3.0];
+/// The slopes of the node coordinate in the fraction between the knots.
+const SCALE_KNOT_SLOPES: [f32; 3] = knot_slopes(&SCALE_KNOT_F, &SCALE_KNOT_X);
 /// Node coordinate `x` in `[0, 3]` of a fraction `f` in `[0, 1]` of an
-/// interval split at [`SCALE_LOW_KNOTS`] (two maxima and three
-/// multiply-adds).
-#[inline(always)]
+/// interval split at [`SCALE_LOW_KNOTS`].
 fn scale_knot_x(f: f32) -> f32 {
-    let [k1, k2] = SCALE_LOW_KNOTS;
-    let [s0, d1, d2] = SCALE_KNOT_SLOPES;
-    s0 * f + d1 * (f - k1).max(0.0) + d2 * (f - k2).max(0.0)
-}
-/// The fraction of node `k` (0 to 3) of an interval split at
-/// [`SCALE_LOW_KNOTS`] ([`scale_knot_x`] inverted at the nodes).
-const fn scale_knot_f(k: usize) -> f32 {
-    match k {
-        0 => 0.0,
-        1 => SCALE_LOW_KNOTS[0],
-        2 => SCALE_LOW_KNOTS[1],
-        _ => 1.0,
-    }
+    knot_map(f, &SCALE_KNOT_F, &SCALE_KNOT_X, &SCALE_KNOT_SLOPES)
 }
 const _: () = assert!(SCALE_ETA_SPLIT[0] == 3, "SCALE_LOW_KNOTS splits in three");
 /// Relative index nodes of the furnace scale table ([`scale_grid_eta`]):
@@ -494,8 +480,8 @@ const SCALE_LOW_MAP: [[f32; 4]; SCALE_ROOT_N - 1] = {
     while p < SCALE_ROOT_N - 1 {
         let first = SCALE_LOW_FIRST[p] as f32;
         out[p] = if scale_low_knotted(p) {
-            let [s0, d1, d2] = SCALE_KNOT_SLOPES;
-            [first, s0, d1, d2]
+            let [s0, s1, s2] = SCALE_KNOT_SLOPES;
+            [first, s0, s1 - s0, s2 - s1]
         } else {
             [first, scale_low_split(p) as f32, 0.0, 0.0]
         };
@@ -573,7 +559,7 @@ pub fn scale_low_grid_alpha(a: usize) -> f32 {
     // low roughness moves by up to 1.5% with an ulp of it).
     let k = a - SCALE_LOW_FIRST[p] as usize;
     let x = if scale_low_knotted(p) {
-        p as f32 + scale_knot_f(k)
+        p as f32 + SCALE_KNOT_F[k]
     } else {
         (p * split + k) as f32 / split as f32
     };
@@ -585,8 +571,8 @@ pub fn scale_low_grid_alpha(a: usize) -> f32 {
 /// ([`scale_low_grid_alpha`]) of a roughness's coordinate `root`
 /// (`alpha_root`, in `[0, 1]`): the plain interval's first node plus its
 /// node coordinate of the fraction (the fraction times its split, or
-/// [`scale_knot_x`] where its nodes are at [`SCALE_LOW_KNOTS`]; one table
-/// read).
+/// [`scale_knot_x`] where its nodes are at [`SCALE_LOW_KNOTS`], as a sum
+/// of ramps without branches; one table read).
 #[inline(always)]
 pub fn scale_low_alpha_x(root: f32) -> f32 {
     let (p, f) = split_root(root, SCALE_ROOT_N);
@@ -602,7 +588,7 @@ pub fn scale_low_alpha_x(root: f32) -> f32 {
 pub fn scale_grid_eta(e: usize) -> f32 {
     let [s0, s1] = SCALE_ETA_SPLIT;
     let c = if e <= s0 {
-        scale_knot_f(e)
+        SCALE_KNOT_F[e]
     } else if e <= s0 + s1 {
         1.0 + (e - s0) as f32 / s1 as f32
     } else {
@@ -618,7 +604,13 @@ pub fn scale_grid_eta(e: usize) -> f32 {
 #[inline]
 pub fn scale_eta_x(c: f32) -> f32 {
     let s1 = SCALE_ETA_SPLIT[1];
-    scale_knot_x(c.min(1.0)) + s1 as f32 * (c - 1.0).clamp(0.0, 1.0) + (c - 2.0).max(0.0)
+    // Above the first interval its three parts, without the knots' map.
+    let first = if c < 1.0 {
+        scale_knot_x(c)
+    } else {
+        SCALE_KNOT_X[3]
+    };
+    first + s1 as f32 * (c - 1.0).clamp(0.0, 1.0) + (c - 2.0).max(0.0)
 }
 
 /// Cosine of node `i` of the scale table: node `i` is at element
@@ -2441,7 +2433,7 @@ mod tests {
         for e in 0..SCALE_ETA_N - 1 {
             let want = plain
                 * if e < s0 {
-                    scale_knot_f(e + 1) - scale_knot_f(e)
+                    SCALE_KNOT_F[e + 1] - SCALE_KNOT_F[e]
                 } else if e < s0 + s1 {
                     1.0 / s1 as f32
                 } else {
@@ -2452,7 +2444,7 @@ mod tests {
         // The knots' map and its inverse.
         for k in 0..=3 {
             assert!(
-                (scale_knot_x(scale_knot_f(k)) - k as f32).abs() < 1e-5,
+                (scale_knot_x(SCALE_KNOT_F[k]) - k as f32).abs() < 1e-5,
                 "knot {k}"
             );
         }
