@@ -79,6 +79,7 @@ const OPTIONS: &[&str] = &[
     "--from-dump",
     "--gram-samples",
     "--grid",
+    "--hold-alpha-below",
     "--hold-mu-from",
     "--iterations",
     "--keep",
@@ -3074,6 +3075,10 @@ mod dielectric {
         };
         let pilot_nodes: usize = arg(args, "--pilot-nodes", 20);
         let lawson: usize = arg(args, "--lawson", 0);
+        let hold_alpha_below: Option<f32> = args
+            .iter()
+            .position(|a| a == "--hold-alpha-below")
+            .and_then(|p| args.get(p + 1)?.parse().ok());
         let hold_mu_from: Option<usize> = args
             .iter()
             .position(|a| a == "--hold-mu-from")
@@ -3241,6 +3246,13 @@ mod dielectric {
                     };
                     for (k, vk) in v.iter().enumerate() {
                         let (a, e) = (k / ne, e0 + k % ne);
+                        // `--hold-alpha-below A`: nodes of a lower roughness
+                        // keep their exact values.
+                        let vk = if hold_alpha_below.is_some_and(|h| grid_alpha_of(low, a) < h) {
+                            &sx[k]
+                        } else {
+                            vk
+                        };
                         note(*vk, sx[k], n, low, a, e, x);
                         scale[scale_index(n, low, a, e, x / fm, x % fm)] = scale_steps(*vk);
                     }
