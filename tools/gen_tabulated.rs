@@ -125,6 +125,7 @@ Writes a committed table (run on a clean tree; the header records the commit):
                                   data/tabulated_dielectric_scale.bin, exact nodes
   --dielectric-scale-fit --exact EXACT.bin [--lawson K] [--low-2d --base FITTED.bin]
                          [--main-2d --base FITTED.bin] [--points FILE] [--hold-mu-from K]
+                         [--hold-alpha-below A]
                                   the same table with nodes fitted along roughness
   --dielectric-scale-splice --from FITTED.bin --below-from FITTED_1D.bin --to-node K
                                   the main block's roughness nodes 0..=K from another fit
@@ -2967,6 +2968,12 @@ mod dielectric {
     /// 8 degrees: 0.52% with exact nodes), and the fit's trade for the
     /// index midpoints put it at 0.68% there (scale table version 12,
     /// session 35); held exact, 0.53%. Version 12 is made with 32.
+    /// `--hold-alpha-below A` likewise keeps the exact values of the fitted
+    /// block's roughness nodes below `A`: there the fit's trade moved the
+    /// low-index block's nodes next to 1.05 (Beckmann 0.03 glass 1.061
+    /// from outside at 88 degrees: +0.73% fitted, 0.08% with exact nodes;
+    /// version 10 copied the main block's nodes to 0.049 from a fit along
+    /// roughness for the same reason). Version 12 is made with 0.05.
     ///
     /// `--points FILE` keeps the midpoints' solves in `FILE.roughness` and
     /// `FILE.index` ([`solved_points`]) or reads them from there when they
@@ -3395,6 +3402,11 @@ mod dielectric {
                                 msbsdf::multiple::tabulated_dielectric::scale_grid_mu(h)
                                     .acos()
                                     .to_degrees()
+                            ),
+                            None => String::new(),
+                        } + &match hold_alpha_below {
+                            Some(h) => format!(
+                                ", and its roughness nodes below {h}, which keep theirs too"
                             ),
                             None => String::new(),
                         },
