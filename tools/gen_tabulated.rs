@@ -79,6 +79,8 @@ const OPTIONS: &[&str] = &[
     "--from-dump",
     "--gram-samples",
     "--grid",
+    "--hold-alpha-below",
+    "--hold-mu-from",
     "--iterations",
     "--keep",
     "--lawson",
@@ -119,10 +121,11 @@ Writes a committed table (run on a clean tree; the header records the commit):
                                   data/tabulated_conductor.bin (the conductor lobes)
   --scale                         data/tabulated_scale.bin (conductor furnace scales)
   --dielectric                    data/tabulated_dielectric.bin (the glass lobes)
-  --dielectric-scale [--keep V10.bin]
+  --dielectric-scale [--keep V11.bin]
                                   data/tabulated_dielectric_scale.bin, exact nodes
   --dielectric-scale-fit --exact EXACT.bin [--lawson K] [--low-2d --base FITTED.bin]
-                         [--main-2d --base FITTED.bin] [--points FILE]
+                         [--main-2d --base FITTED.bin] [--points FILE] [--hold-mu-from K]
+                         [--hold-alpha-below A]
                                   the same table with nodes fitted along roughness
   --dielectric-scale-splice --from FITTED.bin --below-from FITTED_1D.bin --to-node K
                                   the main block's roughness nodes 0..=K from another fit
@@ -1939,21 +1942,21 @@ mod dielectric {
     /// roughness `A` and index `E` with weights `W` (what another grid
     /// would give, before building it). `--only`'s roughness node is one
     /// of the main block's grid.
-    /// `--keep V10.bin` copies the nodes of a version-10 table (every node
-    /// but the low-index block's roughness node `SCALE_LOW_HALF_NODE`, new
-    /// in version 11) and solves only that node (the committed version
-    /// 11's exact nodes, from `git show b9b4934:data/tabulated_dielectric_scale.bin`,
-    /// the exact nodes of version 10, and the base of its fit, from the
-    /// committed version 10): the generator is deterministic, so with the
-    /// same lobe table a full run computes the same values for the kept
-    /// nodes. (Until version 11 `--keep` read a version-9 table and solved
-    /// the main block's `SCALE_HALF_NODE`, commit 9434f94; until version
-    /// 10 a version-5 table, commit 745213e.)
+    /// `--keep V11.bin` copies the nodes of a version-11 table that did not
+    /// move in version 12 and solves the others (the low-index block's
+    /// index nodes 1 and 2 and its roughness nodes at `SCALE_LOW_KNOTS`:
+    /// version 12's exact nodes from version 11's, and the base of its fit
+    /// from the committed version 11): the generator is deterministic, so
+    /// with the same lobe table a full run computes the same values for
+    /// the kept nodes. (Until version 12 `--keep` read a version-10 table
+    /// and solved the low-index block's `SCALE_LOW_HALF_NODE`, commit
+    /// 3eccb26; until version 11 a version-9 table, commit 9434f94; until
+    /// version 10 a version-5 table, commit 745213e.)
     pub fn scale_main(args: &[String]) {
         use msbsdf::multiple::tabulated_dielectric::{
             SCALE_ALPHA_N, SCALE_ETA_N, SCALE_ETA_PLAIN_N, SCALE_ETA_SPLIT, SCALE_FINE_INTERVALS,
             SCALE_FINE_SPLIT, SCALE_HALF_INTERVAL, SCALE_LOW_ALPHA_N, SCALE_LOW_ETA_N,
-            SCALE_LOW_HALF_NODE, SCALE_MAX, SCALE_MU_ELEMS, SCALE_MU_N, SCALE_PAD, SCALE_ROOT_N,
+            SCALE_LOW_KNOTS, SCALE_MAX, SCALE_MU_ELEMS, SCALE_MU_N, SCALE_PAD, SCALE_ROOT_N,
             header, scale_grid_alpha, scale_grid_eta, scale_grid_mu, scale_index,
             scale_low_grid_alpha,
         };
@@ -2059,13 +2062,13 @@ mod dielectric {
                 jobs.push((n, low, a, e, grid_alpha_of(low, a), scale_grid_eta(e)));
             }
         }
-        // `--keep V10.bin`: the nodes of a version-10 table (every node but
-        // the low-index block's SCALE_LOW_HALF_NODE) are copied from it (the
-        // generator is deterministic: a full run with the same lobe table
-        // computes the same values), only the new node is solved.
+        // `--keep V11.bin`: the nodes of a version-11 table that did not
+        // move (`moved_node`) are copied from it (the generator is
+        // deterministic: a full run with the same lobe table computes the
+        // same values), only the moved ones are solved.
         let keep = table_arg(args, "--keep", PREV_SCALE_MAGIC, PREV_SCALE_FILE_BYTES);
         if keep.is_some() && only.is_none() {
-            jobs.retain(|&(_, low, a, _, _, _)| prev_node(low, a).is_none());
+            jobs.retain(|&(_, low, a, e, _, _)| moved_node(low, a, e));
         }
         let res = parallel(
             &jobs,
@@ -2198,7 +2201,7 @@ mod dielectric {
             Some((raw, path)) => {
                 let line = |key: &str| header_line(raw, key);
                 format!(
-                    "kept: the nodes of version 10's grid copied from {path} (version 10; its {}; {}), the low-index block's roughness node {SCALE_LOW_HALF_NODE} solved here\n",
+                    "kept: the nodes of version 11's grid copied from {path} (version 11; its {}; {}); the low-index block's index nodes 1 and 2 and its roughness nodes at SCALE_LOW_KNOTS {SCALE_LOW_KNOTS:?} of their plain interval (version 11: 1/3 and 2/3) solved here\n",
                     line("command:"),
                     line("commit:")
                 )
@@ -2215,7 +2218,7 @@ mod dielectric {
              E_ss: SINGLE reflection + transmission quadrature {quad} x {quad} (compensation::single_albedo)\n\
              albedo of the unscaled lobe vs 1 - E_ss: worst relative deviation {before:.3e} (targets > 1e-3); after scaling: {after:.3e} (targets > 1e-4, rows not empty; scales within [0, {scale_max}] during the solve, 0 where the target is 0: {zeros} nodes)\n\
              scales between {smin:.4} and {smax:.4}\n\
-             grid: index nodes {SCALE_ETA_N} (uniform in ln E with {SCALE_ETA_PLAIN_N} nodes, its first two intervals split in {SCALE_ETA_SPLIT:?}); low-index block ndf {NDF_N} x alpha {SCALE_LOW_ALPHA_N} (uniform in sqrt(alpha / 2) with {SCALE_ROOT_N} nodes, its first {SCALE_FINE_INTERVALS} intervals split in {SCALE_FINE_SPLIT}, then per lobe interval its first two split as the index's, and interval {SCALE_HALF_INTERVAL} in 2) x eta {SCALE_LOW_ETA_N} (the first) x side 2 x mu {SCALE_MU_N}, then the main block ndf {NDF_N} x alpha {SCALE_ALPHA_N} (the same sqrt(alpha) grid, its first {SCALE_FINE_INTERVALS} intervals split in {SCALE_FINE_SPLIT} and interval {SCALE_HALF_INTERVAL} in 2) x eta {} (from node {}) x side 2 x mu {SCALE_MU_N} (the ends and midpoints of {SCALE_MU_ELEMS} elements on the lobe table's cosine nodes, the scale quadratic in sqrt(mu) on each: tabulated_dielectric::scale_mu_basis), then {SCALE_PAD} zero steps\n\
+             grid: index nodes {SCALE_ETA_N} (uniform in ln E with {SCALE_ETA_PLAIN_N} nodes, its first two intervals split in {SCALE_ETA_SPLIT:?}, the first at the fractions {SCALE_LOW_KNOTS:?}); low-index block ndf {NDF_N} x alpha {SCALE_LOW_ALPHA_N} (uniform in sqrt(alpha / 2) with {SCALE_ROOT_N} nodes, its first {SCALE_FINE_INTERVALS} intervals split in {SCALE_FINE_SPLIT}, then per lobe interval its first two split as the index's (the first at the same fractions), and interval {SCALE_HALF_INTERVAL} in 2) x eta {SCALE_LOW_ETA_N} (the first) x side 2 x mu {SCALE_MU_N}, then the main block ndf {NDF_N} x alpha {SCALE_ALPHA_N} (the same sqrt(alpha) grid, its first {SCALE_FINE_INTERVALS} intervals split in {SCALE_FINE_SPLIT} and interval {SCALE_HALF_INTERVAL} in 2) x eta {} (from node {}) x side 2 x mu {SCALE_MU_N} (the ends and midpoints of {SCALE_MU_ELEMS} elements on the lobe table's cosine nodes, the scale quadratic in sqrt(mu) on each: tabulated_dielectric::scale_mu_basis), then {SCALE_PAD} zero steps\n\
              {kept}\
              wall time: {:.0} s on {threads} threads\n\
              {SCALE_STORAGE}\n",
@@ -2282,46 +2285,53 @@ mod dielectric {
         u16::from_le_bytes([raw[b], raw[b + 1]])
     }
 
-    /// First bytes of the previous layout of the scale table (version 10:
-    /// without the low-index block's roughness node
-    /// `SCALE_LOW_HALF_NODE`), which `--dielectric-scale --keep` reads.
-    const PREV_SCALE_MAGIC: &[u8] = b"MSBSDF-TABULATED-DIELECTRIC-SCALE-v10\n";
-    /// Values of one roughness node of the low-index block (all its index
-    /// nodes, both sides, every cosine).
-    const LOW_NODE_LEN: usize = {
-        use msbsdf::multiple::tabulated_dielectric::{SCALE_LOW_ETA_N, SCALE_MU_N};
-        SCALE_LOW_ETA_N * 2 * SCALE_MU_N
-    };
-    /// Size of a version-10 scale table file in bytes.
+    /// First bytes of the previous layout of the scale table (version 11:
+    /// the first index interval's nodes, and the low-index block's
+    /// roughness nodes that follow the crease through them, at 1/3 and 2/3
+    /// instead of `SCALE_LOW_KNOTS`), which `--dielectric-scale --keep`
+    /// reads. It has as many nodes as version 12.
+    const PREV_SCALE_MAGIC: &[u8] = b"MSBSDF-TABULATED-DIELECTRIC-SCALE-v11\n";
+    /// Size of a version-11 scale table file in bytes.
     const PREV_SCALE_FILE_BYTES: usize = {
-        use msbsdf::multiple::tabulated_dielectric::{SCALE_LEN, SCALE_PAD};
-        HEADER_BYTES + 2 * (SCALE_LEN - NDF_N * LOW_NODE_LEN + SCALE_PAD)
+        use msbsdf::multiple::tabulated_dielectric::SCALE_FILE_BYTES;
+        SCALE_FILE_BYTES
     };
 
-    /// The version-10 roughness node that node `a` of a block (the
-    /// low-index block's if `low`) is: the same node, but in the low-index
-    /// block none for `SCALE_LOW_HALF_NODE` and `a - 1` above it.
-    fn prev_node(low: bool, a: usize) -> Option<usize> {
-        use msbsdf::multiple::tabulated_dielectric::SCALE_LOW_HALF_NODE;
-        match a {
-            _ if !low || a < SCALE_LOW_HALF_NODE => Some(a),
-            _ if a == SCALE_LOW_HALF_NODE => None,
-            _ => Some(a - 1),
+    /// Whether node `(a, e)` of a block (the low-index block's if `low`)
+    /// lies where version 11 had no node: in the low-index block, the index
+    /// nodes 1 and 2 (`SCALE_LOW_KNOTS`), and the roughness nodes at those
+    /// fractions of their plain interval (version 11's inner nodes of the
+    /// same intervals were at 1/3 and 2/3; the other intervals split in 3,
+    /// below roughness 0.031, keep theirs).
+    fn moved_node(low: bool, a: usize, e: usize) -> bool {
+        use msbsdf::multiple::tabulated_dielectric::{
+            SCALE_LOW_ALPHA_N, SCALE_LOW_KNOTS, SCALE_ROOT_N, scale_low_grid_alpha,
+        };
+        if !low {
+            return false;
         }
+        // The grid's last node is the largest roughness.
+        let top = scale_low_grid_alpha(SCALE_LOW_ALPHA_N - 1) as f64;
+        let x = (scale_low_grid_alpha(a) as f64 / top).sqrt() * (SCALE_ROOT_N - 1) as f64;
+        let f = x - x.floor();
+        let at_knot = SCALE_LOW_KNOTS.iter().any(|&k| (f - k as f64).abs() < 1e-3);
+        at_knot || e == 1 || e == 2
     }
 
-    /// The index in a version-10 scale table of entry `i` of the current
-    /// layout (`scale_index`), if it has one: the low-index block (first
-    /// in both) lost a roughness node, the main block is the same.
+    /// The index in a version-11 scale table of entry `i` of the current
+    /// layout (`scale_index`), if it has one: the same entry where its node
+    /// did not move ([`moved_node`]).
     fn prev_index(i: usize) -> Option<usize> {
-        use msbsdf::multiple::tabulated_dielectric::{SCALE_LOW_ALPHA_N, SCALE_LOW_LEN};
+        use msbsdf::multiple::tabulated_dielectric::{
+            SCALE_LOW_ALPHA_N, SCALE_LOW_ETA_N, SCALE_LOW_LEN, SCALE_MU_N,
+        };
         if i >= SCALE_LOW_LEN {
-            return Some(i - NDF_N * LOW_NODE_LEN);
+            return Some(i);
         }
-        let (node, rest) = (i / LOW_NODE_LEN, i % LOW_NODE_LEN);
-        let (n, a) = (node / SCALE_LOW_ALPHA_N, node % SCALE_LOW_ALPHA_N);
-        let a = prev_node(true, a)?;
-        Some((n * (SCALE_LOW_ALPHA_N - 1) + a) * LOW_NODE_LEN + rest)
+        let node = i / (2 * SCALE_MU_N);
+        let e = node % SCALE_LOW_ETA_N;
+        let a = (node / SCALE_LOW_ETA_N) % SCALE_LOW_ALPHA_N;
+        (!moved_node(true, a, e)).then_some(i)
     }
 
     /// One point's furnace scales (`--dielectric-scale`'s solve): the
@@ -2950,6 +2960,21 @@ mod dielectric {
     /// low-index block and keeps version 10's main block through `--keep`
     /// and `--base`.)
     ///
+    /// `--hold-mu-from K` (with `--low-2d` or `--main-2d`) keeps the exact values of the
+    /// fitted block's cosine nodes `K` and above (`scale_grid_mu`; 32
+    /// is 26.2 degrees, the lobe table's node 18, to the normal). The fit
+    /// sees the furnace at the cosine nodes only; near the normal the
+    /// scale bends between them (Beckmann 1.9 glass 1.079 from inside at
+    /// 8 degrees: 0.52% with exact nodes), and the fit's trade for the
+    /// index midpoints put it at 0.68% there (scale table version 12,
+    /// session 35); held exact, 0.53%. Version 12 is made with 32.
+    /// `--hold-alpha-below A` likewise keeps the exact values of the fitted
+    /// block's roughness nodes below `A`: there the fit's trade moved the
+    /// low-index block's nodes next to 1.05 (Beckmann 0.03 glass 1.061
+    /// from outside at 88 degrees: +0.73% fitted, 0.08% with exact nodes;
+    /// version 10 copied the main block's nodes to 0.049 from a fit along
+    /// roughness for the same reason). Version 12 is made with 0.05.
+    ///
     /// `--points FILE` keeps the midpoints' solves in `FILE.roughness` and
     /// `FILE.index` ([`solved_points`]) or reads them from there when they
     /// exist, so that a refit with other `--lawson` steps takes seconds.
@@ -3057,6 +3082,14 @@ mod dielectric {
         };
         let pilot_nodes: usize = arg(args, "--pilot-nodes", 20);
         let lawson: usize = arg(args, "--lawson", 0);
+        let hold_alpha_below: Option<f32> = args
+            .iter()
+            .position(|a| a == "--hold-alpha-below")
+            .and_then(|p| args.get(p + 1)?.parse().ok());
+        let hold_mu_from: Option<usize> = args
+            .iter()
+            .position(|a| a == "--hold-mu-from")
+            .and_then(|p| args.get(p + 1)?.parse().ok());
         let pilot_lawson: Vec<usize> = arg(args, "--pilot-lawson", "0,5,20".to_string())
             .split(',')
             .filter_map(|t| t.parse().ok())
@@ -3211,8 +3244,22 @@ mod dielectric {
                         &mid_weights(&ipts, x),
                         lawson,
                     );
+                    // `--hold-mu-from K`: the cosine nodes from K on keep
+                    // their exact values.
+                    let v = if hold_mu_from.is_some_and(|h| x % fm >= h) {
+                        sx.clone()
+                    } else {
+                        v
+                    };
                     for (k, vk) in v.iter().enumerate() {
                         let (a, e) = (k / ne, e0 + k % ne);
+                        // `--hold-alpha-below A`: nodes of a lower roughness
+                        // keep their exact values.
+                        let vk = if hold_alpha_below.is_some_and(|h| grid_alpha_of(low, a) < h) {
+                            &sx[k]
+                        } else {
+                            vk
+                        };
                         note(*vk, sx[k], n, low, a, e, x);
                         scale[scale_index(n, low, a, e, x / fm, x % fm)] = scale_steps(*vk);
                     }
@@ -3347,8 +3394,22 @@ mod dielectric {
                 Some((raw, path)) => {
                     let line = |key: &str| header_line(raw, key);
                     format!(
-                        "low-2d: the low-index block refitted over the midpoints of its roughness and index intervals ({} index midpoints; eval interpolates a node's two neighbours there too), by conjugate gradients on its whole sheet per NDF and source node; the main block copied from {path} ({}; {})\n",
+                        "low-2d: the low-index block refitted over the midpoints of its roughness and index intervals ({} index midpoints; eval interpolates a node's two neighbours there too), by conjugate gradients on its whole sheet per NDF and source node{}; the main block copied from {path} ({}; {})\n",
                         ijobs.len(),
+                        match hold_mu_from {
+                            Some(h) => format!(
+                                ", except its cosine nodes {h} and above (from {:.2} degrees), which keep their exact values",
+                                msbsdf::multiple::tabulated_dielectric::scale_grid_mu(h)
+                                    .acos()
+                                    .to_degrees()
+                            ),
+                            None => String::new(),
+                        } + &match hold_alpha_below {
+                            Some(h) => format!(
+                                ", and its roughness nodes below {h}, which keep theirs too"
+                            ),
+                            None => String::new(),
+                        },
                         line("command:"),
                         line("commit:")
                     )

@@ -79,7 +79,8 @@
 //! `data/tabulated_dielectric_scale.bin`
 //! (`gen_tabulated -- --dielectric-scale`): factors `s(side, mu)` on a
 //! finer grid ([`SCALE_ALPHA_N`] roughness values, [`SCALE_ETA_N`] indices,
-//! finer still between 1.05 and 1.166 ([`SCALE_ETA_SPLIT`]), where a
+//! finer still between 1.05 and 1.166 ([`SCALE_ETA_SPLIT`], crowded
+//! towards 1.05 by [`SCALE_LOW_KNOTS`]), where a
 //! block of its own has [`SCALE_LOW_ALPHA_N`] roughness values that follow
 //! the lobe table's crease ([`scale_low_split`]),
 //! [`SCALE_MU_N`] cosines per side; 16-bit multiples of [`SCALE_STEP`],
@@ -329,8 +330,36 @@ pub const SCALE_ETA_PLAIN_N: usize = SCALE_PER_LOBE_INTERVAL * (ETA_N - 1) + 1;
 /// by up to 4.8% between the nodes 1.05 and 1.107 (Beckmann 0.4 glass
 /// 1.0695 from outside at 89 degrees: +4.5%) and 1% between 1.107 and
 /// 1.166. The lobe table's crease (see [`SCALE_PER_LOBE_INTERVAL`]) is
-/// not followed in these intervals.
+/// not followed in these intervals. The first interval's three parts are
+/// not equal since version 12 ([`SCALE_LOW_KNOTS`]).
 pub const SCALE_ETA_SPLIT: [usize; 2] = [3, 2];
+/// The inner nodes of the first split index interval (1.05 to 1.107), as
+/// fractions of it in `ln E` (1.0611 and 1.0791; since version 12, 1/3
+/// and 2/3 until version 11), and, so that the lobe table's crease still
+/// runs through nodes ([`scale_low_split`]), of the low-index block's
+/// roughness intervals split as it is. The exact scale bends in `ln E`
+/// most next to 1.05: with exact nodes at 1.05 and 1.069 the furnace at
+/// 1.059 was off by 0.93% (Beckmann 0.45 from outside at 89 degrees;
+/// the fitted version 11: 0.57%, the worst isotropic case), 0.39% and
+/// 0.29% at the midpoints of the other two parts. With exact nodes at
+/// these fractions the three parts' worst midpoints are 0.41%, 0.46% /
+/// 0.59% (parts ending at 0.5 / 0.55) and 0.57% / 0.45% (from 0.5 /
+/// 0.55), over six materials (Beckmann 0.2, 0.45, 1, GGX 0.11, 0.3, 1.9,
+/// `gen_tabulated -- --dielectric-scale --between --corners`).
+pub const SCALE_LOW_KNOTS: [f32; 2] = [0.2, 0.52];
+/// The fractions of the ends and inner nodes of an interval split at
+/// [`SCALE_LOW_KNOTS`] (`knot_map`'s knots), and their node coordinates.
+const SCALE_KNOT_F: [f32; 4] = [0.0, SCALE_LOW_KNOTS[0], SCALE_LOW_KNOTS[1], 1.0];
+/// See [`SCALE_KNOT_F`].
+const SCALE_KNOT_X: [f32; 4] = [0.0, 1.0, 2.0, 3.0];
+/// The slopes of the node coordinate in the fraction between the knots.
+const SCALE_KNOT_SLOPES: [f32; 3] = knot_slopes(&SCALE_KNOT_F, &SCALE_KNOT_X);
+/// Node coordinate `x` in `[0, 3]` of a fraction `f` in `[0, 1]` of an
+/// interval split at [`SCALE_LOW_KNOTS`].
+fn scale_knot_x(f: f32) -> f32 {
+    knot_map(f, &SCALE_KNOT_F, &SCALE_KNOT_X, &SCALE_KNOT_SLOPES)
+}
+const _: () = assert!(SCALE_ETA_SPLIT[0] == 3, "SCALE_LOW_KNOTS splits in three");
 /// Relative index nodes of the furnace scale table ([`scale_grid_eta`]):
 /// the plain grid's [`SCALE_ETA_PLAIN_N`] and the split intervals' inner
 /// nodes.
@@ -401,6 +430,9 @@ pub const SCALE_MAIN_ETA_N: usize = SCALE_ETA_N - SCALE_LOW_ETA_N + 1;
 /// cases near grazing). That interval is the last quarter of a lobe
 /// interval, where the crease does not cross the low-index block's
 /// indices, so the half node needs no other split. It costs 1,776 bytes.
+/// The intervals split as the first index interval is have their nodes at
+/// its fractions, [`SCALE_LOW_KNOTS`] (since version 12; the others'
+/// parts are equal).
 pub const fn scale_low_split(p: usize) -> usize {
     if p < SCALE_FINE_INTERVALS {
         SCALE_FINE_SPLIT
@@ -432,13 +464,27 @@ pub const SCALE_LOW_ALPHA_N: usize = SCALE_LOW_FIRST[SCALE_ROOT_N - 1] as usize 
 /// (since version 11; the roughness of the main block's
 /// [`SCALE_HALF_NODE`]).
 pub const SCALE_LOW_HALF_NODE: usize = SCALE_LOW_FIRST[SCALE_HALF_INTERVAL] as usize + 1;
+/// Whether the low-index block's plain roughness interval `p` has its
+/// nodes at [`SCALE_LOW_KNOTS`] (split as the first index interval, above
+/// the lobe table's first interval) rather than equally spaced.
+const fn scale_low_knotted(p: usize) -> bool {
+    p >= SCALE_FINE_INTERVALS && p != SCALE_HALF_INTERVAL && p % SCALE_PER_LOBE_INTERVAL == 0
+}
 /// Per plain roughness interval `p`, its first node in the low-index
-/// block and its split, as f32 (what [`scale_low_alpha_x`] reads).
-const SCALE_LOW_MAP: [[f32; 2]; SCALE_ROOT_N - 1] = {
-    let mut out = [[0.0f32; 2]; SCALE_ROOT_N - 1];
+/// block and the slopes of its node coordinate in the fraction `f`
+/// ([`scale_knot_x`]'s in the knotted intervals, `[split, 0, 0]` in the
+/// others), as f32 (what [`scale_low_alpha_x`] reads: one 16-byte row).
+const SCALE_LOW_MAP: [[f32; 4]; SCALE_ROOT_N - 1] = {
+    let mut out = [[0.0f32; 4]; SCALE_ROOT_N - 1];
     let mut p = 0;
     while p < SCALE_ROOT_N - 1 {
-        out[p] = [SCALE_LOW_FIRST[p] as f32, scale_low_split(p) as f32];
+        let first = SCALE_LOW_FIRST[p] as f32;
+        out[p] = if scale_low_knotted(p) {
+            let [s0, s1, s2] = SCALE_KNOT_SLOPES;
+            [first, s0, s1 - s0, s2 - s1]
+        } else {
+            [first, scale_low_split(p) as f32, 0.0, 0.0]
+        };
         p += 1;
     }
     out
@@ -462,8 +508,10 @@ pub const SCALE_LEN: usize =
 /// them; version 8, tried on the lobe nodes and linear, was not adopted;
 /// version 9 has quadratic elements, [`SCALE_MU_ELEMS`]; version 10 has
 /// the main block's node [`SCALE_HALF_NODE`]; version 11 the low-index
-/// block's [`SCALE_LOW_HALF_NODE`]).
-pub const SCALE_MAGIC: &[u8; 38] = b"MSBSDF-TABULATED-DIELECTRIC-SCALE-v11\n";
+/// block's [`SCALE_LOW_HALF_NODE`]; version 12 the first index
+/// interval's nodes, and the low-index block's roughness nodes that
+/// follow the crease through them, at [`SCALE_LOW_KNOTS`]).
+pub const SCALE_MAGIC: &[u8; 38] = b"MSBSDF-TABULATED-DIELECTRIC-SCALE-v12\n";
 /// Total size of the scale table file in bytes (the values and
 /// [`SCALE_PAD`] zero steps).
 pub const SCALE_FILE_BYTES: usize = HEADER_BYTES + 2 * (SCALE_LEN + SCALE_PAD);
@@ -509,29 +557,38 @@ pub fn scale_low_grid_alpha(a: usize) -> f32 {
     // `(p split + k) / split` as `scale_grid_alpha` rounds it, so that a
     // node of both grids has the same roughness to the bit (the solve at
     // low roughness moves by up to 1.5% with an ulp of it).
-    let x = (p * split + a - SCALE_LOW_FIRST[p] as usize) as f32 / split as f32;
+    let k = a - SCALE_LOW_FIRST[p] as usize;
+    let x = if scale_low_knotted(p) {
+        p as f32 + SCALE_KNOT_F[k]
+    } else {
+        (p * split + k) as f32 / split as f32
+    };
     let s = x / (SCALE_ROOT_N - 1) as f32;
     MAX_ALPHA * s * s
 }
 
 /// Continuous node coordinate on the low-index block's roughness grid
 /// ([`scale_low_grid_alpha`]) of a roughness's coordinate `root`
-/// (`alpha_root`, in `[0, 1]`): the plain interval's first node plus the
-/// fraction times its split (one table read).
+/// (`alpha_root`, in `[0, 1]`): the plain interval's first node plus its
+/// node coordinate of the fraction (the fraction times its split, or
+/// [`scale_knot_x`] where its nodes are at [`SCALE_LOW_KNOTS`], as a sum
+/// of ramps without branches; one table read).
 #[inline(always)]
 pub fn scale_low_alpha_x(root: f32) -> f32 {
     let (p, f) = split_root(root, SCALE_ROOT_N);
-    let [first, split] = SCALE_LOW_MAP[p];
-    first + f * split
+    let [first, s0, d1, d2] = SCALE_LOW_MAP[p];
+    let [k1, k2] = SCALE_LOW_KNOTS;
+    first + s0 * f + d1 * (f - k1).max(0.0) + d2 * (f - k2).max(0.0)
 }
 
 /// Relative index of node `e` of the scale table: node `c` of the plain
 /// grid uniform in `ln E` ([`SCALE_ETA_PLAIN_N`] nodes), `c` fractional in
-/// the split intervals ([`scale_eta_x`] inverted).
+/// the split intervals (at [`SCALE_LOW_KNOTS`] in the first; [`scale_eta_x`]
+/// inverted).
 pub fn scale_grid_eta(e: usize) -> f32 {
     let [s0, s1] = SCALE_ETA_SPLIT;
     let c = if e <= s0 {
-        e as f32 / s0 as f32
+        SCALE_KNOT_F[e]
     } else if e <= s0 + s1 {
         1.0 + (e - s0) as f32 / s1 as f32
     } else {
@@ -543,11 +600,17 @@ pub fn scale_grid_eta(e: usize) -> f32 {
 /// Continuous node coordinate on the scale table's index grid
 /// ([`scale_grid_eta`]) of a coordinate `c` on its plain grid (in `[0,
 /// SCALE_ETA_PLAIN_N - 1]`): the split intervals stretched by their
-/// splits. Init only.
+/// splits (the first at [`SCALE_LOW_KNOTS`]). Init only.
 #[inline]
 pub fn scale_eta_x(c: f32) -> f32 {
-    let [s0, s1] = SCALE_ETA_SPLIT;
-    s0 as f32 * c.min(1.0) + s1 as f32 * (c - 1.0).clamp(0.0, 1.0) + (c - 2.0).max(0.0)
+    let s1 = SCALE_ETA_SPLIT[1];
+    // Above the first interval its three parts, without the knots' map.
+    let first = if c < 1.0 {
+        scale_knot_x(c)
+    } else {
+        SCALE_KNOT_X[3]
+    };
+    first + s1 as f32 * (c - 1.0).clamp(0.0, 1.0) + (c - 2.0).max(0.0)
 }
 
 /// Cosine of node `i` of the scale table: node `i` is at element
@@ -2355,7 +2418,7 @@ mod tests {
             );
         }
         // The index grid: each node's index reads its own node, and the
-        // split intervals' nodes are equally spaced in `ln E`.
+        // split intervals' nodes are at their fractions in `ln E`.
         for e in 0..SCALE_ETA_N {
             let c = eta_coord(scale_grid_eta(e)) * SCALE_PER_LOBE_INTERVAL as f32;
             let x = scale_eta_x(c);
@@ -2369,14 +2432,21 @@ mod tests {
         let plain = step(SCALE_ETA_N - 2);
         for e in 0..SCALE_ETA_N - 1 {
             let want = plain
-                / if e < s0 {
-                    s0 as f32
+                * if e < s0 {
+                    SCALE_KNOT_F[e + 1] - SCALE_KNOT_F[e]
                 } else if e < s0 + s1 {
-                    s1 as f32
+                    1.0 / s1 as f32
                 } else {
                     1.0
                 };
             assert!((step(e) - want).abs() < 1e-4 * plain, "index interval {e}");
+        }
+        // The knots' map and its inverse.
+        for k in 0..=3 {
+            assert!(
+                (scale_knot_x(SCALE_KNOT_F[k]) - k as f32).abs() < 1e-5,
+                "knot {k}"
+            );
         }
         for e in 0..ETA_N {
             let want = grid_eta(e);
