@@ -3085,11 +3085,21 @@ mod dielectric {
         let hold_alpha_below: Option<f32> = args
             .iter()
             .position(|a| a == "--hold-alpha-below")
-            .and_then(|p| args.get(p + 1)?.parse().ok());
-        let hold_mu_from: Option<usize> = args
-            .iter()
-            .position(|a| a == "--hold-mu-from")
-            .and_then(|p| args.get(p + 1)?.parse().ok());
+            .map(|p| {
+                let v = args.get(p + 1).map(|v| v.parse::<f32>());
+                match v {
+                    Some(Ok(v)) => v,
+                    _ => panic!("--hold-alpha-below needs a number"),
+                }
+            });
+        let hold_mu_from: Option<usize> =
+            args.iter().position(|a| a == "--hold-mu-from").map(|p| {
+                let v = args.get(p + 1).map(|v| v.parse::<usize>());
+                match v {
+                    Some(Ok(v)) => v,
+                    _ => panic!("--hold-mu-from needs a number"),
+                }
+            });
         let pilot_lawson: Vec<usize> = arg(args, "--pilot-lawson", "0,5,20".to_string())
             .split(',')
             .filter_map(|t| t.parse().ok())

@@ -430,7 +430,7 @@ pub const SCALE_MAIN_ETA_N: usize = SCALE_ETA_N - SCALE_LOW_ETA_N + 1;
 /// cases near grazing). That interval is the last quarter of a lobe
 /// interval, where the crease does not cross the low-index block's
 /// indices, so the half node needs no other split. It costs 1,776 bytes.
-/// The intervals split as the first index interval is have their nodes at
+/// The intervals split like the first index interval have their nodes at
 /// its fractions, [`SCALE_LOW_KNOTS`] (since version 12; the others'
 /// parts are equal).
 pub const fn scale_low_split(p: usize) -> usize {
@@ -468,7 +468,9 @@ pub const SCALE_LOW_HALF_NODE: usize = SCALE_LOW_FIRST[SCALE_HALF_INTERVAL] as u
 /// nodes at [`SCALE_LOW_KNOTS`] (split as the first index interval, above
 /// the lobe table's first interval) rather than equally spaced.
 const fn scale_low_knotted(p: usize) -> bool {
-    p >= SCALE_FINE_INTERVALS && p != SCALE_HALF_INTERVAL && p % SCALE_PER_LOBE_INTERVAL == 0
+    p >= SCALE_FINE_INTERVALS
+        && p != SCALE_HALF_INTERVAL
+        && p.is_multiple_of(SCALE_PER_LOBE_INTERVAL)
 }
 /// Per plain roughness interval `p`, its first node in the low-index
 /// block and the slopes of its node coordinate in the fraction `f`
@@ -571,7 +573,7 @@ pub fn scale_low_grid_alpha(a: usize) -> f32 {
 /// ([`scale_low_grid_alpha`]) of a roughness's coordinate `root`
 /// (`alpha_root`, in `[0, 1]`): the plain interval's first node plus its
 /// node coordinate of the fraction (the fraction times its split, or
-/// [`scale_knot_x`] where its nodes are at [`SCALE_LOW_KNOTS`], as a sum
+/// the knots' map where its nodes are at [`SCALE_LOW_KNOTS`], as a sum
 /// of ramps without branches; one table read).
 #[inline(always)]
 pub fn scale_low_alpha_x(root: f32) -> f32 {
@@ -2442,11 +2444,8 @@ mod tests {
             assert!((step(e) - want).abs() < 1e-4 * plain, "index interval {e}");
         }
         // The knots' map and its inverse.
-        for k in 0..=3 {
-            assert!(
-                (scale_knot_x(SCALE_KNOT_F[k]) - k as f32).abs() < 1e-5,
-                "knot {k}"
-            );
+        for (k, &f) in SCALE_KNOT_F.iter().enumerate() {
+            assert!((scale_knot_x(f) - k as f32).abs() < 1e-5, "knot {k}");
         }
         for e in 0..ETA_N {
             let want = grid_eta(e);
