@@ -76,6 +76,7 @@ const OPTIONS: &[&str] = &[
     "--exact",
     "--extra-eta",
     "--first-free",
+    "--last-free",
     "--floor",
     "--fresnel-walks",
     "--from",
@@ -92,6 +93,7 @@ const OPTIONS: &[&str] = &[
     "--main-2d",
     "--mu-pilot",
     "--ng",
+    "--node-weight",
     "--only",
     "--only-alpha",
     "--only-cases",
@@ -3568,6 +3570,12 @@ mod dielectric {
             SCALE_MU_N - 1
         );
         let lawson: usize = arg(args, "--lawson", 8);
+        // `--node-weight F`: the errors at the cosine nodes count `F` times
+        // in the minimax (eval interpolates the nodes in roughness and
+        // index too, and what the fit trades at a node adds to that
+        // interpolation's own error between nodes).
+        let node_weight: f64 = arg(args, "--node-weight", 1.0);
+        assert!(node_weight >= 1.0, "--node-weight F: at least 1");
         let threads: usize = arg(args, "--threads", 2);
         let low_only = args.iter().any(|a| a == "--low-only");
         let dry = args.iter().any(|a| a == "--dry");
@@ -3604,7 +3612,14 @@ mod dielectric {
                 mus.push((r * r) as f32);
             }
         }
-        let free: Vec<usize> = (first..SCALE_MU_N).collect();
+        // `--last-free L`: the nodes after `L` keep their values too.
+        let last: usize = arg(args, "--last-free", SCALE_MU_N - 1);
+        assert!(
+            (first..SCALE_MU_N).contains(&last),
+            "--last-free L: a cosine node from --first-free to {}",
+            SCALE_MU_N - 1
+        );
+        let free: Vec<usize> = (first..=last).collect();
         let (np, nf) = (mus.len(), free.len());
         // Node materials: (NDF, low block, roughness node, index node).
         let mut jobs: Vec<(usize, bool, usize, usize)> = Vec::new();
@@ -3668,7 +3683,9 @@ mod dielectric {
                     let b = lib_basis(mu);
                     let sp: f64 = b.iter().map(|&(y, w)| s[sd * SCALE_MU_N + y] * w).sum();
                     let target = (1.0 - ess(ndf, eta_rel, dir(mu.max(1e-3)), quad)).max(0.0);
-                    r[sd * np + p] = sp * inner - target;
+                    // Rows of node points scaled by `--node-weight`.
+                    let f = if p < nodes.len() { node_weight } else { 1.0 };
+                    r[sd * np + p] = f * (sp * inner - target);
                     for su in 0..2 {
                         for (u, &k) in free.iter().enumerate() {
                             let own: f64 = if su == sd {
@@ -3677,7 +3694,7 @@ mod dielectric {
                                 0.0
                             };
                             jac[sd * np + p][su * nf + u] =
-                                own * inner + sp * row[su * SCALE_MU_N + k];
+                                f * (own * inner + sp * row[su * SCALE_MU_N + k]);
                         }
                     }
                 }
