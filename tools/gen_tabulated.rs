@@ -76,6 +76,7 @@ const OPTIONS: &[&str] = &[
     "--exact",
     "--extra-eta",
     "--first-free",
+    "--from-alpha",
     "--last-free",
     "--floor",
     "--fresnel-walks",
@@ -109,6 +110,7 @@ const OPTIONS: &[&str] = &[
     "--quad",
     "--quadratic",
     "--scale",
+    "--sheet",
     "--schlick-walks",
     "--split",
     "--table",
@@ -3621,6 +3623,25 @@ mod dielectric {
         );
         let free: Vec<usize> = (first..=last).collect();
         let (np, nf) = (mus.len(), free.len());
+        if args.iter().any(|a| a == "--sheet") {
+            assert!(
+                low_only && only.is_none(),
+                "--sheet fits the low-index block: with --low-only, without --only"
+            );
+            let top = Top {
+                from: &from,
+                from_path: &from_path,
+                mus: &mus,
+                n_nodes: nodes.len(),
+                free: &free,
+                q,
+                quad,
+                lawson,
+                node_weight,
+                threads,
+            };
+            return scale_top_sheet(args, &top, &out, dry, t0);
+        }
         // Node materials: (NDF, low block, roughness node, index node).
         let mut jobs: Vec<(usize, bool, usize, usize)> = Vec::new();
         for n in 0..NDF_N {
@@ -3821,6 +3842,329 @@ mod dielectric {
             t0.elapsed().as_secs_f64(),
         );
         write_scale_table(&out, &head, &scale);
+    }
+
+    /// What `--dielectric-scale-top` passes to [`scale_top_sheet`]: the
+    /// table read, the points' cosines (the nodes first, `n_nodes` of
+    /// them), the free cosine nodes and the fit's settings.
+    struct Top<'a> {
+        from: &'a [u8],
+        from_path: &'a str,
+        mus: &'a [f32],
+        n_nodes: usize,
+        free: &'a [usize],
+        q: Quadrature,
+        quad: usize,
+        lawson: usize,
+        node_weight: f64,
+        threads: usize,
+    }
+
+    /// `--dielectric-scale-top --low-only --sheet [--from-alpha A]`: the
+    /// free cosine nodes of the low-index block refitted jointly over its
+    /// whole sheet per NDF (roughness nodes from `A`, default 0.4, up;
+    /// the rest keep their values), with the furnace read, as in
+    /// [`scale_top_main`], at the nodes and eighths of the free elements,
+    /// both sides, of the node materials and of the materials between
+    /// them: the midpoints of the roughness intervals (in `sqrt(alpha)`),
+    /// of the index intervals (at `sqrt(E_e E_e+1)`) and of both (the
+    /// triangles' diagonals), each with the scales interpolated over its
+    /// triangle as eval reads them (`scale_corners`). Eval's error between
+    /// nodes is the cosine interpolation's and the roughness and index
+    /// interpolation's together, and a fit of each node material alone
+    /// trades at the nodes what adds to the latter (Beckmann 1.9 glass
+    /// 1.095 from inside at the normal, -0.60%). The linearised errors'
+    /// weighted least squares is one dense system per NDF (Cholesky),
+    /// reweighted `--lawson` times by Lawson's rule.
+    fn scale_top_sheet(args: &[String], top: &Top, out: &str, dry: bool, t0: std::time::Instant) {
+        use msbsdf::multiple::tabulated_dielectric::{
+            SCALE_LEN, SCALE_LOW_ALPHA_N, SCALE_LOW_ETA_N, SCALE_MAX, SCALE_MU_N,
+            TabulatedDielectric, scale_corners, scale_grid_eta, scale_grid_mu, scale_index,
+            scale_low_grid_alpha,
+        };
+        let from_alpha: f32 = arg(args, "--from-alpha", 0.4);
+        let (np, nf) = (top.mus.len(), top.free.len());
+        let na = SCALE_LOW_ALPHA_N;
+        let ne = SCALE_LOW_ETA_N;
+        let a_first = (0..na)
+            .find(|&a| scale_low_grid_alpha(a) >= from_alpha)
+            .expect("--from-alpha A: at most the largest roughness");
+        let grid_a = |a: usize| scale_low_grid_alpha(a) as f64;
+        let grid_e = |e: usize| scale_grid_eta(e) as f64;
+        // Materials `(kind, NDF, alpha, eta)`: kind 0 node, 1 roughness
+        // midpoint, 2 index midpoint, 3 both.
+        let mut mats: Vec<(usize, usize, f32, f32)> = Vec::new();
+        for n in 0..NDF_N {
+            for a in a_first.saturating_sub(1)..na {
+                for e in 0..ne {
+                    if a >= a_first {
+                        mats.push((0, n, grid_a(a) as f32, grid_e(e) as f32));
+                    }
+                    let am = (a + 1 < na)
+                        .then(|| ((grid_a(a).sqrt() + grid_a(a + 1).sqrt()) / 2.0).powi(2));
+                    let em = (e + 1 < ne).then(|| (grid_e(e) * grid_e(e + 1)).sqrt());
+                    if let Some(am) = am {
+                        mats.push((1, n, am as f32, grid_e(e) as f32));
+                    }
+                    if let (Some(em), true) = (em, a >= a_first) {
+                        mats.push((2, n, grid_a(a) as f32, em as f32));
+                    }
+                    if let (Some(am), Some(em)) = (am, em) {
+                        mats.push((3, n, am as f32, em as f32));
+                    }
+                }
+            }
+        }
+        // Unknown of (roughness node, index node, side, free node k).
+        let unknowns = (na - a_first) * ne * 2 * nf;
+        let unknown = |a: usize, e: usize, su: usize, kk: usize| -> Option<usize> {
+            (a >= a_first).then(|| (((a - a_first) * ne + e) * 2 + su) * nf + kk)
+        };
+        let value = |n: usize, a: usize, e: usize, x: usize| -> f64 {
+            table_step(
+                top.from,
+                scale_index(n, true, a, e, x / SCALE_MU_N, x % SCALE_MU_N),
+            ) as f64
+                * SCALE_STEP as f64
+        };
+        println!(
+            "sheet: {} materials (roughness nodes {a_first}-{} free, from {:.3}), {unknowns} unknowns per NDF, {np} points per side",
+            mats.len(),
+            na - 1,
+            grid_a(a_first)
+        );
+        // Per material: its corners (node, weight), and per point row the
+        // error `r` and the derivatives `A[su][kk]` by a corner's free node
+        // (times the corner's weight).
+        type Rows = Vec<(f64, Vec<f64>)>;
+        type Material = Option<(msbsdf::multiple::tabulated_dielectric::TriNodes, Rows)>;
+        let res: Vec<Material> =
+            parallel(&mats, "top sheet", top.threads, |_, &(_, n, alpha, eta)| {
+                let (low, corners) = scale_corners(alpha, eta);
+                if !low {
+                    return None;
+                }
+                let s: Vec<f64> = (0..2 * SCALE_MU_N)
+                    .map(|x| {
+                        corners
+                            .iter()
+                            .map(|&((a, e), w)| w as f64 * value(n, a, e, x))
+                            .sum()
+                    })
+                    .collect();
+                let ndf = Ndf::new(NDFS[n], alpha, alpha);
+                let tab = TabulatedDielectric::new(ndf, Facet::Dielectric { eta });
+                let m = lobe_rows_at(&tab, alpha, top.q, SCALE_MU_N, top.mus, lib_basis);
+                let mut rows: Rows = Vec::with_capacity(2 * np);
+                for sd in 0..2 {
+                    let eta_rel = if sd == 1 { 1.0 / eta } else { eta };
+                    for (p, &mu) in top.mus.iter().enumerate() {
+                        let f = if p < top.n_nodes {
+                            top.node_weight
+                        } else {
+                            1.0
+                        };
+                        let row = &m[sd * np + p];
+                        let inner: f64 = (0..2 * SCALE_MU_N).map(|y| row[y] * s[y]).sum();
+                        let b = lib_basis(mu);
+                        let sp: f64 = b.iter().map(|&(y, w)| s[sd * SCALE_MU_N + y] * w).sum();
+                        let target =
+                            (1.0 - ess(ndf, eta_rel, dir(mu.max(1e-3)), top.quad)).max(0.0);
+                        let d: Vec<f64> = (0..2 * nf)
+                            .map(|u| {
+                                let (su, k) = (u / nf, top.free[u % nf]);
+                                let own: f64 = if su == sd {
+                                    b.iter().filter(|bw| bw.0 == k).map(|bw| bw.1).sum()
+                                } else {
+                                    0.0
+                                };
+                                f * (own * inner + sp * row[su * SCALE_MU_N + k])
+                            })
+                            .collect();
+                        rows.push((f * (sp * inner - target), d));
+                    }
+                }
+                Some((corners, rows))
+            });
+        let mut scale: Vec<u16> = (0..SCALE_LEN).map(|i| table_step(top.from, i)).collect();
+        let mut summary = String::new();
+        let mut changed = 0usize;
+        for n in 0..NDF_N {
+            // The rows of this NDF as (error, [(unknown, derivative)]).
+            // (error, derivatives by unknown, material kind)
+            type Row = (f64, Vec<(usize, f64)>, usize);
+            let mut sys: Vec<Row> = Vec::new();
+            for (&(kind, mn, _, _), r) in mats.iter().zip(&res) {
+                let Some((corners, rows)) = r else { continue };
+                if mn != n {
+                    continue;
+                }
+                for (r0, d) in rows {
+                    let mut cols = Vec::new();
+                    for &((a, e), w) in corners {
+                        for (u, &dv) in d.iter().enumerate() {
+                            let (su, kk) = (u / nf, u % nf);
+                            // A zero scale (`E_ss` = 1) stays zero.
+                            if value(n, a, e, su * SCALE_MU_N + top.free[kk]) == 0.0 {
+                                continue;
+                            }
+                            if let Some(x) = unknown(a, e, su, kk) {
+                                cols.push((x, w as f64 * dv));
+                            }
+                        }
+                    }
+                    sys.push((*r0, cols, kind));
+                }
+            }
+            let worst_of = |d: &[f64]| -> [f64; 4] {
+                let mut w = [0.0f64; 4];
+                for (r0, cols, kind) in &sys {
+                    let e = (r0 + cols.iter().map(|&(x, v)| v * d[x]).sum::<f64>()).abs();
+                    w[*kind] = w[*kind].max(e);
+                }
+                w
+            };
+            let zero = vec![0.0f64; unknowns];
+            let before = worst_of(&zero);
+            let mut weights = vec![1.0f64; sys.len()];
+            let mut best = (before.iter().fold(0.0f64, |a, &b| a.max(b)), zero.clone());
+            for _ in 0..=top.lawson {
+                let mut ata = vec![0.0f64; unknowns * unknowns];
+                let mut atb = vec![0.0f64; unknowns];
+                for ((r0, cols, _), &w) in sys.iter().zip(&weights) {
+                    for &(x, vx) in cols {
+                        atb[x] -= w * vx * r0;
+                        for &(y, vy) in cols {
+                            ata[x * unknowns + y] += w * vx * vy;
+                        }
+                    }
+                }
+                let tr: f64 =
+                    (0..unknowns).map(|x| ata[x * unknowns + x]).sum::<f64>() / unknowns as f64;
+                for x in 0..unknowns {
+                    // A node no error sees keeps its value.
+                    ata[x * unknowns + x] += 1e-6 * tr.max(1e-30);
+                }
+                let Some(d) = cholesky_solve(ata, atb) else {
+                    break;
+                };
+                let wd = worst_of(&d).iter().fold(0.0f64, |a, &b| a.max(b));
+                if wd < best.0 {
+                    best = (wd, d.clone());
+                }
+                let mut sum = 0.0;
+                for ((r0, cols, _), w) in sys.iter().zip(weights.iter_mut()) {
+                    let e = (r0 + cols.iter().map(|&(x, v)| v * d[x]).sum::<f64>()).abs();
+                    *w *= e;
+                    sum += *w;
+                }
+                if sum <= 0.0 {
+                    break;
+                }
+                weights.iter_mut().for_each(|w| *w /= sum);
+            }
+            let after = worst_of(&best.1);
+            let line = format!(
+                "{}: worst at nodes / roughness midpoints / index midpoints / both {} -> {} (linearised)",
+                ["Beckmann", "GGX"][n],
+                before.map(|v| format!("{:.4}%", 100.0 * v)).join(" / "),
+                after.map(|v| format!("{:.4}%", 100.0 * v)).join(" / "),
+            );
+            println!("{line}");
+            summary += &line;
+            summary += "; ";
+            for a in a_first..na {
+                for e in 0..ne {
+                    for su in 0..2 {
+                        for (kk, &k) in top.free.iter().enumerate() {
+                            let x = su * SCALE_MU_N + k;
+                            let v0 = value(n, a, e, x);
+                            if v0 == 0.0 {
+                                continue;
+                            }
+                            let Some(u) = unknown(a, e, su, kk) else {
+                                continue;
+                            };
+                            let i = scale_index(n, true, a, e, su, k);
+                            let q = scale_steps((v0 + best.1[u]).clamp(0.0, SCALE_MAX as f64));
+                            changed += usize::from(scale[i] != q);
+                            scale[i] = q;
+                        }
+                    }
+                }
+            }
+        }
+        println!("{changed} values changed");
+        if dry {
+            return;
+        }
+        let from_head = String::from_utf8_lossy(&top.from[..HEADER_BYTES])
+            .trim_end_matches('\0')
+            .lines()
+            .skip(1)
+            .map(|l| format!("  {l}\n"))
+            .collect::<String>();
+        let head = format!(
+            "{}\
+             MSBSDF_MODEL_TABULATED dielectric furnace scales (layout: src/multiple/tabulated_dielectric.rs), the low-index block's nodes near the normal refitted along the cosine over its sheet\n\
+             command: cargo run --release --example gen_tabulated -- {}\n\
+             commit: {}\n\
+             top sheet: cosine nodes {} to {} (from {:.2} degrees) of the low-index block's roughness nodes {a_first} to {} refitted per NDF (minimax by Lawson's rule, {} reweightings, node errors weighted {}, on the linearised furnace errors at the nodes and eighths of the free elements, both sides, of {} materials: the nodes and the midpoints of the roughness and index intervals and of both; quadrature --broad {} as --dielectric-scale, E_ss {} x {}); {summary}{changed} values changed; wall time {:.0} s on {} threads; the rest from {}, whose header follows\n\
+             {from_head}",
+            String::from_utf8_lossy(SCALE_MAGIC),
+            args[1..].join(" "),
+            git::commit(),
+            top.free[0],
+            top.free[nf - 1],
+            scale_grid_mu(top.free[0]).acos().to_degrees(),
+            na - 1,
+            top.lawson,
+            top.node_weight,
+            mats.len(),
+            top.q.broad,
+            top.quad,
+            top.quad,
+            t0.elapsed().as_secs_f64(),
+            top.threads,
+            top.from_path,
+        );
+        write_scale_table(out, &head, &scale);
+    }
+
+    /// The solution of `a x = b` for a symmetric positive definite `a`
+    /// (`n x n`, row-major) by Cholesky's factorisation (`None` if it is
+    /// not positive definite).
+    fn cholesky_solve(mut a: Vec<f64>, mut b: Vec<f64>) -> Option<Vec<f64>> {
+        let n = b.len();
+        // Lower factor L stored in the lower triangle (row-major).
+        for j in 0..n {
+            let mut d = a[j * n + j];
+            for k in 0..j {
+                d -= a[j * n + k] * a[j * n + k];
+            }
+            if d <= 0.0 || !d.is_finite() {
+                return None;
+            }
+            let d = d.sqrt();
+            a[j * n + j] = d;
+            for i in j + 1..n {
+                let mut v = a[i * n + j];
+                let (ri, rj) = (i * n, j * n);
+                for k in 0..j {
+                    v -= a[ri + k] * a[rj + k];
+                }
+                a[i * n + j] = v / d;
+            }
+        }
+        for i in 0..n {
+            let s: f64 = (0..i).map(|k| a[i * n + k] * b[k]).sum();
+            b[i] = (b[i] - s) / a[i * n + i];
+        }
+        for i in (0..n).rev() {
+            let s: f64 = (i + 1..n).map(|k| a[k * n + i] * b[k]).sum();
+            b[i] = (b[i] - s) / a[i * n + i];
+        }
+        Some(b)
     }
 
     /// The solution of the dense system `a x = b` by Gaussian elimination
