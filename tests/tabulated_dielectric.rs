@@ -349,7 +349,10 @@ fn furnace_at_low_roughness_near_grazing() {
 /// 1.1%). With version 12 (session 35: an index node at 1.079, whose
 /// exact scales bend between the last cosine nodes, Beckmann 1.9 from
 /// inside at 8 degrees 0.52%; the fit keeps them exact there,
-/// `--hold-mu-from 32`, it would have put them at 0.64%): 0.50%.
+/// `--hold-mu-from 32`, it would have put them at 0.64%): 0.50%. With
+/// the low-index block's nodes near the normal refitted over its sheet
+/// (session 36, `furnace_near_the_normal_between_low_index_nodes`):
+/// 0.37%, bounded at the 0.5% (it was 0.6%).
 #[test]
 fn furnace_near_the_normal_at_low_index() {
     let (report, worst) = isotropic_furnace(
@@ -357,7 +360,35 @@ fn furnace_near_the_normal_at_low_index() {
         &[0.7, 1.3, 1.9],
         &[1.05, 1.08, 1.125, 1.2, 1.3],
     );
-    assert!(worst < 0.006, "{report}");
+    assert!(worst < 0.005, "{report}");
+}
+
+/// White furnace near the normal (0 to 20 degrees) of rough glass of low
+/// index between the scale table's nodes, from both sides: both NDFs,
+/// roughness 1.45, 1.7 and 1.938 (the midpoint in `sqrt(alpha)` of the
+/// low-index block's last roughness interval, 1.877 to 2), `E` 1.055,
+/// 1.066, 1.093 (the midpoint in `ln E` of the index nodes 1.079 and
+/// 1.107), 1.1 and 1.136 (eval quadrature). Eval interpolates the scales
+/// quadratically in the cosine and linearly in roughness and index, and
+/// near the normal the exact scales of rough glass of low index seen from
+/// its dense side bend in all three: with the fitted nodes of scale table
+/// version 12 the furnace at the centres of the block's last triangles was
+/// 0.78% (Beckmann, by the generator's quadrature; the sweeps had seen
+/// 0.53% at nodes). `gen_tabulated -- --dielectric-scale-top --low-only
+/// --sheet` (session 36) refits the cosine nodes from 22.7 degrees to the
+/// normal over the nodes and the midpoints between them. Measured here:
+/// 0.54% with version 12's nodes, 0.50% refitted (Beckmann 1.938 glass
+/// 1.093 from inside at the normal, the centre of a triangle: the fit's
+/// `E_ss` by a 128 x 128 quadrature put it at 0.41%); bounded at the
+/// issue's 0.5%.
+#[test]
+fn furnace_near_the_normal_between_low_index_nodes() {
+    let (report, worst) = isotropic_furnace(
+        &[0.0, 3.0, 6.0, 10.0, 16.0, 20.0],
+        &[1.45, 1.7, 1.938],
+        &[1.055, 1.066, 1.093, 1.1, 1.136],
+    );
+    assert!(worst < 0.005, "{report}");
 }
 
 /// White furnace of rough glass of low index at the lobe table's cosine
