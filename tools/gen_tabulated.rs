@@ -3731,23 +3731,24 @@ mod dielectric {
             let mut w = vec![1.0f64; 2 * np];
             let mut best = (before, vec![0.0f64; 2 * nf]);
             for _ in 0..=lawson {
-                let mut ata = vec![vec![0.0f64; 2 * nf]; 2 * nf];
-                let mut atb = vec![0.0f64; 2 * nf];
+                let nu = 2 * nf;
+                let mut ata = vec![0.0f64; nu * nu];
+                let mut atb = vec![0.0f64; nu];
                 for x in 0..2 * np {
-                    for u in 0..2 * nf {
+                    for u in 0..nu {
                         atb[u] -= w[x] * jac[x][u] * r[x];
-                        for v in 0..2 * nf {
-                            ata[u][v] += w[x] * jac[x][u] * jac[x][v];
+                        for v in 0..nu {
+                            ata[u * nu + v] += w[x] * jac[x][u] * jac[x][v];
                         }
                     }
                 }
                 // A small ridge keeps a node the errors do not see (a zero
                 // scale, no lobe) where it is.
-                let tr: f64 = (0..2 * nf).map(|u| ata[u][u]).sum::<f64>() / (2 * nf) as f64;
-                for (u, row) in ata.iter_mut().enumerate() {
-                    row[u] += 1e-6 * tr.max(1e-30);
+                let tr: f64 = (0..nu).map(|u| ata[u * nu + u]).sum::<f64>() / nu as f64;
+                for u in 0..nu {
+                    ata[u * nu + u] += 1e-6 * tr.max(1e-30);
                 }
-                let Some(d) = solve_dense(ata, atb) else {
+                let Some(d) = cholesky_solve(ata, atb) else {
                     break;
                 };
                 let wd = worst(&d);
@@ -4165,35 +4166,6 @@ mod dielectric {
             b[i] = (b[i] - s) / a[i * n + i];
         }
         Some(b)
-    }
-
-    /// The solution of the dense system `a x = b` by Gaussian elimination
-    /// with partial pivoting (`None` if `a` is singular).
-    fn solve_dense(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f64>> {
-        let n = b.len();
-        for c in 0..n {
-            let p = (c..n).max_by(|&i, &j| a[i][c].abs().total_cmp(&a[j][c].abs()))?;
-            if a[p][c] == 0.0 || !a[p][c].is_finite() {
-                return None;
-            }
-            a.swap(c, p);
-            b.swap(c, p);
-            for i in c + 1..n {
-                let (top, rest) = a.split_at_mut(i);
-                let (pivot, row) = (&top[c], &mut rest[0]);
-                let f = row[c] / pivot[c];
-                for (x, y) in row[c..].iter_mut().zip(&pivot[c..]) {
-                    *x -= f * y;
-                }
-                b[i] -= f * b[c];
-            }
-        }
-        let mut x = vec![0.0f64; n];
-        for c in (0..n).rev() {
-            let s: f64 = (c + 1..n).map(|j| a[c][j] * x[j]).sum();
-            x[c] = (b[c] - s) / a[c][c];
-        }
-        Some(x)
     }
 
     /// How versions 2 and 3 of the scale table store the scales (a header
