@@ -2280,6 +2280,18 @@ mod dielectric {
         );
     }
 
+    /// A table file's text header without its first line (the magic),
+    /// each line indented by two spaces: what a table derived from it
+    /// quotes after its own header.
+    fn nested_header(raw: &[u8]) -> String {
+        String::from_utf8_lossy(&raw[..HEADER_BYTES.min(raw.len())])
+            .trim_end_matches('\0')
+            .lines()
+            .skip(1)
+            .map(|l| format!("  {l}\n"))
+            .collect()
+    }
+
     /// The first line of a table file's text header that starts with
     /// `key` ("?" if none).
     fn header_line(raw: &[u8], key: &str) -> String {
@@ -3508,12 +3520,7 @@ mod dielectric {
                 }
             }
         }
-        let from_head = String::from_utf8_lossy(&from[..HEADER_BYTES])
-            .trim_end_matches('\0')
-            .lines()
-            .skip(1)
-            .map(|l| format!("  {l}\n"))
-            .collect::<String>();
+        let from_head = nested_header(&from);
         let head = format!(
             "{}\
              MSBSDF_MODEL_TABULATED dielectric furnace scales (layout: src/multiple/tabulated_dielectric.rs), spliced\n\
@@ -3817,12 +3824,7 @@ mod dielectric {
         if dry {
             return;
         }
-        let from_head = String::from_utf8_lossy(&from[..HEADER_BYTES])
-            .trim_end_matches('\0')
-            .lines()
-            .skip(1)
-            .map(|l| format!("  {l}\n"))
-            .collect::<String>();
+        let from_head = nested_header(&from);
         let head = format!(
             "{}\
              MSBSDF_MODEL_TABULATED dielectric furnace scales (layout: src/multiple/tabulated_dielectric.rs), the nodes near the normal refitted along the cosine\n\
@@ -4099,12 +4101,7 @@ mod dielectric {
         if dry {
             return;
         }
-        let from_head = String::from_utf8_lossy(&top.from[..HEADER_BYTES])
-            .trim_end_matches('\0')
-            .lines()
-            .skip(1)
-            .map(|l| format!("  {l}\n"))
-            .collect::<String>();
+        let from_head = nested_header(top.from);
         let head = format!(
             "{}\
              MSBSDF_MODEL_TABULATED dielectric furnace scales (layout: src/multiple/tabulated_dielectric.rs), the low-index block's nodes near the normal refitted along the cosine over its sheet\n\
