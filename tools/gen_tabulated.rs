@@ -2282,13 +2282,19 @@ mod dielectric {
 
     /// A table file's text header without its first line (the magic),
     /// each line indented by two spaces: what a table derived from it
-    /// quotes after its own header.
+    /// quotes after its own header. The headers it quotes itself (its
+    /// indented lines) are left out, so that a chain of derived tables
+    /// keeps within [`HEADER_BYTES`]; the commit it names has them.
     fn nested_header(raw: &[u8]) -> String {
-        String::from_utf8_lossy(&raw[..HEADER_BYTES.min(raw.len())])
+        let text = String::from_utf8_lossy(&raw[..HEADER_BYTES.min(raw.len())]);
+        let own = text
             .trim_end_matches('\0')
             .lines()
             .skip(1)
-            .map(|l| format!("  {l}\n"))
+            .filter(|l| !l.starts_with("  "))
+            .map(|l| format!("  {l}\n"));
+        let quoted = text.lines().any(|l| l.starts_with("  "));
+        own.chain(quoted.then(|| "  (the headers it quotes: in the commit above)\n".to_string()))
             .collect()
     }
 
