@@ -89,6 +89,7 @@ const OPTIONS: &[&str] = &[
     "--iterations",
     "--keep",
     "--lawson",
+    "--main-only",
     "--low-2d",
     "--low-only",
     "--main-2d",
@@ -115,6 +116,7 @@ const OPTIONS: &[&str] = &[
     "--split",
     "--table",
     "--threads",
+    "--to-eta",
     "--to-node",
     "--verbose",
     "--walks",
@@ -138,6 +140,7 @@ Writes a committed table (run on a clean tree; the header records the commit):
   --dielectric-scale-splice --from FITTED.bin --below-from FITTED_1D.bin --to-node K
                                   the main block's roughness nodes 0..=K from another fit
   --dielectric-scale-top --from TABLE.bin [--first-free K] [--low-only] [--lawson L] [--dry]
+                         [--sheet --low-only | --main-only [--to-eta E]] [--from-alpha A]
                                   the same table with the nodes near the normal refitted
   --conductor-pack / --dielectric-pack / --dielectric-lobe-pack / --dielectric-v5 FILE
                                   rewrite an older version of a table
@@ -3638,8 +3641,8 @@ mod dielectric {
         let (np, nf) = (mus.len(), free.len());
         if args.iter().any(|a| a == "--sheet") {
             assert!(
-                low_only && only.is_none(),
-                "--sheet fits the low-index block: with --low-only, without --only"
+                low_only != args.iter().any(|a| a == "--main-only") && only.is_none(),
+                "--sheet fits one block: with --low-only or --main-only, without --only"
             );
             let top = Top {
                 from: &from,
@@ -3872,7 +3875,8 @@ mod dielectric {
     /// `--dielectric-scale-top --low-only --sheet [--from-alpha A]`: the
     /// free cosine nodes of the low-index block refitted jointly over its
     /// whole sheet per NDF (roughness nodes from `A`, default 0.4, up;
-    /// the rest keep their values), with the furnace read, as in
+    /// the rest keep their values; `--main-only [--to-eta E]` instead:
+    /// the main block's, its index nodes up to `E`), with the furnace read, as in
     /// [`scale_top_main`], at the nodes and eighths of the free elements,
     /// both sides, of the node materials and of the materials between
     /// them: the midpoints of the roughness intervals (in `sqrt(alpha)`),
@@ -3887,31 +3891,58 @@ mod dielectric {
     /// reweighted `--lawson` times by Lawson's rule.
     fn scale_top_sheet(args: &[String], top: &Top, out: &str, dry: bool, t0: std::time::Instant) {
         use msbsdf::multiple::tabulated_dielectric::{
-            SCALE_LEN, SCALE_LOW_ALPHA_N, SCALE_LOW_ETA_N, SCALE_MAX, SCALE_MU_N,
-            TabulatedDielectric, scale_corners, scale_grid_eta, scale_grid_mu, scale_index,
-            scale_low_grid_alpha,
+            SCALE_ALPHA_N, SCALE_ETA_N, SCALE_LEN, SCALE_LOW_ALPHA_N, SCALE_LOW_ETA_N, SCALE_MAX,
+            SCALE_MU_N, TabulatedDielectric, scale_corners, scale_grid_alpha, scale_grid_eta,
+            scale_grid_mu, scale_index, scale_low_grid_alpha,
         };
         let from_alpha: f32 = arg(args, "--from-alpha", 0.4);
+        // `--main-only`: the main block, its index nodes up to `--to-eta`.
+        let main = args.iter().any(|a| a == "--main-only");
+        let to_eta: f32 = arg(args, "--to-eta", 3.0);
+        let block = if main {
+            "main block"
+        } else {
+            "low-index block"
+        };
         let (np, nf) = (top.mus.len(), top.free.len());
-        let na = SCALE_LOW_ALPHA_N;
-        let ne = SCALE_LOW_ETA_N;
+        let na = if main {
+            SCALE_ALPHA_N
+        } else {
+            SCALE_LOW_ALPHA_N
+        };
+        let grid_a = |a: usize| {
+            if main {
+                scale_grid_alpha(a) as f64
+            } else {
+                scale_low_grid_alpha(a) as f64
+            }
+        };
+        let (e_lo, e_hi) = if main {
+            let hi = (SCALE_LOW_ETA_N - 1..SCALE_ETA_N)
+                .filter(|&e| scale_grid_eta(e) <= to_eta * 1.0001)
+                .max()
+                .expect("--to-eta E: at least the main block's first index node");
+            (SCALE_LOW_ETA_N - 1, hi)
+        } else {
+            (0, SCALE_LOW_ETA_N - 1)
+        };
+        let ne = e_hi - e_lo + 1;
         let a_first = (0..na)
-            .find(|&a| scale_low_grid_alpha(a) >= from_alpha)
+            .find(|&a| grid_a(a) >= from_alpha as f64)
             .expect("--from-alpha A: at most the largest roughness");
-        let grid_a = |a: usize| scale_low_grid_alpha(a) as f64;
         let grid_e = |e: usize| scale_grid_eta(e) as f64;
         // Materials `(kind, NDF, alpha, eta)`: kind 0 node, 1 roughness
         // midpoint, 2 index midpoint, 3 both.
         let mut mats: Vec<(usize, usize, f32, f32)> = Vec::new();
         for n in 0..NDF_N {
             for a in a_first.saturating_sub(1)..na {
-                for e in 0..ne {
+                for e in e_lo..=e_hi {
                     if a >= a_first {
                         mats.push((0, n, grid_a(a) as f32, grid_e(e) as f32));
                     }
                     let am = (a + 1 < na)
                         .then(|| ((grid_a(a).sqrt() + grid_a(a + 1).sqrt()) / 2.0).powi(2));
-                    let em = (e + 1 < ne).then(|| (grid_e(e) * grid_e(e + 1)).sqrt());
+                    let em = (e < e_hi).then(|| (grid_e(e) * grid_e(e + 1)).sqrt());
                     if let Some(am) = am {
                         mats.push((1, n, am as f32, grid_e(e) as f32));
                     }
@@ -3927,17 +3958,18 @@ mod dielectric {
         // Unknown of (roughness node, index node, side, free node k).
         let unknowns = (na - a_first) * ne * 2 * nf;
         let unknown = |a: usize, e: usize, su: usize, kk: usize| -> Option<usize> {
-            (a >= a_first).then(|| (((a - a_first) * ne + e) * 2 + su) * nf + kk)
+            (a >= a_first && (e_lo..=e_hi).contains(&e))
+                .then(|| (((a - a_first) * ne + e - e_lo) * 2 + su) * nf + kk)
         };
         let value = |n: usize, a: usize, e: usize, x: usize| -> f64 {
             table_step(
                 top.from,
-                scale_index(n, true, a, e, x / SCALE_MU_N, x % SCALE_MU_N),
+                scale_index(n, !main, a, e, x / SCALE_MU_N, x % SCALE_MU_N),
             ) as f64
                 * SCALE_STEP as f64
         };
         println!(
-            "sheet: {} materials (roughness nodes {a_first}-{} free, from {:.3}), {unknowns} unknowns per NDF, {np} points per side",
+            "sheet of the {block}: {} materials (roughness nodes {a_first}-{} free, from {:.3}; index nodes {e_lo}-{e_hi}), {unknowns} unknowns per NDF, {np} points per side",
             mats.len(),
             na - 1,
             grid_a(a_first)
@@ -3950,7 +3982,7 @@ mod dielectric {
         let res: Vec<Material> =
             parallel(&mats, "top sheet", top.threads, |_, &(_, n, alpha, eta)| {
                 let (low, corners) = scale_corners(alpha, eta);
-                if !low {
+                if low == main {
                     return None;
                 }
                 let s: Vec<f64> = (0..2 * SCALE_MU_N)
@@ -4083,7 +4115,7 @@ mod dielectric {
             summary += &line;
             summary += "; ";
             for a in a_first..na {
-                for e in 0..ne {
+                for e in e_lo..=e_hi {
                     for su in 0..2 {
                         for (kk, &k) in top.free.iter().enumerate() {
                             let x = su * SCALE_MU_N + k;
@@ -4094,7 +4126,7 @@ mod dielectric {
                             let Some(u) = unknown(a, e, su, kk) else {
                                 continue;
                             };
-                            let i = scale_index(n, true, a, e, su, k);
+                            let i = scale_index(n, !main, a, e, su, k);
                             let q = scale_steps((v0 + best.1[u]).clamp(0.0, SCALE_MAX as f64));
                             changed += usize::from(scale[i] != q);
                             scale[i] = q;
@@ -4110,10 +4142,10 @@ mod dielectric {
         let from_head = nested_header(top.from);
         let head = format!(
             "{}\
-             MSBSDF_MODEL_TABULATED dielectric furnace scales (layout: src/multiple/tabulated_dielectric.rs), the low-index block's nodes near the normal refitted along the cosine over its sheet\n\
+             MSBSDF_MODEL_TABULATED dielectric furnace scales (layout: src/multiple/tabulated_dielectric.rs), the {block}'s nodes near the normal refitted along the cosine over its sheet\n\
              command: cargo run --release --example gen_tabulated -- {}\n\
              commit: {}\n\
-             top sheet: cosine nodes {} to {} (from {:.2} degrees) of the low-index block's roughness nodes {a_first} to {} refitted per NDF (minimax by Lawson's rule, {} reweightings, node errors weighted {}, on the linearised furnace errors at the nodes and eighths of the free elements, both sides, of {} materials: the nodes and the midpoints of the roughness and index intervals and of both; quadrature --broad {} as --dielectric-scale, E_ss {} x {}); {summary}{changed} values changed; wall time {:.0} s on {} threads; the rest from {}, whose header follows\n\
+             top sheet: cosine nodes {} to {} (from {:.2} degrees) of the {block}'s roughness nodes {a_first} to {} and index nodes {e_lo} to {e_hi} refitted per NDF (minimax by Lawson's rule, {} reweightings, node errors weighted {}, on the linearised furnace errors at the nodes and eighths of the free elements, both sides, of {} materials: the nodes and the midpoints of the roughness and index intervals and of both; quadrature --broad {} as --dielectric-scale, E_ss {} x {}); {summary}{changed} values changed; wall time {:.0} s on {} threads; the rest from {}, whose header follows\n\
              {from_head}",
             String::from_utf8_lossy(SCALE_MAGIC),
             args[1..].join(" "),
