@@ -352,7 +352,8 @@ fn furnace_at_low_roughness_near_grazing() {
 /// `--hold-mu-from 32`, it would have put them at 0.64%): 0.50%. With
 /// the low-index block's nodes near the normal refitted over its sheet
 /// (session 36, `furnace_near_the_normal_between_low_index_nodes`):
-/// 0.37%, bounded at the 0.5% (it was 0.6%).
+/// 0.37%, and 0.32% with the main block's refitted too (`E` 1.2 and
+/// 1.3), bounded at the 0.5% (it was 0.6%).
 #[test]
 fn furnace_near_the_normal_at_low_index() {
     let (report, worst) = isotropic_furnace(
@@ -388,6 +389,22 @@ fn furnace_near_the_normal_between_low_index_nodes() {
         &[1.45, 1.7, 1.938],
         &[1.055, 1.066, 1.093, 1.1, 1.136],
     );
+    assert!(worst < 0.005, "{report}");
+}
+
+/// White furnace near the normal (0 to 10 degrees) of very rough glass of
+/// index 1.2 to 1.3, from both sides: both NDFs, roughness 1.3, 1.7 and
+/// 1.9, `E` 1.2, 1.25 and 1.3 (eval quadrature). A near-normal sweep of
+/// the main block's indices (session 36) found Beckmann 1.7 glass 1.2
+/// from inside at the normal at -0.62% (version 12's fitted nodes); no
+/// test read roughness 1.7 there. `gen_tabulated -- --dielectric-scale-top
+/// --main-only --sheet` refits the main block's cosine nodes from 22.7
+/// degrees to the normal over its nodes and the midpoints between them
+/// (roughness 1.03 to 2, index 1.166 to 1.6). Measured here: 0.62%
+/// before, 0.25% refitted; bounded at the 0.5%.
+#[test]
+fn furnace_near_the_normal_of_very_rough_glass() {
+    let (report, worst) = isotropic_furnace(&[0.0, 6.0, 10.0], &[1.3, 1.7, 1.9], &[1.2, 1.25, 1.3]);
     assert!(worst < 0.005, "{report}");
 }
 
